@@ -1,0 +1,52 @@
+//! Errors of the field core.
+
+/// What can go wrong when building grids and fields from user parameters.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum FieldError {
+    /// A grid dimension is zero.
+    #[error("grid dimensions {0:?} must all be at least 1")]
+    EmptyDims([usize; 3]),
+    /// The grid would hold more samples than [`crate::MAX_SAMPLES`]; refused before allocating.
+    #[error(
+        "grid of {dims:?} samples is too large ({samples} samples; the limit is {limit}, about {limit_gib} GiB of f32)"
+    )]
+    TooLarge {
+        /// Requested dimensions.
+        dims: [usize; 3],
+        /// Their product (saturated at `u128::MAX`).
+        samples: u128,
+        /// The limit in samples.
+        limit: usize,
+        /// The limit in GiB of f32 storage.
+        limit_gib: usize,
+    },
+    /// Spacing must be finite and positive.
+    #[error("grid spacing {0} must be finite and positive")]
+    BadSpacing(f32),
+    /// Origin must be finite.
+    #[error("grid origin {0:?} must be finite")]
+    BadOrigin([f32; 3]),
+    /// The sample buffer has the wrong length.
+    #[error("sample buffer holds {got} values but dimensions {dims:?} need {want}")]
+    DataLength {
+        /// Dimensions.
+        dims: [usize; 3],
+        /// Expected length.
+        want: usize,
+        /// Actual length.
+        got: usize,
+    },
+    /// Bounds to sample are empty or not finite.
+    #[error("bounds {0:?} are empty or not finite; give explicit bounds")]
+    BadBounds(crate::Aabb),
+    /// A parameter is out of its valid range.
+    #[error("invalid parameter {name} = {value}: {why}")]
+    BadParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Its value, printed.
+        value: String,
+        /// What is allowed.
+        why: &'static str,
+    },
+}

@@ -1,0 +1,201 @@
+//! The [`Field`] trait: anything that gives a scalar value at a point.
+
+use crate::{Aabb, FieldError, Grid};
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+
+/// A scalar field over 3D space. For signed distance fields the surface is the zero set,
+/// negative inside, positive outside.
+///
+/// Implementors give at least [`Field::value`] and [`Field::bounds`]. The defaults of the
+/// derivative methods use central differences of step [`Field::fd_step`]; analytic fields
+/// override them.
+pub trait Field: Send + Sync {
+    /// Field value at `p`.
+    fn value(&self, p: Vec3) -> f32;
+
+    /// Values at many points (in parallel by default). `out.len()` must equal `points.len()`;
+    /// extra entries of the longer slice are left alone.
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        out.par_iter_mut()
+            .zip(points.par_iter())
+            .for_each(|(o, &p)| *o = self.value(p));
+    }
+
+    /// A box that contains the surface (the zero set) and everything the field considers
+    /// inside. [`Aabb::INFINITE`] for unbounded fields such as a plane.
+    fn bounds(&self) -> Aabb;
+
+    /// An upper bound on `|f(p) - f(q)| / |p - q|`: 1 for exact distance fields, and a
+    /// larger value for fields that only bound the distance. Sphere tracing and brick
+    /// skipping use it.
+    fn lipschitz(&self) -> f32 {
+        1.0
+    }
+
+    /// True when [`Field::value`] is the exact Euclidean signed distance everywhere (not just
+    /// a bound).
+    fn is_exact(&self) -> bool {
+        false
+    }
+
+    /// Step of the finite-difference defaults: 1e-4 of the bounds' diagonal, at least 1e-6
+    /// relative to `|p|`, and 1e-4 when the bounds are infinite.
+    fn fd_step(&self, p: Vec3) -> f32 {
+        let b = self.bounds();
+        let scale = if b.is_finite() && !b.is_empty() {
+            b.diagonal()
+        } else {
+            1.0
+        };
+        (1e-4 * scale).max(1e-6 * p.abs().max_element()).max(1e-12)
+    }
+
+    /// Gradient at `p` (central differences by default).
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let h = self.fd_step(p);
+        let d = |e: Vec3| (self.value(p + h * e) - self.value(p - h * e)) / (2.0 * h);
+        Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z))
+    }
+
+    /// Hessian at `p`, symmetric (central differences of [`Field::gradient`] by default).
+    fn hessian(&self, p: Vec3) -> Mat3 {
+        let h = self.fd_step(p) * 10.0;
+        let cols = [Vec3::X, Vec3::Y, Vec3::Z]
+            .map(|e| (self.gradient(p + h * e) - self.gradient(p - h * e)) / (2.0 * h));
+        let m = Mat3::from_cols(cols[0], cols[1], cols[2]);
+        (m + m.transpose()) * 0.5
+    }
+}
+
+impl<F: Field + ?Sized> Field for &F {
+    fn value(&self, p: Vec3) -> f32 {
+        (**self).value(p)
+    }
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        (**self).values(points, out)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+    fn lipschitz(&self) -> f32 {
+        (**self).lipschitz()
+    }
+    fn is_exact(&self) -> bool {
+        (**self).is_exact()
+    }
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        (**self).gradient(p)
+    }
+    fn hessian(&self, p: Vec3) -> Mat3 {
+        (**self).hessian(p)
+    }
+}
+
+impl<F: Field + ?Sized> Field for Box<F> {
+    fn value(&self, p: Vec3) -> f32 {
+        (**self).value(p)
+    }
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        (**self).values(points, out)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+    fn lipschitz(&self) -> f32 {
+        (**self).lipschitz()
+    }
+    fn is_exact(&self) -> bool {
+        (**self).is_exact()
+    }
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        (**self).gradient(p)
+    }
+    fn hessian(&self, p: Vec3) -> Mat3 {
+        (**self).hessian(p)
+    }
+}
+
+/// Samples `field` at every node of `grid` (in parallel, one z-slice per task), overwriting
+/// its samples.
+pub fn sample_into(field: &dyn Field, grid: &mut Grid) {
+    let [nx, ny, _] = grid.dims();
+    let (origin, h) = (grid.origin(), grid.spacing());
+    grid.data_mut()
+        .par_chunks_mut(nx * ny)
+        .enumerate()
+        .for_each(|(k, slice)| {
+            let pts: Vec<Vec3> = (0..nx * ny)
+                .map(|n| origin + h * Vec3::new((n % nx) as f32, (n / nx) as f32, k as f32))
+                .collect();
+            // The slice is already in parallel; evaluate it sequentially.
+            for (o, p) in slice.iter_mut().zip(pts) {
+                *o = field.value(p);
+            }
+        });
+}
+
+/// Samples `field` on a grid covering its bounds grown by `pad`, with `res` samples along
+/// the longest axis.
+///
+/// ```
+/// use isokit_field::{sample_field, Field, Aabb};
+/// use glam::Vec3;
+/// struct Ball;
+/// impl Field for Ball {
+///     fn value(&self, p: Vec3) -> f32 { p.length() - 1.0 }
+///     fn bounds(&self) -> Aabb { Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0)) }
+/// }
+/// let g = sample_field(&Ball, 33, 0.25).unwrap();
+/// assert_eq!(g.dims(), [33, 33, 33]);
+/// assert!(g.min_max().unwrap().0 < 0.0);
+/// ```
+pub fn sample_field(field: &dyn Field, res: usize, pad: f32) -> Result<Grid, FieldError> {
+    let mut g = Grid::covering(field.bounds(), res, pad)?;
+    sample_into(field, &mut g);
+    Ok(g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Quadratic;
+    impl Field for Quadratic {
+        fn value(&self, p: Vec3) -> f32 {
+            p.x * p.x + 2.0 * p.y * p.z - p.z
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0))
+        }
+    }
+
+    #[test]
+    fn finite_difference_defaults() {
+        let p = Vec3::new(0.3, -0.2, 0.5);
+        let g = Quadratic.gradient(p);
+        let want = Vec3::new(2.0 * p.x, 2.0 * p.z, 2.0 * p.y - 1.0);
+        assert!((g - want).length() < 1e-3, "{g} vs {want}");
+        let h = Quadratic.hessian(p);
+        let want = Mat3::from_cols(
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        );
+        for c in 0..3 {
+            assert!((h.col(c) - want.col(c)).length() < 2e-2, "{h} vs {want}");
+        }
+    }
+
+    #[test]
+    fn sampling_matches_value() {
+        let g = sample_field(&Quadratic, 9, 0.0).unwrap();
+        for ([i, j, k], v) in g.iter() {
+            assert_eq!(v, Quadratic.value(g.position(i, j, k)));
+        }
+        let mut out = vec![0.0; 3];
+        let pts = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        Quadratic.values(&pts, &mut out);
+        assert_eq!(out, vec![0.0, 1.0, 0.0]);
+    }
+}

@@ -1,0 +1,42 @@
+//! # isokit-field: the core of isokit
+//!
+//! Bounds ([`Aabb`]), dense node-centered grids ([`Grid`]) and sparse brick grids
+//! ([`BrickGrid`]), the [`Field`] trait that every distance source implements, analytic
+//! primitives with exact signed distances ([`primitives`]), rigid transforms and uniform
+//! scale that keep distances exact ([`transform`]), reconstruction filters on grids
+//! ([`filter`]: trilinear, tricubic B-spline value/gradient/Hessian by direct 64-tap
+//! convolution and by the 8-fetch scheme, Catmull-Rom), differential geometry of level
+//! sets ([`curvature`]) and a [`Camera`].
+//!
+//! It is not the place for meshes, file formats, CSG or rendering: those live in the other
+//! isokit crates and build on these types.
+//!
+//! ## Conventions
+//! - Sign: negative inside, positive outside.
+//! - Grids are node-centered: sample `(i, j, k)` is at `origin + spacing * (i, j, k)`, x fastest.
+//! - Samples are f32; analytic primitives evaluate in f64 and round once.
+//!
+//! ## Choosing a grid
+//! [`Grid`] is dense and simple: use it for small volumes and as the exchange format with
+//! files. [`BrickGrid`] stores only the bricks near the surface (with an apron for filtering
+//! and per-brick min/max for skipping): use it for narrow bands and for rendering.
+#![warn(missing_docs)]
+
+mod aabb;
+mod brick;
+mod camera;
+pub mod curvature;
+mod error;
+mod field;
+pub mod filter;
+mod grid;
+pub mod rng;
+pub mod primitives;
+pub mod transform;
+
+pub use aabb::Aabb;
+// pub use brick::{BrickGrid, BrickInfo};
+// pub use camera::{Camera, Projection, Ray};
+pub use error::FieldError;
+pub use field::{sample_field, sample_into, Field};
+pub use grid::{checked_len, Grid, MAX_SAMPLES};
