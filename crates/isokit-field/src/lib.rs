@@ -35,8 +35,8 @@ pub mod primitives;
 pub mod transform;
 
 pub use aabb::Aabb;
-// pub use brick::{BrickGrid, BrickInfo};
-// pub use camera::{Camera, Projection, Ray};
+pub use brick::{BrickGrid, BrickInfo};
+pub use camera::{Camera, Projection, Ray};
 pub use error::FieldError;
 pub use field::{sample_field, sample_into, Field};
 pub use grid::{checked_len, Grid, MAX_SAMPLES};
