@@ -73,7 +73,11 @@ impl Aabb {
 
     /// Length of the diagonal (0 for empty boxes).
     pub fn diagonal(&self) -> f32 {
-        if self.is_empty() { 0.0 } else { self.size().length() }
+        if self.is_empty() {
+            0.0
+        } else {
+            self.size().length()
+        }
     }
 
     /// The box grown to contain `p`.

@@ -117,7 +117,14 @@ impl BrickGrid {
         band: f32,
         background: f32,
     ) -> Result<Self, FieldError> {
-        let mut b = Self::new(grid.dims(), grid.origin(), grid.spacing(), brick, apron, background)?;
+        let mut b = Self::new(
+            grid.dims(),
+            grid.origin(),
+            grid.spacing(),
+            brick,
+            apron,
+            background,
+        )?;
         let side = brick + 2 * apron;
         let coords = b.all_brick_coords();
         let bricks: Vec<(BrickInfo, Vec<f32>)> = coords
@@ -126,7 +133,9 @@ impl BrickGrid {
                 let info = b.info_from(c, |i, j, k| grid.get_clamped(IVec3::new(i, j, k)));
                 (info.min <= band && info.max >= -band).then(|| {
                     let mut data = vec![0.0; side * side * side];
-                    b.fill_brick(c, &mut data, |i, j, k| grid.get_clamped(IVec3::new(i, j, k)));
+                    b.fill_brick(c, &mut data, |i, j, k| {
+                        grid.get_clamped(IVec3::new(i, j, k))
+                    });
                     (info, data)
                 })
             })
@@ -179,7 +188,11 @@ impl BrickGrid {
                     let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                     (0..brick * brick * brick)
                         .map(|n| {
-                            let l = IVec3::new((n % brick) as i32, ((n / brick) % brick) as i32, (n / (brick * brick)) as i32);
+                            let l = IVec3::new(
+                                (n % brick) as i32,
+                                ((n / brick) % brick) as i32,
+                                (n / (brick * brick)) as i32,
+                            );
                             field.value(pos(lo + l))
                         })
                         .collect()
@@ -203,7 +216,8 @@ impl BrickGrid {
                         let n = (bc.x + bd.x * (bc.y + bd.y * bc.z)) as usize;
                         if let Some(core) = &cores[n] {
                             let l = (q - bc * brick as i32).as_uvec3();
-                            return core[l.x as usize + brick * (l.y as usize + brick * l.z as usize)];
+                            return core
+                                [l.x as usize + brick * (l.y as usize + brick * l.z as usize)];
                         }
                     }
                     extra += 1;
@@ -228,13 +242,23 @@ impl BrickGrid {
     }
 
     fn max_index(&self) -> IVec3 {
-        IVec3::new(self.dims[0] as i32 - 1, self.dims[1] as i32 - 1, self.dims[2] as i32 - 1)
+        IVec3::new(
+            self.dims[0] as i32 - 1,
+            self.dims[1] as i32 - 1,
+            self.dims[2] as i32 - 1,
+        )
     }
 
     fn all_brick_coords(&self) -> Vec<[u32; 3]> {
         let [bx, by, bz] = self.brick_dims;
         (0..bx * by * bz)
-            .map(|n| [(n % bx) as u32, ((n / bx) % by) as u32, (n / (bx * by)) as u32])
+            .map(|n| {
+                [
+                    (n % bx) as u32,
+                    ((n / bx) % by) as u32,
+                    (n / (bx * by)) as u32,
+                ]
+            })
             .collect()
     }
 
@@ -252,7 +276,11 @@ impl BrickGrid {
                 }
             }
         }
-        BrickInfo { coord: c, min: mn, max: mx }
+        BrickInfo {
+            coord: c,
+            min: mn,
+            max: mx,
+        }
     }
 
     fn info_from_brick_data(&self, c: [u32; 3], data: &[f32]) -> BrickInfo {
@@ -262,7 +290,8 @@ impl BrickGrid {
         let mi = self.max_index();
         self.info_from(c, |i, j, k| {
             // Inside the stored region when the apron reaches the next layer; else clamp.
-            let l = (IVec3::new(i, j, k).min(mi) - lo + IVec3::splat(a)).clamp(IVec3::ZERO, IVec3::splat(side - 1));
+            let l = (IVec3::new(i, j, k).min(mi) - lo + IVec3::splat(a))
+                .clamp(IVec3::ZERO, IVec3::splat(side - 1));
             data[(l.x + side * (l.y + side * l.z)) as usize]
         })
     }
@@ -271,9 +300,14 @@ impl BrickGrid {
     /// receives possibly out-of-range indices and must clamp them itself.
     fn fill_brick(&self, c: [u32; 3], data: &mut [f32], mut at: impl FnMut(i32, i32, i32) -> f32) {
         let side = self.brick + 2 * self.apron;
-        let lo = IVec3::from_array(c.map(|v| (v as usize * self.brick) as i32)) - IVec3::splat(self.apron as i32);
+        let lo = IVec3::from_array(c.map(|v| (v as usize * self.brick) as i32))
+            - IVec3::splat(self.apron as i32);
         for (n, v) in data.iter_mut().enumerate() {
-            let l = IVec3::new((n % side) as i32, ((n / side) % side) as i32, (n / (side * side)) as i32);
+            let l = IVec3::new(
+                (n % side) as i32,
+                ((n / side) % side) as i32,
+                (n / (side * side)) as i32,
+            );
             let g = lo + l;
             *v = at(g.x, g.y, g.z);
         }
@@ -434,7 +468,11 @@ mod tests {
         for (n, info) in b.bricks().iter().enumerate() {
             let lo = IVec3::from_array(info.coord.map(|v| v as i32 * 8)) - IVec3::splat(2);
             for (m, &v) in b.brick_data(n).iter().enumerate() {
-                let l = IVec3::new(m as i32 % side, (m as i32 / side) % side, m as i32 / (side * side));
+                let l = IVec3::new(
+                    m as i32 % side,
+                    (m as i32 / side) % side,
+                    m as i32 / (side * side),
+                );
                 assert_eq!(v, g.get_clamped(lo + l));
             }
             assert!(info.min <= band && info.max >= -band);
@@ -446,7 +484,9 @@ mod tests {
         let n = 128;
         let h = 2.0 / (n - 1) as f32;
         let band = 2.0 * h;
-        let lazy = BrickGrid::sample_field(&Ball(0.6), [n; 3], Vec3::splat(-1.0), h, 8, 1, band, band).unwrap();
+        let lazy =
+            BrickGrid::sample_field(&Ball(0.6), [n; 3], Vec3::splat(-1.0), h, 8, 1, band, band)
+                .unwrap();
         let mut dense = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
         sample_into(&Ball(0.6), &mut dense);
         let from_dense = BrickGrid::from_grid(&dense, 8, 1, band, band).unwrap();

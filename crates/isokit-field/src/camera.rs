@@ -74,13 +74,7 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Self, FieldError> {
-        let bad = |name, value: String, why| {
-            Err(FieldError::BadParameter {
-                name,
-                value,
-                why,
-            })
-        };
+        let bad = |name, value: String, why| Err(FieldError::BadParameter { name, value, why });
         if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
             return bad("camera", format!("{eye} {target} {up}"), "must be finite");
         }
@@ -95,7 +89,11 @@ impl Camera {
             Projection::Perspective { fov_y_degrees: f }
                 if !(f.is_finite() && f > 0.0 && f < 180.0) =>
             {
-                return bad("fov", f.to_string(), "must lie strictly between 0 and 180 degrees");
+                return bad(
+                    "fov",
+                    f.to_string(),
+                    "must lie strictly between 0 and 180 degrees",
+                );
             }
             Projection::Orthographic { height: h } if !(h.is_finite() && h > 0.0) => {
                 return bad("ortho height", h.to_string(), "must be finite and positive");
@@ -108,7 +106,11 @@ impl Camera {
         }
         let right = forward.cross(up).normalize_or_zero();
         if right == Vec3::ZERO || forward.cross(up.normalize()).length() < 1e-6 {
-            return bad("up", format!("{up}"), "must not be parallel to the view direction");
+            return bad(
+                "up",
+                format!("{up}"),
+                "must not be parallel to the view direction",
+            );
         }
         let true_up = right.cross(forward);
         Ok(Self {
@@ -288,8 +290,26 @@ mod tests {
         let eye = Vec3::new(1.0, 2.0, 6.0);
         let t = Vec3::new(0.2, -0.1, 0.3);
         [
-            Camera::look_at(eye, t, Vec3::Y, Projection::Perspective { fov_y_degrees: 50.0 }, 80, 60).unwrap(),
-            Camera::look_at(eye, t, Vec3::Y, Projection::Orthographic { height: 3.0 }, 80, 60).unwrap(),
+            Camera::look_at(
+                eye,
+                t,
+                Vec3::Y,
+                Projection::Perspective {
+                    fov_y_degrees: 50.0,
+                },
+                80,
+                60,
+            )
+            .unwrap(),
+            Camera::look_at(
+                eye,
+                t,
+                Vec3::Y,
+                Projection::Orthographic { height: 3.0 },
+                80,
+                60,
+            )
+            .unwrap(),
         ]
     }
 
@@ -305,7 +325,10 @@ mod tests {
                 let r = cam.ray(px, py);
                 assert!((r.dir.length() - 1.0).abs() < 1e-5);
                 let (pix, depth) = cam.project(r.at(rng.range(1.0, 9.0))).unwrap();
-                assert!((pix - Vec2::new(px, py)).length() < 1e-2, "{pix} vs {px},{py}");
+                assert!(
+                    (pix - Vec2::new(px, py)).length() < 1e-2,
+                    "{pix} vs {px},{py}"
+                );
                 assert!(depth > 0.0);
                 let m = cam.project_with_matrices(r.at(3.0), 0.1, 100.0).unwrap();
                 assert!((m - Vec2::new(px, py)).length() < 2e-2, "{m} vs {px},{py}");
@@ -315,7 +338,17 @@ mod tests {
 
     #[test]
     fn row_zero_is_the_top() {
-        let cam = Camera::look_at(Vec3::Z * 5.0, Vec3::ZERO, Vec3::Y, Projection::Perspective { fov_y_degrees: 60.0 }, 10, 10).unwrap();
+        let cam = Camera::look_at(
+            Vec3::Z * 5.0,
+            Vec3::ZERO,
+            Vec3::Y,
+            Projection::Perspective {
+                fov_y_degrees: 60.0,
+            },
+            10,
+            10,
+        )
+        .unwrap();
         assert!(cam.ray(5.0, 0.5).dir.y > 0.0);
         assert!(cam.ray(9.5, 5.0).dir.x > 0.0);
         let (p, _) = cam.project(Vec3::new(0.0, 1.0, 0.0)).unwrap();
@@ -326,12 +359,20 @@ mod tests {
     #[test]
     fn framing_sees_the_whole_box() {
         let b = Aabb::new(Vec3::new(-1.0, -2.0, -0.5), Vec3::new(3.0, 1.0, 0.5));
-        for proj in [Projection::Perspective { fov_y_degrees: 40.0 }, Projection::Orthographic { height: 1.0 }] {
+        for proj in [
+            Projection::Perspective {
+                fov_y_degrees: 40.0,
+            },
+            Projection::Orthographic { height: 1.0 },
+        ] {
             for (w, h) in [(100, 50), (50, 100)] {
                 let cam = Camera::framing(b, Vec3::new(1.0, 1.0, 1.0), proj, w, h).unwrap();
                 for c in b.corners() {
                     let (p, _) = cam.project(c).unwrap();
-                    assert!(p.x >= 0.0 && p.x <= w as f32 && p.y >= 0.0 && p.y <= h as f32, "{p}");
+                    assert!(
+                        p.x >= 0.0 && p.x <= w as f32 && p.y >= 0.0 && p.y <= h as f32,
+                        "{p}"
+                    );
                 }
             }
         }
@@ -339,12 +380,16 @@ mod tests {
 
     #[test]
     fn bad_parameters_are_errors() {
-        let p = Projection::Perspective { fov_y_degrees: 45.0 };
+        let p = Projection::Perspective {
+            fov_y_degrees: 45.0,
+        };
         assert!(Camera::look_at(Vec3::ZERO, Vec3::ZERO, Vec3::Y, p, 8, 8).is_err());
         assert!(Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Z, p, 8, 8).is_err());
         assert!(Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, p, 0, 8).is_err());
         assert!(Camera::look_at(Vec3::Z, Vec3::NAN, Vec3::Y, p, 8, 8).is_err());
-        let bad = Projection::Perspective { fov_y_degrees: 180.0 };
+        let bad = Projection::Perspective {
+            fov_y_degrees: 180.0,
+        };
         assert!(Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, bad, 8, 8).is_err());
         let bad = Projection::Orthographic { height: -1.0 };
         assert!(Camera::look_at(Vec3::Z, Vec3::ZERO, Vec3::Y, bad, 8, 8).is_err());

@@ -20,7 +20,7 @@ pub fn checked_len(dims: [usize; 3]) -> Result<usize, FieldError> {
             dims,
             samples: n,
             limit: MAX_SAMPLES,
-            limit_gib: MAX_SAMPLES * 4 >> 30,
+            limit_gib: (MAX_SAMPLES * 4) >> 30,
         });
     }
     Ok(n as usize)
@@ -123,9 +123,8 @@ impl Grid {
         } else {
             1.0
         };
-        let dims: [usize; 3] = std::array::from_fn(|a| {
-            ((size[a] / spacing).ceil() as usize + 1).clamp(2, res.max(2))
-        });
+        let dims: [usize; 3] =
+            std::array::from_fn(|a| ((size[a] / spacing).ceil() as usize + 1).clamp(2, res.max(2)));
         // Centre the lattice on the box.
         let span = Vec3::new(
             (dims[0] - 1) as f32,
@@ -263,8 +262,13 @@ mod tests {
 
     #[test]
     fn x_fastest_layout() {
-        let g = Grid::from_data([2, 3, 4], Vec3::ZERO, 1.0, (0..24).map(|v| v as f32).collect())
-            .unwrap();
+        let g = Grid::from_data(
+            [2, 3, 4],
+            Vec3::ZERO,
+            1.0,
+            (0..24).map(|v| v as f32).collect(),
+        )
+        .unwrap();
         assert_eq!(g.get(1, 0, 0), 1.0);
         assert_eq!(g.get(0, 1, 0), 2.0);
         assert_eq!(g.get(0, 0, 1), 6.0);

@@ -30,13 +30,13 @@ mod error;
 mod field;
 pub mod filter;
 mod grid;
-pub mod rng;
 pub mod primitives;
+pub mod rng;
 pub mod transform;
 
 pub use aabb::Aabb;
 pub use brick::{BrickGrid, BrickInfo};
 pub use camera::{Camera, Projection, Ray};
 pub use error::FieldError;
-pub use field::{sample_field, sample_into, Field};
-pub use grid::{checked_len, Grid, MAX_SAMPLES};
+pub use field::{Field, sample_field, sample_into};
+pub use grid::{Grid, MAX_SAMPLES, checked_len};
