@@ -1,1 +1,79 @@
-//! io
+//! # isokit-io: file formats for isokit
+//!
+//! Reading and writing the files that isokit's pipeline starts and ends with:
+//!
+//! | what | type | read | write |
+//! | --- | --- | --- | --- |
+//! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY, STL, OFF |
+//! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
+//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY, NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY |
+//! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
+//! | images | RGBA8 / f32 channels | [`read_png`] | [`write_png`], [`write_exr`] |
+//!
+//! It is *not* a general mesh-processing or imaging library: it reads geometry into
+//! isokit's plain types and writes results out, nothing more. Materials, textures, UVs,
+//! animations and colours are ignored on read. Mesh *repair* is not done here either;
+//! [`TriMesh::validate`] only reports (boundary, non-manifold and duplicate elements,
+//! orientation, components, Euler characteristic) so that a caller can decide.
+//!
+//! ## Choosing
+//! - Pick the function for the *kind* of data ([`read_mesh`], [`read_points`],
+//!   [`read_volume`], …); each chooses the format by extension, case-insensitively. A tool
+//!   that takes "any input" calls [`detect_kind`] first (a `.ply` may be either a mesh or a
+//!   point cloud; its header decides).
+//! - Every reader also has a `*_bytes` twin reading from memory, naming the data in its
+//!   messages.
+//! - Volumes come in as [`Volume`] (per-axis spacing, as files store them). Turn one into an
+//!   isokit [`Grid`](isokit_field::Grid) with [`Volume::into_grid`] when the spacing is
+//!   uniform, or [`Volume::resample_uniform`] when it is not.
+//! - [`generate`] builds small closed meshes (icosphere, torus, tube around a curve) and
+//!   clouds for tests and examples.
+//! - For meshes to hand to other tools prefer binary PLY or STL (compact, exact f32); OBJ
+//!   and OFF are text and also exact (shortest round-trip float formatting).
+//!
+//! ## Guarantees
+//! - **Errors**: one [`IoError`] type; every message names the file and the problem.
+//! - **No panics on input**: malformed, truncated or hostile files give an error. Counts in
+//!   headers are checked against the bytes present (and volume sizes against
+//!   [`isokit_field::MAX_SAMPLES`]) before anything is allocated; every index read from a
+//!   file is range-checked.
+//! - **Atomic output**: every writer goes through [`atomic_write`] (temporary file in the
+//!   same directory, fsync, rename), so a failed write never leaves a partial file nor
+//!   destroys the previous one.
+//! - **Conventions** follow isokit: volumes are node-centered with x fastest; images have
+//!   row 0 at the top; PNG holds sRGB 8-bit, EXR linear f32.
+#![warn(missing_docs)]
+
+mod atomic;
+mod error;
+pub mod generate;
+mod gltf_read;
+mod image;
+mod kind;
+mod mesh;
+mod nifti;
+mod npy;
+mod nrrd;
+mod obj;
+mod off;
+mod ply;
+mod points;
+mod report;
+mod stl;
+mod util;
+mod volume;
+
+pub use atomic::atomic_write;
+pub use error::IoError;
+pub use image::{linear_to_srgb8, read_png, read_png_bytes, srgb8_to_linear, write_exr, write_png};
+pub use kind::{FileKind, detect_kind};
+pub use mesh::{
+    MeshFormat, TriMesh, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_stl_ascii,
+};
+pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
+pub use points::{PointCloud, PointFormat, read_points, read_points_bytes, write_points};
+pub use report::{DEGENERATE_REL_TOL, MeshReport};
+pub use volume::{
+    ISOTROPY_TOL, NrrdEncoding, Volume, VolumeFormat, read_volume, read_volume_bytes, write_nrrd,
+    write_nrrd_raw, write_volume,
+};

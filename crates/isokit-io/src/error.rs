@@ -1,0 +1,110 @@
+//! The one error type of isokit-io.
+
+use std::path::{Path, PathBuf};
+
+use isokit_field::FieldError;
+
+/// Everything that can go wrong reading or writing a file. Every variant that concerns a file
+/// names it, so `to_string()` is a complete one-line message for a user.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The operating system refused a read, write, rename, ….
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// What the operating system said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file's content does not follow its format (truncated, inconsistent header,
+    /// out-of-range index, unparsable number, …).
+    #[error("{}: {msg}", path.display())]
+    Malformed {
+        /// The file concerned.
+        path: PathBuf,
+        /// What is wrong, and where when known.
+        msg: String,
+    },
+    /// The file is valid but uses a feature this crate does not read (e.g. a sparse glTF
+    /// accessor, a rotated NRRD grid, a 4-D NIfTI series).
+    #[error("{}: unsupported: {what}", path.display())]
+    Unsupported {
+        /// The file concerned.
+        path: PathBuf,
+        /// The feature.
+        what: String,
+    },
+    /// The file name's extension names no format this operation handles.
+    #[error("{}: unrecognized file extension; expected {expected}", path.display())]
+    UnknownFormat {
+        /// The file concerned.
+        path: PathBuf,
+        /// The extensions accepted, for the message.
+        expected: &'static str,
+    },
+    /// The data handed to a writer cannot be written (wrong lengths, out-of-range indices,
+    /// non-finite spacing, …). Nothing was written.
+    #[error("{}: cannot write: {msg}", path.display())]
+    InvalidInput {
+        /// The file that was to be written.
+        path: PathBuf,
+        /// What is wrong with the data.
+        msg: String,
+    },
+    /// A volume's spacing differs between axes where a uniform [`isokit_field::Grid`] is
+    /// needed.
+    #[error(
+        "volume spacing ({}, {}, {}) is anisotropic (relative tolerance 1e-4); resample it to a uniform spacing first (Volume::resample_uniform)",
+        spacing[0], spacing[1], spacing[2]
+    )]
+    Anisotropic {
+        /// The spacings along x, y, z.
+        spacing: [f32; 3],
+    },
+    /// A volume's fields are inconsistent (data length, spacing, origin).
+    #[error("invalid volume: {0}")]
+    InvalidVolume(String),
+    /// A grid could not be built (bad sizes, spacing, origin).
+    #[error(transparent)]
+    Field(#[from] FieldError),
+}
+
+impl IoError {
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        IoError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+    pub(crate) fn malformed(path: &Path, msg: impl Into<String>) -> Self {
+        IoError::Malformed {
+            path: path.to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+    pub(crate) fn unsupported(path: &Path, what: impl Into<String>) -> Self {
+        IoError::Unsupported {
+            path: path.to_path_buf(),
+            what: what.into(),
+        }
+    }
+    pub(crate) fn invalid_input(path: &Path, msg: impl Into<String>) -> Self {
+        IoError::InvalidInput {
+            path: path.to_path_buf(),
+            msg: msg.into(),
+        }
+    }
+
+    /// The file this error concerns, when it concerns one.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            IoError::Io { path, .. }
+            | IoError::Malformed { path, .. }
+            | IoError::Unsupported { path, .. }
+            | IoError::UnknownFormat { path, .. }
+            | IoError::InvalidInput { path, .. } => Some(path),
+            _ => None,
+        }
+    }
+}

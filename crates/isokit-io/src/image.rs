@@ -1,0 +1,201 @@
+//! Images: PNG (sRGB 8-bit RGBA) and OpenEXR (named linear f32 channels). Row 0 is the top
+//! row in both.
+
+use std::io::Cursor as IoCursor;
+use std::path::Path;
+
+use crate::IoError;
+use crate::atomic::atomic_write_bytes;
+use crate::util::read_file;
+
+/// Encodes an 8-bit RGBA image (row 0 at the top, `width * height * 4` bytes) as PNG and
+/// writes it atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, rgba8: &[u8]) -> Result<(), IoError> {
+    let want = width as u128 * height as u128 * 4;
+    if width == 0 || height == 0 {
+        return Err(IoError::invalid_input(
+            path,
+            format!("image size {width}x{height} is empty"),
+        ));
+    }
+    if rgba8.len() as u128 != want {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "{} bytes for a {width}x{height} RGBA image (need {want})",
+                rgba8.len()
+            ),
+        ));
+    }
+    let mut buf = Vec::with_capacity(rgba8.len() / 2 + 1024);
+    {
+        let mut enc = png::Encoder::new(&mut buf, width, height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut w = enc
+            .write_header()
+            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
+        w.write_image_data(rgba8)
+            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
+        w.finish()
+            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
+    }
+    atomic_write_bytes(path, &buf)
+}
+
+/// Reads a PNG as 8-bit RGBA (row 0 at the top): gray, gray+alpha, RGB and palette images
+/// are expanded, 16-bit samples reduced to 8 bits, missing alpha set to 255. Returns
+/// `(width, height, pixels)`. For an animated PNG, the first frame.
+pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>), IoError> {
+    let bytes = read_file(path)?;
+    read_png_bytes(&bytes, path.to_string_lossy().as_ref())
+}
+
+/// [`read_png`] on bytes in memory; `name` is used in messages.
+pub fn read_png_bytes(bytes: &[u8], name: &str) -> Result<(u32, u32, Vec<u8>), IoError> {
+    let path = Path::new(name);
+    let bad = |e: png::DecodingError| IoError::malformed(path, format!("PNG: {e}"));
+    let mut dec = png::Decoder::new(IoCursor::new(bytes));
+    dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+    let mut reader = dec.read_info().map_err(bad)?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| IoError::malformed(path, "PNG: image too large"))?;
+    // Deflate expands at most about 1032:1: refuse headers that promise more pixels than the
+    // compressed data could possibly hold, before allocating the output.
+    if size as u128 > 1100 * bytes.len() as u128 + (1 << 16) {
+        let info = reader.info();
+        return Err(IoError::malformed(
+            path,
+            format!(
+                "PNG: header promises {}x{} pixels, more than {} bytes of data can hold",
+                info.width,
+                info.height,
+                bytes.len()
+            ),
+        ));
+    }
+    let mut buf = vec![0u8; size];
+    let info = reader.next_frame(&mut buf).map_err(bad)?;
+    let (w, h) = (info.width, info.height);
+    let px = w as usize * h as usize;
+    let data = &buf[..info.buffer_size().min(buf.len())];
+    let rgba: Vec<u8> = match info.color_type {
+        png::ColorType::Rgba => data.get(..px * 4).map(<[u8]>::to_vec).unwrap_or_default(),
+        png::ColorType::Rgb => data
+            .chunks_exact(3)
+            .take(px)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        png::ColorType::GrayscaleAlpha => data
+            .chunks_exact(2)
+            .take(px)
+            .flat_map(|c| [c[0], c[0], c[0], c[1]])
+            .collect(),
+        png::ColorType::Grayscale => data.iter().take(px).flat_map(|&g| [g, g, g, 255]).collect(),
+        png::ColorType::Indexed => {
+            return Err(IoError::unsupported(
+                path,
+                "PNG palette image that could not be expanded",
+            ));
+        }
+    };
+    if rgba.len() != px * 4 {
+        return Err(IoError::malformed(
+            path,
+            "PNG: decoded data is shorter than the image",
+        ));
+    }
+    Ok((w, h, rgba))
+}
+
+/// Encodes a linear value in `[0, 1]` as an 8-bit sRGB value (values outside are clamped,
+/// NaN becomes 0).
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+/// Decodes an 8-bit sRGB value to linear in `[0, 1]`.
+pub fn srgb8_to_linear(v: u8) -> f32 {
+    let s = v as f32 / 255.0;
+    if s <= 0.040_45 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Writes an OpenEXR image of named f32 channels (e.g. `"Z"`, `"N.X"`, `"R"`), each holding
+/// `width * height` linear values with row 0 at the top, losslessly compressed (RLE), and
+/// writes it atomically. Channel names must be non-empty, unique and Latin-1.
+pub fn write_exr(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: &[(&str, &[f32])],
+) -> Result<(), IoError> {
+    use exr::prelude::*;
+    if width == 0 || height == 0 {
+        return Err(IoError::invalid_input(
+            path,
+            format!("image size {width}x{height} is empty"),
+        ));
+    }
+    let Some(px) = width.checked_mul(height) else {
+        return Err(IoError::invalid_input(path, "image size overflows"));
+    };
+    if channels.is_empty() {
+        return Err(IoError::invalid_input(path, "no channels to write"));
+    }
+    let mut list: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity(channels.len());
+    for (i, (name, data)) in channels.iter().enumerate() {
+        if data.len() != px {
+            return Err(IoError::invalid_input(
+                path,
+                format!(
+                    "channel {name:?} holds {} values for {width}x{height} = {px} pixels",
+                    data.len()
+                ),
+            ));
+        }
+        if name.is_empty() || name.len() > 255 {
+            return Err(IoError::invalid_input(
+                path,
+                format!("channel name {name:?} must have 1 to 255 bytes"),
+            ));
+        }
+        if channels[..i].iter().any(|(n, _)| n == name) {
+            return Err(IoError::invalid_input(
+                path,
+                format!("channel name {name:?} is repeated"),
+            ));
+        }
+        let text = Text::new_or_none(name)
+            .filter(|t| !t.as_slice().contains(&0))
+            .ok_or_else(|| {
+                IoError::invalid_input(path, format!("channel name {name:?} is not Latin-1 text"))
+            })?;
+        list.push(AnyChannel::new(text, FlatSamples::F32(data.to_vec())));
+    }
+    let layer = Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(list.into()),
+    );
+    let image = Image::from_layer(layer);
+    let mut buf = IoCursor::new(Vec::new());
+    image
+        .write()
+        .non_parallel()
+        .to_buffered(&mut buf)
+        .map_err(|e| IoError::invalid_input(path, format!("EXR encoder: {e}")))?;
+    atomic_write_bytes(path, &buf.into_inner())
+}

@@ -1,0 +1,52 @@
+//! Guessing what a file holds from its name (and, for PLY, its header).
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::util::extension;
+use crate::{IoError, ply};
+
+/// What a file holds, for dispatch in tools that accept several kinds of input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FileKind {
+    /// A triangle mesh (`.obj .gltf .glb .stl .off`, or `.ply` with faces).
+    Mesh,
+    /// A point cloud (`.xyz`, or `.ply` without faces).
+    PointCloud,
+    /// A volume (`.nrrd .nhdr .npy .nii .nii.gz`).
+    Volume,
+    /// An image (`.png .exr`).
+    Image,
+}
+
+/// Decides the kind of a file by extension (case-insensitive). A `.ply` file is opened and
+/// its header read: a `face` element with a count above 0 makes it a mesh, otherwise a point
+/// cloud.
+pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
+    let ext = extension(path).unwrap_or_default();
+    Ok(match ext.as_str() {
+        "obj" | "gltf" | "glb" | "stl" | "off" => FileKind::Mesh,
+        "xyz" => FileKind::PointCloud,
+        "nrrd" | "nhdr" | "npy" | "nii" | "nii.gz" => FileKind::Volume,
+        "png" | "exr" => FileKind::Image,
+        "ply" => {
+            // The header is text at the start of the file; 1 MiB is plenty.
+            let mut head = Vec::new();
+            std::fs::File::open(path)
+                .and_then(|f| f.take(1 << 20).read_to_end(&mut head))
+                .map_err(|e| IoError::io(path, e))?;
+            let header = ply::parse_header(&head, path)?;
+            if header.face_count() > 0 {
+                FileKind::Mesh
+            } else {
+                FileKind::PointCloud
+            }
+        }
+        _ => {
+            return Err(IoError::UnknownFormat {
+                path: path.to_path_buf(),
+                expected: "a mesh (.obj .gltf .glb .ply .stl .off), point cloud (.ply .xyz), volume (.nrrd .nhdr .npy .nii .nii.gz) or image (.png .exr)",
+            });
+        }
+    })
+}

@@ -1,0 +1,207 @@
+//! Triangle meshes: the [`TriMesh`] type, format dispatch, and the mesh readers' and
+//! writers' entry points.
+
+use std::path::Path;
+
+use glam::Vec3;
+use isokit_field::Aabb;
+
+use crate::util::{extension, read_file};
+use crate::{IoError, gltf_read, obj, off, ply, stl};
+
+/// An indexed triangle mesh: positions and triangles as index triples into them.
+///
+/// Readers guarantee every index is in range; a mesh built by hand may break that, and
+/// [`TriMesh::validate`] counts such triangles instead of panicking. Writers refuse them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions in world units.
+    pub positions: Vec<Vec3>,
+    /// Triangles, counter-clockwise seen from outside for an oriented surface.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// A mesh from its parts (not checked; see [`TriMesh::validate`]).
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
+        Self {
+            positions,
+            triangles,
+        }
+    }
+
+    /// The box around all finite positions ([`Aabb::EMPTY`] for none).
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    /// True when the mesh has no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Appends another mesh, offsetting its indices.
+    pub fn append(&mut self, other: &TriMesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| t.map(|i| i.wrapping_add(base))),
+        );
+    }
+
+    /// Checks every index against the vertex count (writers call this before writing).
+    pub(crate) fn check_indices(&self, path: &Path) -> Result<(), IoError> {
+        let n = self.positions.len();
+        if n > u32::MAX as usize {
+            return Err(IoError::invalid_input(
+                path,
+                format!("{n} vertices do not fit 32-bit indices"),
+            ));
+        }
+        if let Some((t, tri)) = self
+            .triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(IoError::invalid_input(
+                path,
+                format!("triangle {t} {tri:?} refers to a vertex beyond the {n} vertices"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The mesh file formats this crate reads, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MeshFormat {
+    /// Wavefront OBJ (`.obj`), read with tobj.
+    Obj,
+    /// glTF 2.0 JSON (`.gltf`) with embedded (data URI) or external buffers.
+    Gltf,
+    /// Binary glTF 2.0 (`.glb`).
+    Glb,
+    /// Stanford PLY (`.ply`): ASCII, binary little- and big-endian.
+    Ply,
+    /// STL (`.stl`): binary or ASCII.
+    Stl,
+    /// Object File Format (`.off`, also COFF/NOFF/CNOFF headers).
+    Off,
+}
+
+impl MeshFormat {
+    /// The extensions [`MeshFormat::from_path`] accepts, for messages.
+    pub const EXTENSIONS: &'static str = ".obj, .gltf, .glb, .ply, .stl or .off";
+
+    /// The format named by a path's extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Self, IoError> {
+        let ext = extension(path).unwrap_or_default();
+        Ok(match ext.as_str() {
+            "obj" => MeshFormat::Obj,
+            "gltf" => MeshFormat::Gltf,
+            "glb" => MeshFormat::Glb,
+            "ply" => MeshFormat::Ply,
+            "stl" => MeshFormat::Stl,
+            "off" => MeshFormat::Off,
+            _ => {
+                return Err(IoError::UnknownFormat {
+                    path: path.to_path_buf(),
+                    expected: Self::EXTENSIONS,
+                });
+            }
+        })
+    }
+
+    /// Whether [`write_mesh`] can write this format.
+    pub fn can_write(self) -> bool {
+        !matches!(self, MeshFormat::Gltf | MeshFormat::Glb)
+    }
+}
+
+/// Reads a triangle mesh, choosing the format by extension (see [`MeshFormat`]).
+///
+/// Polygons are fan-triangulated. Every returned index is in range. What each reader
+/// supports:
+/// - OBJ: `v` and `f` (any polygon, `v/vt/vn` forms, negative indices), all objects and
+///   groups merged into one mesh; texture coordinates, normals, lines, points and materials
+///   are ignored. Vertices are renumbered in order of first use by a face, so unreferenced
+///   vertices are dropped.
+/// - glTF/GLB: every triangle primitive (`TRIANGLES`, also strips and fans) reachable from
+///   the default scene (the first scene when none is marked default; every mesh when there is
+///   no scene), with node world transforms applied. Buffers come from the GLB binary chunk,
+///   base64 data URIs or external files next to the glTF file. Positions must be f32 VEC3;
+///   indices u8/u16/u32. Sparse accessors are refused.
+/// - PLY: ASCII and binary of either byte order; vertex `x y z` of any numeric type; faces
+///   from a `vertex_indices` (or `vertex_index`) list of any count/index type; all other
+///   elements and properties are skipped.
+/// - STL: binary or ASCII (binary when `84 + 50 n` equals the file length, even if the file
+///   starts with `solid`); identical vertices are welded (by bit pattern; `-0.0 == 0.0`).
+/// - OFF: `OFF`, `COFF`, `NOFF`, `CNOFF`, `STOFF`… headers (extra columns ignored), `#`
+///   comments, counts on the header line or the next.
+pub fn read_mesh(path: &Path) -> Result<TriMesh, IoError> {
+    let format = MeshFormat::from_path(path)?;
+    let bytes = read_file(path)?;
+    read_mesh_from(&bytes, format, path)
+}
+
+/// Reads a mesh from bytes already in memory; `name` is used in messages (and, for glTF,
+/// as the location that external buffer files are relative to).
+pub fn read_mesh_bytes(bytes: &[u8], format: MeshFormat, name: &str) -> Result<TriMesh, IoError> {
+    read_mesh_from(bytes, format, Path::new(name))
+}
+
+fn read_mesh_from(bytes: &[u8], format: MeshFormat, path: &Path) -> Result<TriMesh, IoError> {
+    match format {
+        MeshFormat::Obj => obj::read_obj(bytes, path),
+        MeshFormat::Gltf | MeshFormat::Glb => gltf_read::read_gltf(bytes, path),
+        MeshFormat::Ply => ply::read_ply_mesh(bytes, path),
+        MeshFormat::Stl => stl::read_stl(bytes, path),
+        MeshFormat::Off => off::read_off(bytes, path),
+    }
+}
+
+/// Writes a mesh atomically, choosing the format by extension: `.obj` (`v` and `f` lines),
+/// `.ply` (binary little-endian), `.stl` (binary), `.off`. glTF is not written.
+///
+/// Refuses (without touching the file) a mesh with an out-of-range index. See also
+/// [`write_ply_ascii`] and [`write_stl_ascii`].
+pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
+    match MeshFormat::from_path(path)? {
+        MeshFormat::Obj => obj::write_obj(path, mesh),
+        MeshFormat::Ply => ply::write_ply_mesh(path, mesh, false),
+        MeshFormat::Stl => stl::write_stl(path, mesh, false),
+        MeshFormat::Off => off::write_off(path, mesh),
+        MeshFormat::Gltf | MeshFormat::Glb => Err(IoError::UnknownFormat {
+            path: path.to_path_buf(),
+            expected: ".obj, .ply, .stl or .off (glTF is read, not written)",
+        }),
+    }
+}
+
+/// Writes an ASCII PLY mesh (`float x y z`, `list uchar int vertex_indices`) atomically.
+pub fn write_ply_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
+    ply::write_ply_mesh(path, mesh, true)
+}
+
+/// Writes an ASCII STL mesh atomically (facet normals computed from the vertices).
+pub fn write_stl_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
+    stl::write_stl(path, mesh, true)
+}
+
+/// Fan-triangulates a polygon given as indices, appending to `out`.
+pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
+    if poly.len() >= 3 {
+        for w in 1..poly.len() - 1 {
+            out.push([poly[0], poly[w], poly[w + 1]]);
+        }
+    }
+}
+
+/// A face normal (unit, or zero for a degenerate triangle).
+pub(crate) fn face_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    (b - a).cross(c - a).normalize_or_zero()
+}

@@ -1,0 +1,545 @@
+//! Stanford PLY: ASCII and binary (both byte orders) reading of meshes and point clouds,
+//! binary little-endian and ASCII writing.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::mesh::fan;
+use crate::util::{Cursor, Endian, Scalar, parse_f64, show};
+use crate::{IoError, PointCloud, TriMesh, atomic_write};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Format {
+    Ascii,
+    Binary(Endian),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Clone, Debug)]
+struct Property {
+    name: String,
+    kind: Kind,
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct Element {
+    name: String,
+    pub(crate) count: usize,
+    props: Vec<Property>,
+}
+
+impl Element {
+    /// Fewest bytes one instance takes in a binary file.
+    fn min_size(&self) -> usize {
+        self.props
+            .iter()
+            .map(|p| match p.kind {
+                Kind::Scalar(s) => s.size(),
+                Kind::List { count, .. } => count.size(),
+            })
+            .sum()
+    }
+    fn find(&self, name: &str) -> Option<usize> {
+        self.props.iter().position(|p| p.name == name)
+    }
+}
+
+pub(crate) struct Header {
+    format: Format,
+    pub(crate) elements: Vec<Element>,
+    body: usize,
+}
+
+impl Header {
+    pub(crate) fn face_count(&self) -> usize {
+        self.elements
+            .iter()
+            .filter(|e| e.name == "face")
+            .map(|e| e.count)
+            .sum()
+    }
+}
+
+fn scalar_type(name: &str) -> Option<Scalar> {
+    Some(match name {
+        "char" | "int8" => Scalar::I8,
+        "uchar" | "uint8" => Scalar::U8,
+        "short" | "int16" => Scalar::I16,
+        "ushort" | "uint16" => Scalar::U16,
+        "int" | "int32" => Scalar::I32,
+        "uint" | "uint32" => Scalar::U32,
+        "int64" | "long" => Scalar::I64,
+        "uint64" | "ulong" => Scalar::U64,
+        "float" | "float32" => Scalar::F32,
+        "double" | "float64" => Scalar::F64,
+        _ => return None,
+    })
+}
+
+/// Parses the header (everything up to and including `end_header`).
+pub(crate) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, IoError> {
+    let bad = |line: usize, msg: String| {
+        IoError::malformed(path, format!("PLY header line {line}: {msg}"))
+    };
+    let mut pos = 0;
+    let mut line_no = 0;
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let Some(nl) = bytes[pos..].iter().position(|&b| b == b'\n') else {
+            return Err(IoError::malformed(
+                path,
+                if line_no == 0 && bytes.is_empty() {
+                    "PLY file is empty".to_string()
+                } else {
+                    "PLY header has no end_header line".to_string()
+                },
+            ));
+        };
+        let raw = &bytes[pos..pos + nl];
+        pos += nl + 1;
+        line_no += 1;
+        let line = std::str::from_utf8(raw)
+            .map_err(|_| bad(line_no, "not ASCII text".into()))?
+            .trim();
+        let mut w = line.split_whitespace();
+        let key = w.next().unwrap_or("");
+        if line_no == 1 {
+            if line != "ply" {
+                return Err(IoError::malformed(
+                    path,
+                    format!(
+                        "not a PLY file: first line is {:?}, expected \"ply\"",
+                        show(raw)
+                    ),
+                ));
+            }
+            continue;
+        }
+        match key {
+            "format" => {
+                let f = match w.next() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::Binary(Endian::Little),
+                    Some("binary_big_endian") => Format::Binary(Endian::Big),
+                    other => {
+                        return Err(bad(line_no, format!("unknown format {other:?}")));
+                    }
+                };
+                format = Some(f);
+            }
+            "comment" | "obj_info" | "" => {}
+            "element" => {
+                let name = w
+                    .next()
+                    .ok_or_else(|| bad(line_no, "element without a name".into()))?;
+                let count = w
+                    .next()
+                    .and_then(|c| c.parse::<usize>().ok())
+                    .ok_or_else(|| {
+                        bad(
+                            line_no,
+                            format!("element {name} needs a non-negative count"),
+                        )
+                    })?;
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            "property" => {
+                let Some(el) = elements.last_mut() else {
+                    return Err(bad(line_no, "property before any element".into()));
+                };
+                let t = w.next().unwrap_or("");
+                let kind = if t == "list" {
+                    let (Some(c), Some(i)) = (w.next(), w.next()) else {
+                        return Err(bad(
+                            line_no,
+                            "list property needs count and item types".into(),
+                        ));
+                    };
+                    let count = scalar_type(c).filter(|s| s.is_integer());
+                    let item = scalar_type(i);
+                    match (count, item) {
+                        (Some(count), Some(item)) => Kind::List { count, item },
+                        _ => return Err(bad(line_no, format!("unknown list types {c} {i}"))),
+                    }
+                } else {
+                    Kind::Scalar(
+                        scalar_type(t)
+                            .ok_or_else(|| bad(line_no, format!("unknown property type {t:?}")))?,
+                    )
+                };
+                let name = w
+                    .next()
+                    .ok_or_else(|| bad(line_no, "property without a name".into()))?;
+                el.props.push(Property {
+                    name: name.to_string(),
+                    kind,
+                });
+            }
+            "end_header" => break,
+            other => return Err(bad(line_no, format!("unknown keyword {other:?}"))),
+        }
+    }
+    let format = format.ok_or_else(|| IoError::malformed(path, "PLY header has no format line"))?;
+    Ok(Header {
+        format,
+        elements,
+        body: pos,
+    })
+}
+
+/// The values of the body, ASCII or binary.
+enum Body<'a> {
+    Ascii {
+        toks: Box<dyn Iterator<Item = &'a [u8]> + 'a>,
+        path: &'a Path,
+    },
+    Binary(Cursor<'a>, Endian),
+}
+
+impl Body<'_> {
+    fn next(&mut self, t: Scalar, ctx: &dyn Fn() -> String) -> Result<f64, IoError> {
+        match self {
+            Body::Binary(c, e) => {
+                let e = *e;
+                c.scalar(t, e).map_err(|_| {
+                    IoError::malformed(c.path, format!("PLY data ends early ({})", ctx()))
+                })
+            }
+            Body::Ascii { toks, path } => {
+                let Some(tok) = toks.next() else {
+                    return Err(IoError::malformed(
+                        path,
+                        format!("PLY data ends early ({})", ctx()),
+                    ));
+                };
+                parse_f64(tok).ok_or_else(|| {
+                    IoError::malformed(
+                        path,
+                        format!("PLY: {:?} is not a number ({})", show(tok), ctx()),
+                    )
+                })
+            }
+        }
+    }
+
+    fn skip_bytes(&mut self, n: usize) -> Result<(), IoError> {
+        if let Body::Binary(c, _) = self {
+            c.take(n)?;
+        }
+        Ok(())
+    }
+}
+
+fn list_len(v: f64, path: &Path, ctx: &dyn Fn() -> String) -> Result<usize, IoError> {
+    if v >= 0.0 && v.fract() == 0.0 && v <= u32::MAX as f64 {
+        Ok(v as usize)
+    } else {
+        Err(IoError::malformed(
+            path,
+            format!("PLY: list length {v} is invalid ({})", ctx()),
+        ))
+    }
+}
+
+struct PlyData {
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    triangles: Vec<[u32; 3]>,
+}
+
+fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoError> {
+    let header = parse_header(bytes, path)?;
+    let body_bytes = &bytes[header.body.min(bytes.len())..];
+    let remaining = body_bytes.len();
+
+    // Refuse headers promising more than the file holds before allocating anything.
+    let mut need: u128 = 0;
+    for e in &header.elements {
+        let per = match header.format {
+            Format::Binary(_) => e.min_size(),
+            Format::Ascii => 2 * e.props.len(),
+        };
+        need += e.count as u128 * per as u128;
+    }
+    if need > remaining as u128 + 1 {
+        let counts: Vec<String> = header
+            .elements
+            .iter()
+            .map(|e| format!("{} {}", e.count, e.name))
+            .collect();
+        return Err(IoError::malformed(
+            path,
+            format!(
+                "PLY header promises {} (at least {need} bytes of data) but only {remaining} bytes follow",
+                counts.join(", ")
+            ),
+        ));
+    }
+
+    let mut body = match header.format {
+        Format::Ascii => Body::Ascii {
+            toks: Box::new(
+                body_bytes
+                    .split(|b| b.is_ascii_whitespace())
+                    .filter(|t| !t.is_empty()),
+            ),
+            path,
+        },
+        Format::Binary(e) => Body::Binary(Cursor::new(body_bytes, path, "binary PLY"), e),
+    };
+
+    let mut positions: Option<Vec<Vec3>> = None;
+    let mut normals: Option<Vec<Vec3>> = None;
+    let mut triangles = Vec::new();
+    let mut poly: Vec<u32> = Vec::new();
+
+    for e in &header.elements {
+        let is_vertex = e.name == "vertex" && positions.is_none();
+        let is_face = want_faces && e.name == "face";
+        if !is_vertex && !is_face {
+            // Skip: fixed-size binary elements in one step, others value by value.
+            if let (Format::Binary(_), true) = (
+                header.format,
+                e.props.iter().all(|p| matches!(p.kind, Kind::Scalar(_))),
+            ) {
+                body.skip_bytes(e.count * e.min_size())?;
+                continue;
+            }
+            for i in 0..e.count {
+                let ctx = || format!("element {} {i}", e.name);
+                for p in &e.props {
+                    match p.kind {
+                        Kind::Scalar(t) => {
+                            body.next(t, &ctx)?;
+                        }
+                        Kind::List { count, item } => {
+                            let n = list_len(body.next(count, &ctx)?, path, &ctx)?;
+                            if let Body::Binary(..) = body {
+                                body.skip_bytes(n * item.size())?;
+                            } else {
+                                for _ in 0..n {
+                                    body.next(item, &ctx)?;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            continue;
+        }
+        let cap = e.count.min(remaining / 2 + 1);
+        if is_vertex {
+            let scalar_at = |name: &str| -> Result<Option<usize>, IoError> {
+                match e.find(name) {
+                    Some(i) if matches!(e.props[i].kind, Kind::Scalar(_)) => Ok(Some(i)),
+                    Some(_) => Err(IoError::malformed(
+                        path,
+                        format!("PLY: vertex property {name} is a list"),
+                    )),
+                    None => Ok(None),
+                }
+            };
+            let (Some(ix), Some(iy), Some(iz)) =
+                (scalar_at("x")?, scalar_at("y")?, scalar_at("z")?)
+            else {
+                return Err(IoError::malformed(
+                    path,
+                    "PLY vertex element lacks x, y or z",
+                ));
+            };
+            let nidx = match (scalar_at("nx")?, scalar_at("ny")?, scalar_at("nz")?) {
+                (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+                _ => None,
+            };
+            let mut pos = Vec::with_capacity(cap);
+            let mut nor = nidx.map(|_| Vec::with_capacity(cap));
+            let mut vals = vec![0f64; e.props.len()];
+            for i in 0..e.count {
+                let ctx = || format!("vertex {i}");
+                for (k, p) in e.props.iter().enumerate() {
+                    match p.kind {
+                        Kind::Scalar(t) => vals[k] = body.next(t, &ctx)?,
+                        Kind::List { count, item } => {
+                            let n = list_len(body.next(count, &ctx)?, path, &ctx)?;
+                            for _ in 0..n {
+                                body.next(item, &ctx)?;
+                            }
+                        }
+                    }
+                }
+                pos.push(Vec3::new(vals[ix] as f32, vals[iy] as f32, vals[iz] as f32));
+                if let (Some(n), Some([a, b, c])) = (nor.as_mut(), nidx) {
+                    n.push(Vec3::new(vals[a] as f32, vals[b] as f32, vals[c] as f32));
+                }
+            }
+            positions = Some(pos);
+            normals = nor;
+        } else {
+            let li = e
+                .find("vertex_indices")
+                .or_else(|| e.find("vertex_index"))
+                .filter(|&i| matches!(e.props[i].kind, Kind::List { .. }))
+                .ok_or_else(|| {
+                    IoError::malformed(path, "PLY face element has no vertex_indices list")
+                })?;
+            triangles.reserve(cap);
+            for i in 0..e.count {
+                let ctx = || format!("face {i}");
+                for (k, p) in e.props.iter().enumerate() {
+                    match p.kind {
+                        Kind::Scalar(t) => {
+                            body.next(t, &ctx)?;
+                        }
+                        Kind::List { count, item } => {
+                            let n = list_len(body.next(count, &ctx)?, path, &ctx)?;
+                            if k != li {
+                                for _ in 0..n {
+                                    body.next(item, &ctx)?;
+                                }
+                                continue;
+                            }
+                            poly.clear();
+                            for _ in 0..n {
+                                let v = body.next(item, &ctx)?;
+                                if !(v >= 0.0 && v.fract() == 0.0 && v <= u32::MAX as f64) {
+                                    return Err(IoError::malformed(
+                                        path,
+                                        format!("PLY face {i}: vertex index {v} is invalid"),
+                                    ));
+                                }
+                                poly.push(v as u32);
+                            }
+                            fan(&poly, &mut triangles);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    let positions = positions.unwrap_or_default();
+    let nv = positions.len();
+    if let Some((i, t)) = triangles
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|&v| v as usize >= nv))
+    {
+        return Err(IoError::malformed(
+            path,
+            format!("PLY triangle {i} {t:?} refers to a vertex beyond the {nv} vertices"),
+        ));
+    }
+    Ok(PlyData {
+        positions,
+        normals,
+        triangles,
+    })
+}
+
+pub(crate) fn read_ply_mesh(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {
+    let d = read_ply(bytes, path, true)?;
+    Ok(TriMesh {
+        positions: d.positions,
+        triangles: d.triangles,
+    })
+}
+
+pub(crate) fn read_ply_points(bytes: &[u8], path: &Path) -> Result<PointCloud, IoError> {
+    let d = read_ply(bytes, path, false)?;
+    Ok(PointCloud {
+        points: d.positions,
+        normals: d.normals,
+    })
+}
+
+fn index_type(n: usize) -> &'static str {
+    if n <= i32::MAX as usize {
+        "int"
+    } else {
+        "uint"
+    }
+}
+
+pub(crate) fn write_ply_mesh(path: &Path, mesh: &TriMesh, ascii: bool) -> Result<(), IoError> {
+    mesh.check_indices(path)?;
+    atomic_write(path, |w| {
+        let fmt = if ascii {
+            "ascii"
+        } else {
+            "binary_little_endian"
+        };
+        write!(
+            w,
+            "ply\nformat {fmt} 1.0\ncomment written by isokit\nelement vertex {}\n\
+             property float x\nproperty float y\nproperty float z\nelement face {}\n\
+             property list uchar {} vertex_indices\nend_header\n",
+            mesh.positions.len(),
+            mesh.triangles.len(),
+            index_type(mesh.positions.len())
+        )?;
+        if ascii {
+            for p in &mesh.positions {
+                writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
+            }
+            for t in &mesh.triangles {
+                writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
+            }
+        } else {
+            for p in &mesh.positions {
+                for x in p.to_array() {
+                    w.write_all(&x.to_le_bytes())?;
+                }
+            }
+            let mut rec = [0u8; 13];
+            rec[0] = 3;
+            for t in &mesh.triangles {
+                for (k, i) in t.iter().enumerate() {
+                    rec[1 + 4 * k..5 + 4 * k].copy_from_slice(&i.to_le_bytes());
+                }
+                w.write_all(&rec)?;
+            }
+        }
+        Ok(())
+    })
+}
+
+pub(crate) fn write_ply_points(path: &Path, cloud: &PointCloud) -> Result<(), IoError> {
+    cloud.check(path)?;
+    atomic_write(path, |w| {
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\ncomment written by isokit\nelement vertex {}\n\
+             property float x\nproperty float y\nproperty float z\n",
+            cloud.points.len()
+        )?;
+        if cloud.normals.is_some() {
+            write!(
+                w,
+                "property float nx\nproperty float ny\nproperty float nz\n"
+            )?;
+        }
+        writeln!(w, "end_header")?;
+        for (i, p) in cloud.points.iter().enumerate() {
+            for x in p.to_array() {
+                w.write_all(&x.to_le_bytes())?;
+            }
+            if let Some(n) = &cloud.normals {
+                for x in n[i].to_array() {
+                    w.write_all(&x.to_le_bytes())?;
+                }
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,199 @@
+//! Small shared helpers: file reading, extensions, a bounds-checked byte cursor, scalar
+//! decoding, text tokens.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::IoError;
+
+/// Reads a whole file, naming it in the error.
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
+    std::fs::read(path).map_err(|e| IoError::io(path, e))
+}
+
+/// The lower-case extension, with `.nii.gz` (and other `.X.gz`) kept as one extension
+/// `nii.gz`.
+pub(crate) fn extension(path: &Path) -> Option<String> {
+    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+    if name.ends_with(".nii.gz") && name.len() > ".nii.gz".len() {
+        return Some("nii.gz".to_string());
+    }
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    Some(ext)
+}
+
+/// Byte order of binary data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Endian {
+    Little,
+    Big,
+}
+
+/// A numeric sample type shared by the binary formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    I64,
+    U64,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    pub(crate) fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::I64 | Scalar::U64 | Scalar::F64 => 8,
+        }
+    }
+
+    pub(crate) fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+
+    /// Decodes one value; `b` must hold at least `self.size()` bytes (callers slice with
+    /// `chunks_exact`), otherwise NaN.
+    #[inline]
+    pub(crate) fn decode(self, b: &[u8], e: Endian) -> f64 {
+        macro_rules! get {
+            ($t:ty, $n:expr) => {{
+                let Some(arr) = b.get(..$n).and_then(|s| <[u8; $n]>::try_from(s).ok()) else {
+                    return f64::NAN;
+                };
+                match e {
+                    Endian::Little => <$t>::from_le_bytes(arr),
+                    Endian::Big => <$t>::from_be_bytes(arr),
+                }
+            }};
+        }
+        match self {
+            Scalar::I8 => get!(i8, 1) as f64,
+            Scalar::U8 => get!(u8, 1) as f64,
+            Scalar::I16 => get!(i16, 2) as f64,
+            Scalar::U16 => get!(u16, 2) as f64,
+            Scalar::I32 => get!(i32, 4) as f64,
+            Scalar::U32 => get!(u32, 4) as f64,
+            Scalar::I64 => get!(i64, 8) as f64,
+            Scalar::U64 => get!(u64, 8) as f64,
+            Scalar::F32 => get!(f32, 4) as f64,
+            Scalar::F64 => get!(f64, 8),
+        }
+    }
+
+    /// Decodes `bytes` (a whole number of samples) into f32 samples.
+    pub(crate) fn decode_all_f32(self, bytes: &[u8], e: Endian) -> Vec<f32> {
+        bytes
+            .chunks_exact(self.size())
+            .map(|c| self.decode(c, e) as f32)
+            .collect()
+    }
+}
+
+/// A bounds-checked reader over a byte slice whose errors name the file.
+pub(crate) struct Cursor<'a> {
+    pub(crate) data: &'a [u8],
+    pub(crate) pos: usize,
+    pub(crate) path: &'a Path,
+    /// Format name for messages, e.g. "binary STL".
+    pub(crate) what: &'static str,
+}
+
+impl<'a> Cursor<'a> {
+    pub(crate) fn new(data: &'a [u8], path: &'a Path, what: &'static str) -> Self {
+        Self {
+            data,
+            pos: 0,
+            path,
+            what,
+        }
+    }
+
+    pub(crate) fn remaining(&self) -> usize {
+        self.data.len().saturating_sub(self.pos)
+    }
+
+    pub(crate) fn take(&mut self, n: usize) -> Result<&'a [u8], IoError> {
+        let end = self.pos.checked_add(n).filter(|&e| e <= self.data.len());
+        match end {
+            Some(end) => {
+                let s = &self.data[self.pos..end];
+                self.pos = end;
+                Ok(s)
+            }
+            None => Err(IoError::malformed(
+                self.path,
+                format!(
+                    "{} data ends early: needed {} more bytes at offset {} but only {} remain",
+                    self.what,
+                    n,
+                    self.pos,
+                    self.remaining()
+                ),
+            )),
+        }
+    }
+
+    pub(crate) fn array<const N: usize>(&mut self) -> Result<[u8; N], IoError> {
+        let s = self.take(N)?;
+        let mut a = [0u8; N];
+        a.copy_from_slice(s);
+        Ok(a)
+    }
+
+    pub(crate) fn u32_le(&mut self) -> Result<u32, IoError> {
+        Ok(u32::from_le_bytes(self.array()?))
+    }
+
+    pub(crate) fn scalar(&mut self, t: Scalar, e: Endian) -> Result<f64, IoError> {
+        let b = self.take(t.size())?;
+        Ok(t.decode(b, e))
+    }
+}
+
+/// Whitespace-separated tokens of a byte slice.
+pub(crate) fn tokens(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    bytes
+        .split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
+}
+
+/// Parses a token as a float (accepts integers, `nan`, `inf`).
+pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
+    std::str::from_utf8(tok).ok()?.parse::<f64>().ok()
+}
+
+/// Decompresses gzip data (one or more members), discarding the first `skip` output bytes
+/// and keeping at most `limit` after them, so a small file cannot claim unbounded memory.
+/// Returns the kept bytes and the number actually skipped.
+pub(crate) fn gunzip(
+    data: &[u8],
+    skip: u64,
+    limit: usize,
+    path: &Path,
+) -> Result<(Vec<u8>, u64), IoError> {
+    let bad = |e: std::io::Error| {
+        IoError::malformed(path, format!("gzip data cannot be decompressed: {e}"))
+    };
+    let mut dec = flate2::read::MultiGzDecoder::new(data);
+    let skipped = std::io::copy(&mut (&mut dec).take(skip), &mut std::io::sink()).map_err(bad)?;
+    let mut out = Vec::new();
+    dec.take(limit as u64).read_to_end(&mut out).map_err(bad)?;
+    Ok((out, skipped))
+}
+
+/// Bytes shown in messages (lossy, shortened).
+pub(crate) fn show(bytes: &[u8]) -> String {
+    let s = String::from_utf8_lossy(&bytes[..bytes.len().min(60)]).into_owned();
+    if bytes.len() > 60 {
+        format!("{s}…")
+    } else {
+        s
+    }
+}
