@@ -1,1 +1,57 @@
-//! isokit
+//! # isokit
+//!
+//! A toolkit for distance-field and implicit-surface modeling: one pipeline from a
+//! triangle mesh, a point cloud or an analytic shape to a sampled signed distance field.
+//! This crate is the facade: it re-exports the workspace crates and ships the `isokit`
+//! command-line program.
+//!
+//! | module | crate | what |
+//! | --- | --- | --- |
+//! | [`field`] | `isokit-field` | bounds, dense and brick grids, the [`Field`] trait, analytic primitives, filters, curvature, camera |
+//! | [`io`] | `isokit-io` | meshes, point clouds, volumes, images; atomic writes |
+//!
+//! ## Conventions
+//! Signed distances are negative inside and positive outside. Grids are node-centered
+//! (sample `(i, j, k)` at `origin + spacing * (i, j, k)`, x fastest) and hold f32.
+//!
+//! ## A first field
+//! Build an analytic shape, move it, and sample it where the surface is:
+//!
+//! ```
+//! use isokit::field::{primitives::Torus, transform::Transformed, BrickGrid, Field};
+//! use glam::Vec3;
+//!
+//! let torus = Torus::new(Vec3::ZERO, 1.0, 0.25).unwrap();
+//! let tilted = Transformed::new(torus)
+//!     .rotate_axis_degrees(Vec3::X, 90.0).unwrap()
+//!     .translate(Vec3::new(0.0, 0.0, 2.0)).unwrap();
+//! // Exact distances survive rigid motion.
+//! assert!((tilted.value(Vec3::new(1.25, 0.0, 2.0))).abs() < 1e-6);
+//!
+//! // A narrow band of half-width 0.05 around the surface, in bricks of 8 samples:
+//! // only bricks near the surface are evaluated.
+//! let b = tilted.bounds().expanded(0.5);
+//! let h = 0.02;
+//! let dims = (b.size() / h).ceil().as_uvec3().to_array().map(|n| n as usize + 1);
+//! let band = BrickGrid::sample_field(&tilted, dims, b.min, h, 8, 1, 0.05, 0.05).unwrap();
+//! assert!(band.evaluated_fraction() < 0.5);
+//! ```
+//!
+//! ## Reading and writing files
+//!
+//! ```no_run
+//! let mesh = isokit::io::read_mesh("data/torus.obj".as_ref()).unwrap();
+//! println!("{}", mesh.validate());
+//! isokit::io::write_mesh("torus.stl".as_ref(), &mesh).unwrap();
+//! ```
+#![warn(missing_docs)]
+
+pub use isokit_field as field;
+pub use isokit_io as io;
+
+pub use isokit_field::{Aabb, BrickGrid, Field, Grid};
+
+/// The README's Rust examples, compiled and run as doctests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
