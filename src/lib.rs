@@ -9,6 +9,7 @@
 //! | --- | --- | --- |
 //! | [`field`] | `isokit-field` | bounds, dense and brick grids, the [`Field`] trait, analytic primitives, filters, curvature, camera |
 //! | [`io`] | `isokit-io` | meshes, point clouds, volumes, images; atomic writes |
+//! | [`kdtree`] | `isokit-kdtree` | exact signed distance to triangle meshes: kd-tree with overlapping siblings, pseudonormal and winding-number signs |
 //!
 //! ## Conventions
 //! Signed distances are negative inside and positive outside. Grids are node-centered
@@ -40,7 +41,7 @@
 //! ## Reading and writing files
 //!
 //! ```no_run
-//! let mesh = isokit::io::read_mesh("data/torus.obj".as_ref()).unwrap();
+//! let mesh = isokit::io::read_mesh("data/torus.off".as_ref()).unwrap();
 //! println!("{}", mesh.validate());
 //! isokit::io::write_mesh("torus.stl".as_ref(), &mesh).unwrap();
 //! ```
@@ -48,6 +49,7 @@
 
 pub use isokit_field as field;
 pub use isokit_io as io;
+pub use isokit_kdtree as kdtree;
 
 pub use isokit_field::{Aabb, BrickGrid, Field, Grid};
 

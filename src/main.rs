@@ -2,7 +2,8 @@
 
 mod cmd;
 
-use clap::{Parser, Subcommand};
+use clap::error::ErrorKind;
+use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// isokit: distance fields and implicit surfaces from meshes, clouds and analytic shapes.
@@ -24,14 +25,33 @@ enum Command {
     Convert(cmd::convert::Args),
     /// Sample an analytic primitive's exact signed distance to a grid (NRRD or NPY).
     Sample(Box<cmd::sample::Args>),
+    /// Exact signed distances from a mesh at the points of an (n, 3) NPY array, with the
+    /// closest points on request.
+    Query(cmd::query::Args),
+    /// A mesh's signed distance sampled on a grid over its bounds (every sample exact, or
+    /// exact within a narrow band).
+    Sdf(cmd::sdf::Args),
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) => {
+            // --help and --version: printed to stdout as usual, success.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            eprintln!("isokit: error: {}", usage_error_line(&e));
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
         Command::Sample(a) => cmd::sample::run(*a),
+        Command::Query(a) => cmd::query::run(a),
+        Command::Sdf(a) => cmd::sdf::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -41,4 +61,46 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// One line for a command-line usage error: clap's message (its first paragraph, which
+/// for some errors continues on indented lines, e.g. the missing arguments or the possible
+/// values) and its tips, then where to read more.
+fn usage_error_line(e: &clap::Error) -> String {
+    let cmd = Cli::command();
+    let sub = std::env::args_os().skip(1).find_map(|a| {
+        a.to_str()
+            .and_then(|a| cmd.find_subcommand(a))
+            .map(|c| c.get_name().to_string())
+    });
+    let help = match &sub {
+        Some(s) => format!("see isokit {s} --help"),
+        None => "see isokit --help".to_string(),
+    };
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        return match sub {
+            Some(_) => format!("missing arguments ({help})"),
+            None => format!("missing a subcommand ({help})"),
+        };
+    }
+    let text = e.render().to_string();
+    let mut parts: Vec<String> = Vec::new();
+    for (n, para) in text.split("\n\n").enumerate() {
+        let joined = para
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .collect::<Vec<_>>()
+            .join(" ");
+        let joined = joined
+            .strip_prefix("error: ")
+            .unwrap_or(&joined)
+            .to_string();
+        // The first paragraph is the message; later ones only when they are tips.
+        if (n == 0 || joined.starts_with("tip:")) && !joined.is_empty() {
+            parts.push(joined);
+        }
+    }
+    let msg = parts.join("; ");
+    format!("{msg} ({help})")
 }

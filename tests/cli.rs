@@ -84,7 +84,7 @@ fn sample_writes_an_exact_sphere_distance() {
 #[test]
 fn sample_applies_transforms_and_needs_bounds_for_planes() {
     let d = scratch("transform");
-    let out = d.join("t.npy");
+    let out = d.join("t.nrrd");
     let o = isokit(&[
         "sample",
         "torus",
@@ -102,9 +102,30 @@ fn sample_applies_transforms_and_needs_bounds_for_planes() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let g = isokit::io::read_volume(&out).unwrap();
-    // NPY keeps no geometry: the (nz, ny, nx) shape is all.
-    assert!(g.dims.iter().all(|&n| n >= 2));
+    let g = isokit::io::read_volume(&out).unwrap().into_grid().unwrap();
+    // The torus (axis z, R = 1, r = 0.25) turned 90° about x has its axis along y, then
+    // moves to centre (0, 0, 2): its distance is |(|(x, z − 2)| − 1, y)| − 0.25.
+    let exact = |p: glam::Vec3| {
+        let q = p - glam::Vec3::new(0.0, 0.0, 2.0);
+        let ring = (q.x * q.x + q.z * q.z).sqrt() - 1.0;
+        (ring * ring + q.y * q.y).sqrt() - 0.25
+    };
+    let h = g.spacing();
+    // (1.25, 0, 2) is on the surface: the nearest sample is within one spacing of it.
+    let target = glam::Vec3::new(1.25, 0.0, 2.0);
+    let c = g.to_grid(target).round();
+    let (i, j, k) = (c.x as usize, c.y as usize, c.z as usize);
+    assert!(g.position(i, j, k).distance(target) <= 0.5 * 3f32.sqrt() * h);
+    assert!(
+        g.get(i, j, k).abs() <= h,
+        "{} vs spacing {h}",
+        g.get(i, j, k)
+    );
+    // Every sample, near and far, is the exact distance at its position.
+    for ([i, j, k], v) in g.iter() {
+        let want = exact(g.position(i, j, k));
+        assert!((v - want).abs() < 1e-5, "{v} vs {want} at {i},{j},{k}");
+    }
     let plane = isokit(&[
         "sample",
         "plane",
@@ -144,7 +165,18 @@ fn info_reports_the_shipped_meshes() {
     let v = json(&isokit(&["info", &data("open_cube.obj"), "--json"]));
     assert_eq!(v["boundary_edges"], 4);
     let v = json(&isokit(&["info", &data("degenerate.off"), "--json"]));
-    assert!(v["degenerate_triangles"].as_u64().unwrap() >= 2);
+    for (key, want) in [
+        ("degenerate_triangles", 2),
+        ("duplicate_triangles", 1),
+        ("duplicate_vertices", 1),
+        ("unreferenced_vertices", 1),
+        ("non_finite_vertices", 0),
+        ("components", 2),
+        ("euler_characteristic", 3),
+    ] {
+        assert_eq!(v[key], want, "degenerate.off: {key}");
+    }
+    assert_eq!(v["watertight"], false);
     let v = json(&isokit(&["info", &data("torus_cloud.ply"), "--json"]));
     assert_eq!(v["kind"], "points");
     assert_eq!(v["normals"], true);
@@ -216,11 +248,116 @@ fn convert_round_trips_meshes_clouds_and_volumes() {
 }
 
 #[test]
+fn info_reads_the_header_of_an_exr() {
+    let d = scratch("exr");
+    let p = d.join("g.exr");
+    let z = vec![0.5f32; 5 * 3];
+    isokit::io::write_exr(&p, 5, 3, &[("Z", &z), ("N.X", &z)]).unwrap();
+    let v = json(&isokit(&["info", p.to_str().unwrap(), "--json"]));
+    assert_eq!(v["kind"], "image");
+    assert_eq!(v["format"], "exr");
+    assert_eq!(
+        (v["width"].as_u64(), v["height"].as_u64()),
+        (Some(5), Some(3))
+    );
+    let mut names: Vec<&str> = v["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c.as_str().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["N.X", "Z"]);
+    let t = isokit(&["info", p.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&t.stdout).contains("OpenEXR"));
+}
+
+/// Command-line usage errors are one line too (not clap's multi-line report), name the
+/// problem and point at the subcommand's help; `--help` itself succeeds.
+#[test]
+fn usage_errors_are_one_line_with_a_hint() {
+    let d = scratch("usage");
+    let out = d.join("u.nrrd");
+    let o = out.to_str().unwrap();
+    for (args, needles) in [
+        (
+            vec!["sample", "teapot", "-o", o],
+            vec!["invalid value 'teapot'", "sphere", "ellipsoid"],
+        ),
+        (
+            vec!["sample", "sphere", "--center", "1,2", "-o", o],
+            vec!["--center", "'1,2' is not a vector"],
+        ),
+        (
+            vec!["sample", "sphere", "--res", "x", "-o", o],
+            vec!["invalid value 'x' for '--res <RES>'"],
+        ),
+        (vec!["sample", "sphere"], vec!["--output"]),
+        (
+            vec!["sample", "sphere", "--bogus", "-o", o],
+            vec!["--bogus"],
+        ),
+    ] {
+        let r = isokit(&args);
+        assert_clear_error(&r, "(see isokit sample --help)");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.starts_with("isokit: error: "), "{err}");
+        assert!(!err.contains("error: error"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "'{n}' not in: {err}");
+        }
+    }
+    assert_clear_error(&isokit(&["frobnicate"]), "(see isokit --help)");
+    assert_clear_error(&isokit(&[]), "isokit: error: ");
+    let help = isokit(&["sample", "--help"]);
+    assert_eq!(help.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&help.stdout);
+    // The shapes' options and defaults come from one table.
+    assert!(
+        text.contains("--center 0,0,0 --major 0.75 --minor 0.25"),
+        "{text}"
+    );
+    assert!(isokit(&["--version"]).status.success());
+    assert!(!out.exists());
+}
+
+/// An option the shape does not take is an error naming the ones it does, in the
+/// command-line names.
+#[test]
+fn sample_refuses_options_the_shape_does_not_take() {
+    let d = scratch("unused");
+    let out = d.join("u.nrrd");
+    let r = isokit(&[
+        "sample",
+        "torus",
+        "--radius",
+        "2",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_clear_error(
+        &r,
+        "torus does not take --radius; its options are --center, --major, --minor",
+    );
+    let r = isokit(&["sample", "cuboid", "--ra", "1", "-o", out.to_str().unwrap()]);
+    assert_clear_error(
+        &r,
+        "box does not take --ra; its options are --center, --half",
+    );
+    assert!(!out.exists());
+}
+
+#[test]
 fn bad_input_gives_one_line_and_exit_code_2() {
     let d = scratch("errors");
-    assert_clear_error(
-        &isokit(&["info", d.join("missing.obj").to_str().unwrap()]),
-        "missing.obj",
+    // The operating system's reason appears once: "isokit: error: PATH: REASON".
+    let missing = d.join("missing.obj");
+    let reason = std::fs::read(&missing).unwrap_err().to_string();
+    let o = isokit(&["info", missing.to_str().unwrap()]);
+    assert_clear_error(&o, "missing.obj");
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr).trim_end(),
+        format!("isokit: error: {}: {reason}", missing.display())
     );
     let garbage = d.join("garbage.ply");
     std::fs::write(

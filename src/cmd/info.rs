@@ -2,7 +2,9 @@
 
 use anyhow::Result;
 use isokit_field::Aabb;
-use isokit_io::{FileKind, detect_kind, read_mesh, read_png, read_points, read_volume};
+use isokit_io::{
+    FileKind, detect_kind, read_exr_info, read_mesh, read_png, read_points, read_volume,
+};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -10,7 +12,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Mesh (.obj .gltf .glb .ply .stl .off), cloud (.ply .xyz), volume (.nrrd .nhdr .npy
-    /// .nii .nii.gz) or image (.png).
+    /// .nii .nii.gz) or image (.png; .exr: header only).
     pub file: PathBuf,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -36,6 +38,11 @@ fn bounds_text(b: &Aabb) -> String {
             b.size().to_array()
         )
     }
+}
+
+fn is_exr(path: &std::path::Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
 /// Runs the command.
@@ -88,25 +95,10 @@ pub fn run(a: Args) -> Result<()> {
         }
         FileKind::Volume => {
             let vol = read_volume(path)?;
-            let (lo, hi, nan) = vol.data.iter().fold(
-                (f32::INFINITY, f32::NEG_INFINITY, 0usize),
-                |(lo, hi, nan), &x| {
-                    if x.is_finite() {
-                        (lo.min(x), hi.max(x), nan)
-                    } else {
-                        (lo, hi, nan + 1)
-                    }
-                },
-            );
-            let ext = glam::Vec3::new(
-                (vol.dims[0] - 1) as f32,
-                (vol.dims[1] - 1) as f32,
-                (vol.dims[2] - 1) as f32,
-            ) * vol.spacing;
-            let b = Aabb::new(vol.origin, vol.origin + ext);
-            let range = (lo <= hi).then_some([lo, hi]);
-            let uniform = (vol.spacing.max_element() - vol.spacing.min_element())
-                <= 1e-4 * vol.spacing.max_element();
+            let nan = vol.data.iter().filter(|x| !x.is_finite()).count();
+            let b = vol.bounds();
+            let range = vol.min_max().map(|(lo, hi)| [lo, hi]);
+            let uniform = vol.is_uniform();
             let v = json!({
                 "kind": "volume",
                 "dims": vol.dims,
@@ -136,11 +128,37 @@ pub fn run(a: Args) -> Result<()> {
             );
             (t, v)
         }
+        FileKind::Image if is_exr(path) => {
+            // EXR: the header only (isokit writes EXR but does not decode it).
+            let e = read_exr_info(path)?;
+            (
+                format!(
+                    "{}: image (OpenEXR)\n  size: {} x {}\n  channels: {}{}",
+                    path.display(),
+                    e.width,
+                    e.height,
+                    e.channels.join(", "),
+                    if e.layers > 1 {
+                        format!("\n  layers: {} (size of the first)", e.layers)
+                    } else {
+                        String::new()
+                    }
+                ),
+                json!({
+                    "kind": "image",
+                    "format": "exr",
+                    "width": e.width,
+                    "height": e.height,
+                    "channels": e.channels,
+                    "layers": e.layers,
+                }),
+            )
+        }
         FileKind::Image => {
             let (w, h, _) = read_png(path)?;
             (
-                format!("{}: image\n  size: {w} x {h}", path.display()),
-                json!({ "kind": "image", "width": w, "height": h }),
+                format!("{}: image (PNG)\n  size: {w} x {h}", path.display()),
+                json!({ "kind": "image", "format": "png", "width": w, "height": h }),
             )
         }
     };

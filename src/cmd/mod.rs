@@ -2,7 +2,11 @@
 
 pub mod convert;
 pub mod info;
+pub mod mesh_args;
+pub mod progress;
+pub mod query;
 pub mod sample;
+pub mod sdf;
 
 use anyhow::{Context, bail};
 use glam::Vec3;

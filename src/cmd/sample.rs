@@ -14,37 +14,228 @@ use isokit_io::{Volume, write_volume};
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// The primitives `isokit sample` knows.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+/// The primitives `isokit sample` knows (their options and defaults: [`SPECS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shape {
-    /// `--center`, `--radius` (default 1).
+    /// A sphere.
     Sphere,
-    /// `--center`, `--half` (default 1,0.75,0.5).
-    #[value(alias = "cuboid")]
+    /// An axis-aligned box.
     Box,
-    /// `--center`, `--half`, `--radius` (edge rounding, default 0.2).
-    #[value(name = "rounded-box", alias = "rounded_box")]
+    /// A box with rounded edges.
     RoundedBox,
-    /// `--center`, `--major` (default 0.75), `--minor` (default 0.25); axis z.
+    /// A torus around the z axis.
     Torus,
-    /// `--a`, `--b` (segment ends, default 0,0,±0.5), `--radius` (default 0.5).
+    /// A capsule (segment plus radius).
     Capsule,
-    /// `--a`, `--b` (axis ends, default 0,0,±0.75), `--radius` (default 0.5).
-    #[value(alias = "capped-cylinder", alias = "capped_cylinder")]
+    /// A capped cylinder.
     Cylinder,
-    /// `--a`, `--b` (axis ends), `--ra`, `--rb` (end radii, default 0.75 and 0.25).
-    #[value(alias = "capped-cone", alias = "capped_cone")]
+    /// A capped cone.
     Cone,
-    /// `--normal` (default 0,0,1), `--offset` (default 0); unbounded: give `--bounds`.
+    /// A plane (unbounded).
     Plane,
-    /// `--center`, `--radii` (default 1,0.6,0.4). Exact distance (Eberly's method).
+    /// An ellipsoid.
     Ellipsoid,
+}
+
+/// A shape option's value: a number or a vector.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Val {
+    /// A number.
+    F(f32),
+    /// A vector "x,y,z".
+    V(Vec3),
+}
+
+impl Val {
+    fn f(self) -> f32 {
+        match self {
+            Val::F(x) => x,
+            Val::V(v) => v.x,
+        }
+    }
+    fn v(self) -> Vec3 {
+        match self {
+            Val::V(v) => v,
+            Val::F(x) => Vec3::splat(x),
+        }
+    }
+}
+
+impl std::fmt::Display for Val {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Val::F(x) => write!(f, "{x}"),
+            Val::V(v) => write!(f, "{},{},{}", v.x, v.y, v.z),
+        }
+    }
+}
+
+/// One shape: its command-line name and aliases, its options with their defaults (the only
+/// copy of the defaults: `--help`, errors and [`primitive`] all read them here), and a note.
+pub struct Spec {
+    /// The shape.
+    pub shape: Shape,
+    /// Name on the command line.
+    pub name: &'static str,
+    /// Other accepted names (hidden).
+    pub aliases: &'static [&'static str],
+    /// Options (without `--`) and defaults, in help order.
+    pub options: &'static [(&'static str, Val)],
+    /// Shown after the options in `--help`.
+    pub note: &'static str,
+}
+
+const O: Val = Val::V(Vec3::ZERO);
+
+/// Every shape, its options and their defaults.
+pub const SPECS: [Spec; 9] = [
+    Spec {
+        shape: Shape::Sphere,
+        name: "sphere",
+        aliases: &[],
+        options: &[("center", O), ("radius", Val::F(1.0))],
+        note: "",
+    },
+    Spec {
+        shape: Shape::Box,
+        name: "box",
+        aliases: &["cuboid"],
+        options: &[("center", O), ("half", Val::V(Vec3::new(1.0, 0.75, 0.5)))],
+        note: "half extents",
+    },
+    Spec {
+        shape: Shape::RoundedBox,
+        name: "rounded-box",
+        aliases: &["rounded_box"],
+        options: &[
+            ("center", O),
+            ("half", Val::V(Vec3::new(1.0, 0.75, 0.5))),
+            ("radius", Val::F(0.2)),
+        ],
+        note: "radius: edge rounding",
+    },
+    Spec {
+        shape: Shape::Torus,
+        name: "torus",
+        aliases: &[],
+        options: &[
+            ("center", O),
+            ("major", Val::F(0.75)),
+            ("minor", Val::F(0.25)),
+        ],
+        note: "axis z",
+    },
+    Spec {
+        shape: Shape::Capsule,
+        name: "capsule",
+        aliases: &[],
+        options: &[
+            ("a", Val::V(Vec3::new(0.0, 0.0, -0.5))),
+            ("b", Val::V(Vec3::new(0.0, 0.0, 0.5))),
+            ("radius", Val::F(0.5)),
+        ],
+        note: "segment a-b",
+    },
+    Spec {
+        shape: Shape::Cylinder,
+        name: "cylinder",
+        aliases: &["capped-cylinder", "capped_cylinder"],
+        options: &[
+            ("a", Val::V(Vec3::new(0.0, 0.0, -0.75))),
+            ("b", Val::V(Vec3::new(0.0, 0.0, 0.75))),
+            ("radius", Val::F(0.5)),
+        ],
+        note: "axis a-b",
+    },
+    Spec {
+        shape: Shape::Cone,
+        name: "cone",
+        aliases: &["capped-cone", "capped_cone"],
+        options: &[
+            ("a", Val::V(Vec3::new(0.0, 0.0, -0.75))),
+            ("b", Val::V(Vec3::new(0.0, 0.0, 0.75))),
+            ("ra", Val::F(0.75)),
+            ("rb", Val::F(0.25)),
+        ],
+        note: "radius ra at a, rb at b",
+    },
+    Spec {
+        shape: Shape::Plane,
+        name: "plane",
+        aliases: &[],
+        options: &[("normal", Val::V(Vec3::Z)), ("offset", Val::F(0.0))],
+        note: "n·p = offset; unbounded: needs --bounds",
+    },
+    Spec {
+        shape: Shape::Ellipsoid,
+        name: "ellipsoid",
+        aliases: &[],
+        options: &[("center", O), ("radii", Val::V(Vec3::new(1.0, 0.6, 0.4)))],
+        note: "exact distance, Eberly's method",
+    },
+];
+
+impl Shape {
+    /// The shape's row of [`SPECS`].
+    pub fn spec(self) -> &'static Spec {
+        SPECS
+            .iter()
+            .find(|s| s.shape == self)
+            .expect("every shape has a spec")
+    }
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        self.spec().name
+    }
+
+    /// "--center 0,0,0 --radius 1": the options with their defaults.
+    pub fn usage(self) -> String {
+        self.spec()
+            .options
+            .iter()
+            .map(|(o, d)| format!("--{o} {d}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+impl clap::ValueEnum for Shape {
+    fn value_variants<'a>() -> &'a [Self] {
+        const ALL: [Shape; 9] = [
+            Shape::Sphere,
+            Shape::Box,
+            Shape::RoundedBox,
+            Shape::Torus,
+            Shape::Capsule,
+            Shape::Cylinder,
+            Shape::Cone,
+            Shape::Plane,
+            Shape::Ellipsoid,
+        ];
+        &ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        let s = self.spec();
+        let help = if s.note.is_empty() {
+            self.usage()
+        } else {
+            format!("{} ({})", self.usage(), s.note)
+        };
+        Some(
+            clap::builder::PossibleValue::new(s.name)
+                .aliases(s.aliases.iter().copied())
+                .help(help),
+        )
+    }
 }
 
 /// Arguments of `isokit sample`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The primitive.
+    /// The primitive; each takes only its own options (defaults shown), plus the
+    /// transforms.
     pub shape: Shape,
     /// Output volume (.nrrd, gzip-encoded, or .npy with shape (nz, ny, nx)).
     #[arg(short, long)]
@@ -58,13 +249,13 @@ pub struct Args {
     /// Box to sample, "x0,y0,z0,x1,y1,z1" (required for the unbounded plane).
     #[arg(long, allow_hyphen_values = true)]
     pub bounds: Option<String>,
-    /// Centre (sphere, box, rounded box, torus, ellipsoid), "x,y,z".
+    /// Centre (sphere, box, rounded-box, torus, ellipsoid), "x,y,z".
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub center: Option<Vec3>,
-    /// Radius (sphere, capsule, cylinder) or edge rounding radius (rounded box).
+    /// Radius (sphere, capsule, cylinder) or edge rounding radius (rounded-box).
     #[arg(long, allow_hyphen_values = true)]
     pub radius: Option<f32>,
-    /// Half extents (box, rounded box), "x,y,z".
+    /// Half extents (box, rounded-box), "x,y,z".
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub half: Option<Vec3>,
     /// Major radius (torus).
@@ -117,41 +308,68 @@ fn parse_numbers(s: &str, n: usize, what: &str) -> Result<Vec<f32>> {
     Ok(v)
 }
 
-/// Builds the primitive from the arguments (defaults from [`Primitive::example`]).
+/// The shape options given on the command line, by name (as in [`SPECS`]).
+fn given(a: &Args, option: &str) -> Option<Val> {
+    match option {
+        "center" => a.center.map(Val::V),
+        "radius" => a.radius.map(Val::F),
+        "half" => a.half.map(Val::V),
+        "major" => a.major.map(Val::F),
+        "minor" => a.minor.map(Val::F),
+        "a" => a.a.map(Val::V),
+        "b" => a.b.map(Val::V),
+        "ra" => a.ra.map(Val::F),
+        "rb" => a.rb.map(Val::F),
+        "normal" => a.normal.map(Val::V),
+        "offset" => a.offset.map(Val::F),
+        "radii" => a.radii.map(Val::V),
+        _ => None,
+    }
+}
+
+/// Every shape option (the union over [`SPECS`]).
+const SHAPE_OPTIONS: [&str; 12] = [
+    "center", "radius", "half", "major", "minor", "a", "b", "ra", "rb", "normal", "offset", "radii",
+];
+
+/// Builds the primitive from the arguments and the defaults of [`SPECS`]; an option the
+/// shape does not take is an error naming the ones it does.
 pub fn primitive(a: &Args) -> Result<Primitive> {
-    let c = a.center.unwrap_or(Vec3::ZERO);
-    let z = Vec3::Z;
+    let spec = a.shape.spec();
+    let unused: Vec<String> = SHAPE_OPTIONS
+        .iter()
+        .filter(|o| given(a, o).is_some() && !spec.options.iter().any(|(s, _)| s == *o))
+        .map(|o| format!("--{o}"))
+        .collect();
+    if !unused.is_empty() {
+        let takes: Vec<String> = spec.options.iter().map(|(o, _)| format!("--{o}")).collect();
+        bail!(
+            "{} does not take {}; its options are {}",
+            spec.name,
+            unused.join(", "),
+            takes.join(", ")
+        );
+    }
+    let get = |o: &str| -> Val {
+        given(a, o).unwrap_or_else(|| {
+            spec.options
+                .iter()
+                .find(|(s, _)| *s == o)
+                .map(|(_, d)| *d)
+                .expect("every option read below is in the shape's spec")
+        })
+    };
+    let (f, v) = (|o: &str| get(o).f(), |o: &str| get(o).v());
     let p: Primitive = match a.shape {
-        Shape::Sphere => Sphere::new(c, a.radius.unwrap_or(1.0))?.into(),
-        Shape::Box => Cuboid::new(c, a.half.unwrap_or(Vec3::new(1.0, 0.75, 0.5)))?.into(),
-        Shape::RoundedBox => RoundedBox::new(
-            c,
-            a.half.unwrap_or(Vec3::new(1.0, 0.75, 0.5)),
-            a.radius.unwrap_or(0.2),
-        )?
-        .into(),
-        Shape::Torus => Torus::new(c, a.major.unwrap_or(0.75), a.minor.unwrap_or(0.25))?.into(),
-        Shape::Capsule => Capsule::new(
-            a.a.unwrap_or(-0.5 * z),
-            a.b.unwrap_or(0.5 * z),
-            a.radius.unwrap_or(0.5),
-        )?
-        .into(),
-        Shape::Cylinder => CappedCylinder::new(
-            a.a.unwrap_or(-0.75 * z),
-            a.b.unwrap_or(0.75 * z),
-            a.radius.unwrap_or(0.5),
-        )?
-        .into(),
-        Shape::Cone => CappedCone::new(
-            a.a.unwrap_or(-0.75 * z),
-            a.b.unwrap_or(0.75 * z),
-            a.ra.unwrap_or(0.75),
-            a.rb.unwrap_or(0.25),
-        )?
-        .into(),
-        Shape::Plane => Plane::new(a.normal.unwrap_or(z), a.offset.unwrap_or(0.0))?.into(),
-        Shape::Ellipsoid => Ellipsoid::new(c, a.radii.unwrap_or(Vec3::new(1.0, 0.6, 0.4)))?.into(),
+        Shape::Sphere => Sphere::new(v("center"), f("radius"))?.into(),
+        Shape::Box => Cuboid::new(v("center"), v("half"))?.into(),
+        Shape::RoundedBox => RoundedBox::new(v("center"), v("half"), f("radius"))?.into(),
+        Shape::Torus => Torus::new(v("center"), f("major"), f("minor"))?.into(),
+        Shape::Capsule => Capsule::new(v("a"), v("b"), f("radius"))?.into(),
+        Shape::Cylinder => CappedCylinder::new(v("a"), v("b"), f("radius"))?.into(),
+        Shape::Cone => CappedCone::new(v("a"), v("b"), f("ra"), f("rb"))?.into(),
+        Shape::Plane => Plane::new(v("normal"), f("offset"))?.into(),
+        Shape::Ellipsoid => Ellipsoid::new(v("center"), v("radii"))?.into(),
     };
     Ok(p)
 }
@@ -176,6 +394,7 @@ fn transformed(a: &Args, p: Primitive) -> Result<Transformed<Primitive>> {
 pub fn run(a: Args) -> Result<()> {
     check_output(&a.output, &[".nrrd", ".npy"])?;
     let field = transformed(&a, primitive(&a)?)?;
+    let name = a.shape.name();
     let (bounds, pad) = match &a.bounds {
         Some(s) => {
             let v = parse_numbers(s, 6, "bounds")?;
@@ -186,8 +405,7 @@ pub fn run(a: Args) -> Result<()> {
             let b = field.bounds();
             if !b.is_finite() {
                 bail!(
-                    "a {} is unbounded: give the box to sample with --bounds x0,y0,z0,x1,y1,z1",
-                    field.inner().name()
+                    "a {name} is unbounded: give the box to sample with --bounds x0,y0,z0,x1,y1,z1"
                 );
             }
             (b, a.pad.unwrap_or(0.1 * b.diagonal()))
@@ -200,17 +418,55 @@ pub fn run(a: Args) -> Result<()> {
     let mut grid = Grid::covering(bounds, a.res, pad)?;
     sample_into(&field, &mut grid);
     let secs = start.elapsed().as_secs_f64();
-    write_volume(&a.output, &Volume::from_grid(&grid))?;
     let (lo, hi) = grid.min_max().unwrap_or((f32::NAN, f32::NAN));
+    let (dims, spacing, origin) = (grid.dims(), grid.spacing(), grid.origin());
+    // The volume takes the grid's samples: no second copy at the size limit.
+    write_volume(&a.output, &Volume::from(grid))?;
     eprintln!(
-        "{}: {} x {} x {} samples, spacing {}, origin {:?}, range {lo} .. {hi}, sampled in {secs:.3} s -> {}",
-        field.inner().name(),
-        grid.dims()[0],
-        grid.dims()[1],
-        grid.dims()[2],
-        grid.spacing(),
-        grid.origin().to_array(),
+        "{name}: {} x {} x {} samples, spacing {spacing}, origin {:?}, range {lo} .. {hi}, sampled in {secs:.3} s -> {}",
+        dims[0],
+        dims[1],
+        dims[2],
+        origin.to_array(),
         a.output.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The README's table lists every shape with the defaults of [`SPECS`].
+    #[test]
+    fn readme_table_matches_the_specs() {
+        let readme = include_str!("../../README.md");
+        for spec in &SPECS {
+            let row = format!("| `{}`", spec.name);
+            let line = readme
+                .lines()
+                .find(|l| l.starts_with(&row))
+                .unwrap_or_else(|| panic!("README has no row for {}", spec.name));
+            let usage = spec.shape.usage();
+            assert!(
+                line.contains(&format!("`{usage}`")),
+                "{line} lacks `{usage}`"
+            );
+        }
+    }
+
+    #[test]
+    fn every_shape_builds_from_its_defaults() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct T {
+            #[command(flatten)]
+            a: Args,
+        }
+        for spec in &SPECS {
+            let t = T::try_parse_from(["t", spec.name, "-o", "x.nrrd"]).unwrap();
+            assert_eq!(t.a.shape, spec.shape);
+            primitive(&t.a).unwrap();
+        }
+    }
 }

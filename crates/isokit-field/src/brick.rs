@@ -3,6 +3,7 @@
 use crate::{Field, FieldError, Grid, grid::checked_len};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
+use std::cell::Cell;
 
 /// Per-brick bookkeeping.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -202,29 +203,43 @@ impl BrickGrid {
         // Pass 3: aprons read neighbouring cores where kept and evaluate the field elsewhere.
         let bd = IVec3::from_array(b.brick_dims.map(|v| v as i32));
         let side = brick + 2 * apron;
+        // The virtual grid at clamped indices: a kept core's sample, or a new evaluation
+        // (counted in `extra`).
+        let virtual_at = |i: i32, j: i32, k: i32, extra: &Cell<u64>| -> f32 {
+            let q = IVec3::new(i, j, k).clamp(IVec3::ZERO, mi);
+            let bc = q / brick as i32;
+            if bc.cmplt(bd).all() {
+                let n = (bc.x + bd.x * (bc.y + bd.y * bc.z)) as usize;
+                if let Some(core) = &cores[n] {
+                    let l = (q - bc * brick as i32).as_uvec3();
+                    return core[l.x as usize + brick * (l.y as usize + brick * l.z as usize)];
+                }
+            }
+            extra.set(extra.get() + 1);
+            field.value(pos(q))
+        };
         let bricks: Vec<(BrickInfo, Vec<f32>, u64)> = coords
             .par_iter()
             .zip(cores.par_iter())
             .filter_map(|(&c, core)| core.as_ref().map(|_| c))
             .map(|c| {
-                let mut extra = 0u64;
+                let extra = Cell::new(0u64);
                 let mut data = vec![0.0; side * side * side];
-                b.fill_brick(c, &mut data, |i, j, k| {
-                    let q = IVec3::new(i, j, k).clamp(IVec3::ZERO, mi);
-                    let bc = q / brick as i32;
-                    if bc.cmplt(bd).all() {
-                        let n = (bc.x + bd.x * (bc.y + bd.y * bc.z)) as usize;
-                        if let Some(core) = &cores[n] {
-                            let l = (q - bc * brick as i32).as_uvec3();
-                            return core
-                                [l.x as usize + brick * (l.y as usize + brick * l.z as usize)];
-                        }
+                b.fill_brick(c, &mut data, |i, j, k| virtual_at(i, j, k, &extra));
+                // Min/max over the brick's cells: the stored samples where the apron holds
+                // them, else (apron 0: the next layer) the virtual grid itself, so that the
+                // bookkeeping equals `from_grid`'s on the same samples.
+                let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32))
+                    - IVec3::splat(apron as i32);
+                let info = b.info_from(c, |i, j, k| {
+                    let l = IVec3::new(i, j, k) - lo;
+                    if l.cmpge(IVec3::ZERO).all() && l.cmplt(IVec3::splat(side as i32)).all() {
+                        data[l.x as usize + side * (l.y as usize + side * l.z as usize)]
+                    } else {
+                        virtual_at(i, j, k, &extra)
                     }
-                    extra += 1;
-                    field.value(pos(q))
                 });
-                let info = b.info_from_brick_data(c, &data);
-                (info, data, extra)
+                (info, data, extra.get())
             })
             .collect();
         let kept = bricks.len() as u64;
@@ -281,19 +296,6 @@ impl BrickGrid {
             min: mn,
             max: mx,
         }
-    }
-
-    fn info_from_brick_data(&self, c: [u32; 3], data: &[f32]) -> BrickInfo {
-        let side = (self.brick + 2 * self.apron) as i32;
-        let lo = IVec3::from_array(c.map(|v| (v as usize * self.brick) as i32));
-        let a = self.apron as i32;
-        let mi = self.max_index();
-        self.info_from(c, |i, j, k| {
-            // Inside the stored region when the apron reaches the next layer; else clamp.
-            let l = (IVec3::new(i, j, k).min(mi) - lo + IVec3::splat(a))
-                .clamp(IVec3::ZERO, IVec3::splat(side - 1));
-            data[(l.x + side * (l.y + side * l.z)) as usize]
-        })
     }
 
     /// Fills a brick's storage (apron included) from the virtual grid through `at`, which
@@ -511,6 +513,42 @@ mod tests {
             }
         }
         eprintln!("lazy brick sampling evaluated {:.3} of the dense grid", f);
+    }
+
+    /// With apron 0 the next layer of samples (which the brick's cells reach) is not
+    /// stored: the min/max must still cover it, exactly as `from_grid` computes them.
+    #[test]
+    fn lazy_brick_min_max_cover_the_next_layer_without_apron() {
+        let n = 64;
+        let h = 2.0 / (n - 1) as f32;
+        let band = 3.0 * h;
+        let mut dense = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
+        sample_into(&Ball(0.6), &mut dense);
+        for apron in [0, 1] {
+            let lazy = BrickGrid::sample_field(
+                &Ball(0.6),
+                [n; 3],
+                Vec3::splat(-1.0),
+                h,
+                8,
+                apron,
+                band,
+                band,
+            )
+            .unwrap();
+            let all = BrickGrid::from_grid(&dense, 8, apron, f32::INFINITY, band).unwrap();
+            assert!(lazy.brick_count() > 0);
+            for info in lazy.bricks() {
+                let m = all.brick_at(info.coord.map(|v| v as usize)).unwrap();
+                let want = all.bricks()[m];
+                assert_eq!(
+                    (info.min, info.max),
+                    (want.min, want.max),
+                    "apron {apron}, brick {:?}",
+                    info.coord
+                );
+            }
+        }
     }
 
     #[test]

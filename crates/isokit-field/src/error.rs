@@ -20,6 +20,15 @@ pub enum FieldError {
         /// The limit in GiB of f32 storage.
         limit_gib: usize,
     },
+    /// An axis has more than [`crate::MAX_AXIS`] samples (refused so that signed 32-bit
+    /// sample coordinates, with room for filter taps and aprons, never overflow).
+    #[error("grid dimensions {dims:?}: an axis of more than {limit} samples is not supported")]
+    AxisTooLong {
+        /// Requested dimensions.
+        dims: [usize; 3],
+        /// The limit per axis ([`crate::MAX_AXIS`]).
+        limit: usize,
+    },
     /// Spacing must be finite and positive.
     #[error("grid spacing {0} must be finite and positive")]
     BadSpacing(f32),
@@ -49,4 +58,15 @@ pub enum FieldError {
         /// What is allowed.
         why: &'static str,
     },
+}
+
+impl FieldError {
+    /// A [`FieldError::BadParameter`] with the value printed with `{:?}`.
+    pub(crate) fn bad(name: &'static str, value: impl std::fmt::Debug, why: &'static str) -> Self {
+        FieldError::BadParameter {
+            name,
+            value: format!("{value:?}"),
+            why,
+        }
+    }
 }

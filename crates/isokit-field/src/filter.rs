@@ -682,6 +682,31 @@ impl Filter {
         }
     }
 
+    /// A bound on `|∇f|` of the reconstruction, in units of the samples' own Lipschitz
+    /// constant: if every difference between neighbouring samples along an axis is at most
+    /// `L · spacing` (true with `L = 1` for samples of a signed distance), the reconstructed
+    /// field is `lipschitz_factor() · L`-Lipschitz everywhere (edge clamping included, since
+    /// clamped neighbours differ by 0 or by a real neighbour difference).
+    ///
+    /// Derivation, per axis (grid units, differences `D = f[i+1] − f[i]`, `|D| ≤ L`):
+    /// - **Trilinear** and **cubic B-spline**: `∂f/∂x` is a combination of x-differences
+    ///   with non-negative weights summing to 1 (for the B-spline, the derivative weights
+    ///   telescope into the quadratic B-spline weights; the y and z weights are non-negative
+    ///   too), so `|∂f/∂x| ≤ L`. With all three components bounded, `|∇f| ≤ √3 · L`.
+    /// - **Catmull-Rom**: the derivative weights telescope into `c0 D0 + c1 D1 + c2 D2` with
+    ///   `c0 = (3a−1)(a−1)/2`, `c1 = (1 + 6a − 6a²)/2`, `c2 = a(3a−2)/2` (sum 1), whose
+    ///   absolute sum is at most 3/2 (at `a = 1/2`); the value weights across the other two
+    ///   axes have absolute sum `1 + b(1−b) ≤ 5/4` each. So `|∂f/∂x| ≤ 3/2 · (5/4)² · L =
+    ///   75/32 · L` and `|∇f| ≤ √3 · 75/32 · L ≈ 4.06 L`. Sound but not tight (the
+    ///   maximising samples are not all 1-Lipschitz at once).
+    pub fn lipschitz_factor(self) -> f32 {
+        const SQRT_3: f32 = 1.732_050_8;
+        match self {
+            Filter::Trilinear | Filter::CubicBSpline => SQRT_3,
+            Filter::CatmullRom => SQRT_3 * 75.0 / 32.0,
+        }
+    }
+
     /// Gradient at `p_grid`, in grid units.
     pub fn gradient(self, grid: &Grid, p_grid: Vec3) -> Vec3 {
         match self {
@@ -697,10 +722,11 @@ impl Filter {
 ///
 /// - Outside the grid the samples are clamped to the edge, so far from the grid the value
 ///   is not a distance; keep queries inside [`Field::bounds`] (the grid's box by default).
-/// - [`Field::lipschitz`] is 1: right for a well-sampled signed distance field under the
-///   trilinear and B-spline filters (their gradients are convex combinations of sample
-///   differences), but only approximate (Catmull-Rom overshoots, and per-axis bounds of 1
-///   allow up to √3 diagonally); use a safety factor when sphere tracing.
+/// - [`Field::lipschitz`] is [`Filter::lipschitz_factor`]: a sound bound on `|∇f|` when
+///   the samples come from a 1-Lipschitz function such as a signed distance (each
+///   neighbour difference along an axis at most the spacing): √3 for trilinear and
+///   B-spline, about 4.06 for Catmull-Rom. Scale it for samples of an L-Lipschitz
+///   function.
 /// - [`Field::is_exact`] is false: a reconstruction is never the exact distance.
 ///
 /// ```
@@ -776,8 +802,9 @@ impl Field for SampledField {
         self.bounds
     }
 
+    /// [`Filter::lipschitz_factor`]: sound when the samples are 1-Lipschitz (see there).
     fn lipschitz(&self) -> f32 {
-        1.0
+        self.filter.lipschitz_factor()
     }
 
     fn is_exact(&self) -> bool {
@@ -1356,7 +1383,7 @@ mod tests {
         let f = SampledField::new(grid.clone(), Filter::CubicBSpline);
         assert_eq!(f.bounds(), grid.bounds());
         assert!(!f.is_exact());
-        assert_eq!(f.lipschitz(), 1.0);
+        assert_eq!(f.lipschitz(), 3f32.sqrt());
         let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
         assert_eq!(f.clone().with_bounds(b).bounds(), b);
         let p = grid.position(2, 3, 2) + Vec3::splat(0.1);
@@ -1379,6 +1406,64 @@ mod tests {
             assert_eq!(f.derivatives(p), d.to_world(s));
         }
         assert_eq!(f.into_grid(), grid);
+    }
+
+    /// A sampled box SDF (1-Lipschitz samples) near a corner, where the distance is a cone
+    /// around the corner point: random short pairs of points never change by more than
+    /// `lipschitz() · |p − q|`. Trilinear reaches about √3 there (a bound of 1 was wrong).
+    #[test]
+    fn sampled_field_lipschitz_bound_holds_near_a_box_corner() {
+        let h = 0.1f32;
+        let n = 21usize;
+        let origin = Vec3::splat(-1.0);
+        let corner = DVec3::splat(0.5); // at sample (15, 15, 15)
+        let mut data = Vec::with_capacity(n * n * n);
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    let p = (origin + h * Vec3::new(i as f32, j as f32, k as f32)).as_dvec3();
+                    let q = p.abs() - corner;
+                    let d = q.max(DVec3::ZERO).length() + q.max_element().min(0.0);
+                    data.push(d as f32);
+                }
+            }
+        }
+        let grid = Grid::from_data([n; 3], origin, h, data).unwrap();
+        let c = corner.as_vec3();
+        for filter in [Filter::Trilinear, Filter::CubicBSpline, Filter::CatmullRom] {
+            let f = SampledField::new(grid.clone(), filter);
+            let lip = f.lipschitz();
+            let mut rng = SplitMix64::new(7);
+            let mut worst = 0.0f32;
+            let mut check = |p: Vec3, q: Vec3| {
+                let (dv, dp) = ((f.value(p) - f.value(q)).abs(), p.distance(q));
+                worst = worst.max(dv / dp);
+                // 1e-5: f32 rounding of values of about 1 and of the points.
+                assert!(
+                    dv <= lip * dp + 1e-5,
+                    "{filter:?}: {dv} > {lip} * {dp} at {p}, {q}"
+                );
+            };
+            // Along the diagonal out of the corner: the steepest direction of the cone.
+            for s in 1..40 {
+                let t = s as f32 * 0.002;
+                check(c + Vec3::splat(t), c + Vec3::splat(t + 0.001));
+            }
+            for _ in 0..20_000 {
+                let p = rng.point_in(c - Vec3::splat(0.3), c + Vec3::splat(0.3));
+                let q = p + rng.unit_vector() * rng.range(0.005, 0.1);
+                check(p, q);
+            }
+            eprintln!(
+                "{filter:?} near a box corner: max |f(p) - f(q)| / |p - q| = {worst:.4} (bound {lip:.4})"
+            );
+            if filter == Filter::Trilinear {
+                assert!(
+                    worst > 1.5,
+                    "the corner cone should show about sqrt 3, got {worst}"
+                );
+            }
+        }
     }
 
     /// Sphere SDF of radius 0.8 in [-1, 1]³ at 64³: B-spline normals within 0.5° and

@@ -7,10 +7,31 @@ use glam::{IVec3, Vec3};
 /// refused with [`FieldError::TooLarge`] before anything is allocated.
 pub const MAX_SAMPLES: usize = 1 << 31;
 
-/// Checks dimensions against [`MAX_SAMPLES`] and returns the sample count.
+/// Largest number of samples along one axis of a [`Grid`] or [`crate::BrickGrid`]:
+/// `i32::MAX / 2` (about 1.07e9). Filters and brick grids address samples with signed 32-bit
+/// coordinates (`dims - 1`, taps at `i - 1 .. i + 2`, aprons at `B·c - A`); this limit keeps
+/// all of them far from overflow. (An axis this long already needs the other two to be 1 or
+/// 2 to stay under [`MAX_SAMPLES`].)
+pub const MAX_AXIS: usize = i32::MAX as usize / 2;
+
+/// Checks dimensions against [`MAX_SAMPLES`] and [`MAX_AXIS`] and returns the sample count.
+/// Errors: [`FieldError::EmptyDims`] (an axis is 0), [`FieldError::AxisTooLong`],
+/// [`FieldError::TooLarge`].
 pub fn checked_len(dims: [usize; 3]) -> Result<usize, FieldError> {
     if dims.contains(&0) {
         return Err(FieldError::EmptyDims(dims));
+    }
+    if dims.iter().any(|&d| d > MAX_AXIS) {
+        // Reported as too large when the product is over the limit too (the usual case).
+        let n = dims
+            .iter()
+            .fold(1u128, |acc, &d| acc.saturating_mul(d as u128));
+        if n <= MAX_SAMPLES as u128 {
+            return Err(FieldError::AxisTooLong {
+                dims,
+                limit: MAX_AXIS,
+            });
+        }
     }
     let n = dims
         .iter()
@@ -258,6 +279,34 @@ mod tests {
         assert!(Grid::new([2, 2, 2], Vec3::ZERO, 0.0).is_err());
         assert!(Grid::new([2, 2, 2], Vec3::ZERO, f32::NAN).is_err());
         assert!(Grid::new([2, 2, 2], Vec3::splat(f32::INFINITY), 1.0).is_err());
+    }
+
+    /// An axis of 2^31 samples is within MAX_SAMPLES but would overflow `dims as i32 - 1`
+    /// (a debug-build panic in `get_clamped` and the brick grid): refused up front.
+    #[test]
+    fn refuses_axes_beyond_i32_range() {
+        for dims in [[1 << 31, 1, 1], [1, 1 << 30, 2], [1, 1, MAX_AXIS + 1]] {
+            assert_eq!(
+                checked_len(dims),
+                Err(FieldError::AxisTooLong {
+                    dims,
+                    limit: MAX_AXIS
+                }),
+                "{dims:?}"
+            );
+            assert!(crate::BrickGrid::new(dims, Vec3::ZERO, 1.0, 8, 1, 0.0).is_err());
+        }
+        assert_eq!(checked_len([MAX_AXIS, 2, 1]), Ok(2 * MAX_AXIS));
+        let msg = checked_len([1 << 31, 1, 1]).unwrap_err().to_string();
+        assert!(
+            msg.contains("axis") && msg.contains(&MAX_AXIS.to_string()),
+            "{msg}"
+        );
+        // Too large overall stays TooLarge.
+        assert!(matches!(
+            checked_len([1 << 40, 1 << 40, 1]),
+            Err(FieldError::TooLarge { .. })
+        ));
     }
 
     #[test]

@@ -41,14 +41,6 @@ pub struct Transformed<F: Field> {
     scale: f64,
 }
 
-fn bad(name: &'static str, value: impl std::fmt::Debug, why: &'static str) -> FieldError {
-    FieldError::BadParameter {
-        name,
-        value: format!("{value:?}"),
-        why,
-    }
-}
-
 impl<F: Field> Transformed<F> {
     /// The identity transform of `inner`.
     pub fn new(inner: F) -> Self {
@@ -63,7 +55,7 @@ impl<F: Field> Transformed<F> {
     /// Then translate by `v` (finite).
     pub fn translate(mut self, v: Vec3) -> Result<Self, FieldError> {
         if !v.is_finite() {
-            return Err(bad("translation", v, "must be finite"));
+            return Err(FieldError::bad("translation", v, "must be finite"));
         }
         self.translation += v.as_dvec3();
         self.checked()
@@ -75,10 +67,10 @@ impl<F: Field> Transformed<F> {
         let a = axis.as_dvec3();
         let m = a.abs().max_element();
         if !(m > 0.0 && m.is_finite()) {
-            return Err(bad("axis", axis, "must be finite and nonzero"));
+            return Err(FieldError::bad("axis", axis, "must be finite and nonzero"));
         }
         if !degrees.is_finite() {
-            return Err(bad("degrees", degrees, "must be finite"));
+            return Err(FieldError::bad("degrees", degrees, "must be finite"));
         }
         let q = DQuat::from_axis_angle((a / m).normalize(), (degrees as f64).to_radians());
         self.rotation = (q * self.rotation).normalize();
@@ -89,7 +81,7 @@ impl<F: Field> Transformed<F> {
     /// Then scale uniformly by `s` (finite, > 0) about the world origin.
     pub fn scale(mut self, s: f32) -> Result<Self, FieldError> {
         if !(s.is_finite() && s > 0.0) {
-            return Err(bad("scale", s, "must be finite and > 0"));
+            return Err(FieldError::bad("scale", s, "must be finite and > 0"));
         }
         self.scale *= s as f64;
         self.translation *= s as f64;
@@ -100,7 +92,7 @@ impl<F: Field> Transformed<F> {
     fn checked(self) -> Result<Self, FieldError> {
         let s = self.scale;
         if !(s >= f32::MIN_POSITIVE as f64 && s <= f32::MAX as f64) {
-            return Err(bad(
+            return Err(FieldError::bad(
                 "scale",
                 s,
                 "the composed scale must stay within the normal f32 range",
@@ -112,7 +104,7 @@ impl<F: Field> Transformed<F> {
             .cmple(DVec3::splat(f32::MAX as f64))
             .all()
         {
-            return Err(bad(
+            return Err(FieldError::bad(
                 "translation",
                 self.translation,
                 "the composed translation must fit in f32",
@@ -369,7 +361,9 @@ mod tests {
         let t = Transformed::new(Bound).scale(4.0).unwrap();
         assert!(!t.is_exact() && t.lipschitz() == 2.0);
         assert!((t.value(Vec3::new(4.0, 0.0, 0.0)) - 4.0).abs() < 1e-6);
-        let ident = Transformed::new(crate::primitives::Primitive::example("sphere").unwrap());
+        let ident = Transformed::new(crate::primitives::Primitive::from(
+            Sphere::new(Vec3::ZERO, 1.0).unwrap(),
+        ));
         assert_eq!(
             ident.bounds(),
             Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0))

@@ -5,11 +5,15 @@ use std::path::{Path, PathBuf};
 use isokit_field::FieldError;
 
 /// Everything that can go wrong reading or writing a file. Every variant that concerns a file
-/// names it, so `to_string()` is a complete one-line message for a user.
+/// names it. `to_string()` is a complete one-line message for a user, except for
+/// [`IoError::Io`], whose operating-system reason is its [`std::error::Error::source`]
+/// (printed once by anyhow's `{:#}` as `path: reason`; not repeated in the message itself).
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {
-    /// The operating system refused a read, write, rename, ….
-    #[error("{}: {source}", path.display())]
+    /// The operating system refused a read, write, rename, …. The message names the file;
+    /// the operating system's words are the [`std::error::Error::source`] (print the chain,
+    /// e.g. anyhow's `{:#}`, to see both; they are not repeated in this message).
+    #[error("{}", path.display())]
     Io {
         /// The file concerned.
         path: PathBuf,

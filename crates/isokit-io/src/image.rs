@@ -199,3 +199,56 @@ pub fn write_exr(
         .map_err(|e| IoError::invalid_input(path, format!("EXR encoder: {e}")))?;
     atomic_write_bytes(path, &buf.into_inner())
 }
+
+/// What [`read_exr_info`] reads from an OpenEXR header (the pixels are not read).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExrInfo {
+    /// Width of the first layer in pixels.
+    pub width: usize,
+    /// Height of the first layer in pixels.
+    pub height: usize,
+    /// Channel names of all layers, in file order (e.g. `["N.X", "N.Y", "N.Z", "Z"]`).
+    pub channels: Vec<String>,
+    /// Number of layers (parts); 1 for the files [`write_exr`] writes.
+    pub layers: usize,
+}
+
+/// Reads the header of an OpenEXR file: size and channel names. isokit writes EXR
+/// ([`write_exr`]) but does not decode its pixels.
+pub fn read_exr_info(path: &Path) -> Result<ExrInfo, IoError> {
+    let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    exr_info(exr::meta::MetaData::read_from_unbuffered(file, false), path)
+}
+
+/// [`read_exr_info`] on bytes in memory; `name` is used in messages.
+pub fn read_exr_info_bytes(bytes: &[u8], name: &str) -> Result<ExrInfo, IoError> {
+    let path = Path::new(name);
+    exr_info(exr::meta::MetaData::read_from_buffered(bytes, false), path)
+}
+
+fn exr_info(
+    meta: exr::error::Result<exr::meta::MetaData>,
+    path: &Path,
+) -> Result<ExrInfo, IoError> {
+    let meta = meta.map_err(|e| match e {
+        exr::error::Error::Io(e) if e.kind() != std::io::ErrorKind::UnexpectedEof => {
+            IoError::io(path, e)
+        }
+        exr::error::Error::Io(_) => IoError::malformed(path, "EXR: file ends inside the header"),
+        exr::error::Error::NotSupported(what) => IoError::unsupported(path, format!("EXR {what}")),
+        other => IoError::malformed(path, format!("EXR: {other}")),
+    })?;
+    let Some(first) = meta.headers.first() else {
+        return Err(IoError::malformed(path, "EXR: no layer header"));
+    };
+    Ok(ExrInfo {
+        width: first.layer_size.0,
+        height: first.layer_size.1,
+        channels: meta
+            .headers
+            .iter()
+            .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+            .collect(),
+        layers: meta.headers.len(),
+    })
+}

@@ -15,7 +15,8 @@ pub enum FileKind {
     PointCloud,
     /// A volume (`.nrrd .nhdr .npy .nii .nii.gz`).
     Volume,
-    /// An image (`.png .exr`).
+    /// An image (`.png .exr`). PNG is read by [`crate::read_png`]; of an EXR only the
+    /// header is read ([`crate::read_exr_info`]).
     Image,
 }
 

@@ -8,7 +8,7 @@
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
 //! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY, NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
-//! | images | RGBA8 / f32 channels | [`read_png`] | [`write_png`], [`write_exr`] |
+//! | images | RGBA8 / f32 channels | [`read_png`]; EXR header only: [`read_exr_info`] | [`write_png`], [`write_exr`] |
 //!
 //! It is *not* a general mesh-processing or imaging library: it reads geometry into
 //! isokit's plain types and writes results out, nothing more. Materials, textures, UVs,
@@ -32,7 +32,8 @@
 //!   and OFF are text and also exact (shortest round-trip float formatting).
 //!
 //! ## Guarantees
-//! - **Errors**: one [`IoError`] type; every message names the file and the problem.
+//! - **Errors**: one [`IoError`] type; every message names the file and the problem (for
+//!   operating-system failures the reason is the error's `source()`: print the chain).
 //! - **No panics on input**: malformed, truncated or hostile files give an error. Counts in
 //!   headers are checked against the bytes present (and volume sizes against
 //!   [`isokit_field::MAX_SAMPLES`]) before anything is allocated; every index read from a
@@ -65,7 +66,10 @@ mod volume;
 
 pub use atomic::atomic_write;
 pub use error::IoError;
-pub use image::{linear_to_srgb8, read_png, read_png_bytes, srgb8_to_linear, write_exr, write_png};
+pub use image::{
+    ExrInfo, linear_to_srgb8, read_exr_info, read_exr_info_bytes, read_png, read_png_bytes,
+    srgb8_to_linear, write_exr, write_png,
+};
 pub use kind::{FileKind, detect_kind};
 pub use mesh::{
     MeshFormat, TriMesh, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_stl_ascii,

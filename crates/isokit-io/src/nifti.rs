@@ -6,6 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 use isokit_field::checked_len;
 
+use crate::nrrd::flip_negative_axes;
 use crate::util::{Endian, Scalar};
 use crate::{IoError, Volume};
 
@@ -139,13 +140,10 @@ pub(crate) fn read_nifti(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
             format!("NIfTI datatype {code} ({})", datatype_name(code)),
         )
     })?;
-    let mut spacing = Vec3::ONE;
-    for a in 0..3 {
-        let p = h.f32(80 + 4 * a).abs();
-        if p.is_finite() && p > 0.0 {
-            spacing[a] = p;
-        }
-    }
+    let (origin, spacing) = geometry(&h).map_err(|msg| match msg {
+        Geometry::Bad(m) => bad(m),
+        Geometry::Rotated(m) => IoError::unsupported(path, m),
+    })?;
     let vox_offset = h.f32(108);
     if !(vox_offset.is_finite() && vox_offset >= HDR as f32 && vox_offset < 1e15) {
         return Err(bad(format!(
@@ -154,15 +152,6 @@ pub(crate) fn read_nifti(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
     }
     let vox_offset = vox_offset as usize;
     let (slope, inter) = (h.f32(112), h.f32(116));
-    let sform_code = h.i16(254);
-    let origin = if sform_code > 0 {
-        Vec3::new(h.f32(280 + 12), h.f32(296 + 12), h.f32(312 + 12))
-    } else {
-        Vec3::new(h.f32(268), h.f32(272), h.f32(276))
-    };
-    if !origin.is_finite() {
-        return Err(bad("the origin (sform or qoffset) is not finite".into()));
-    }
 
     let need = n * scalar.size();
     let end = vox_offset + need;
@@ -206,10 +195,133 @@ pub(crate) fn read_nifti(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
             *v = *v * slope + inter;
         }
     }
-    Ok(Volume {
+    let mut vol = Volume {
         dims,
         origin,
         spacing,
         data: samples,
-    })
+    };
+    // Negative axis directions: reverse those axes so the spacing is positive and the origin
+    // is the minimum corner, every sample keeping its world position.
+    flip_negative_axes(&mut vol);
+    Ok(vol)
+}
+
+enum Geometry {
+    Bad(String),
+    Rotated(String),
+}
+
+/// Voxel-to-world geometry, as (position of voxel (0,0,0), signed spacing per axis).
+///
+/// - `sform_code > 0`: the sform rows `srow_x/y/z`.
+/// - else `qform_code > 0`: the quaternion (`quatern_b/c/d`), `pixdim[1..3]`, `qfac =
+///   pixdim[0]` (0 read as 1) and `qoffset`.
+/// - else (NIfTI "method 1", ANALYZE-compatible): `pixdim[1..3]` (absolute values; 0 read
+///   as 1) and origin 0.
+///
+/// The 3×3 part must be diagonal (relative tolerance 1e-6 of its largest entry per column):
+/// a rotated, permuted or sheared grid is refused. A negative diagonal entry (a mirrored
+/// axis, common in radiological images) is kept as a negative spacing for the caller to
+/// flip.
+fn geometry(h: &Hdr) -> Result<(Vec3, Vec3), Geometry> {
+    let (sform, qform) = (h.i16(254), h.i16(252));
+    let (m, origin, src): ([[f64; 3]; 3], [f64; 3], &str) = if sform > 0 {
+        // m[row][col]
+        let row = |o: usize| [0, 1, 2, 3].map(|c| f64::from(h.f32(o + 4 * c)));
+        let (x, y, z) = (row(280), row(296), row(312));
+        (
+            [[x[0], x[1], x[2]], [y[0], y[1], y[2]], [z[0], z[1], z[2]]],
+            [x[3], y[3], z[3]],
+            "sform",
+        )
+    } else if qform > 0 {
+        let (b, c, d) = (
+            f64::from(h.f32(256)),
+            f64::from(h.f32(260)),
+            f64::from(h.f32(264)),
+        );
+        if !(b.is_finite() && c.is_finite() && d.is_finite()) {
+            return Err(Geometry::Bad("the qform quaternion is not finite".into()));
+        }
+        // As in nifti1_io: a = sqrt(1 − b² − c² − d²), renormalised when that is negative.
+        let s = b * b + c * c + d * d;
+        let (a, b, c, d) = if s > 1.0 {
+            let n = s.sqrt();
+            (0.0, b / n, c / n, d / n)
+        } else {
+            ((1.0 - s).sqrt(), b, c, d)
+        };
+        let r = [
+            [
+                a * a + b * b - c * c - d * d,
+                2.0 * (b * c - a * d),
+                2.0 * (b * d + a * c),
+            ],
+            [
+                2.0 * (b * c + a * d),
+                a * a + c * c - b * b - d * d,
+                2.0 * (c * d - a * b),
+            ],
+            [
+                2.0 * (b * d - a * c),
+                2.0 * (c * d + a * b),
+                a * a + d * d - b * b - c * c,
+            ],
+        ];
+        let qfac = if h.f32(76) < 0.0 { -1.0 } else { 1.0 };
+        // As in nifti1_io, a voxel size that is not positive is read as 1.
+        let mut px = [0, 1, 2].map(|a| {
+            let v = f64::from(h.f32(80 + 4 * a));
+            if v.is_finite() && v > 0.0 { v } else { 1.0 }
+        });
+        px[2] *= qfac;
+        let m = std::array::from_fn(|row| std::array::from_fn(|col| r[row][col] * px[col]));
+        let o = [268, 272, 276].map(|o| f64::from(h.f32(o)));
+        (m, o, "qform")
+    } else {
+        let mut spacing = Vec3::ONE;
+        for a in 0..3 {
+            let p = h.f32(80 + 4 * a).abs();
+            if p.is_finite() && p > 0.0 {
+                spacing[a] = p;
+            }
+        }
+        return Ok((Vec3::ZERO, spacing));
+    };
+    if !origin.iter().all(|v| v.is_finite()) {
+        return Err(Geometry::Bad(format!(
+            "the {src} origin {origin:?} is not finite"
+        )));
+    }
+    let mut spacing = Vec3::ONE;
+    for col in 0..3 {
+        let diag = m[col][col];
+        let off = (0..3)
+            .filter(|&r| r != col)
+            .map(|r| m[r][col].abs())
+            .fold(0.0, f64::max);
+        if !(diag.is_finite() && off.is_finite()) {
+            return Err(Geometry::Bad(format!(
+                "the {src} matrix {m:?} is not finite"
+            )));
+        }
+        if diag == 0.0 && off == 0.0 {
+            return Err(Geometry::Bad(format!(
+                "the {src} matrix {m:?} has a zero column {col}"
+            )));
+        }
+        if off > 1e-6 * diag.abs() {
+            return Err(Geometry::Rotated(format!(
+                "NIfTI {src} {m:?} is not axis-aligned (rotated, permuted or sheared grids are not read; resample the volume first)"
+            )));
+        }
+        spacing[col] = diag as f32;
+        if !spacing[col].is_finite() || spacing[col] == 0.0 {
+            return Err(Geometry::Bad(format!(
+                "the {src} spacing {diag} of axis {col} is not a usable f32"
+            )));
+        }
+    }
+    Ok((origin.map(|v| v as f32).into(), spacing))
 }

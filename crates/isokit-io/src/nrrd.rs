@@ -372,7 +372,7 @@ pub(crate) fn read_nrrd(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
 
 /// Makes every spacing positive by reversing the axes whose spacing is negative (and moving
 /// the origin to the new first sample), so the samples keep their world positions.
-fn flip_negative_axes(v: &mut Volume) {
+pub(crate) fn flip_negative_axes(v: &mut Volume) {
     let [nx, ny, nz] = v.dims;
     for a in 0..3 {
         if v.spacing[a] >= 0.0 {

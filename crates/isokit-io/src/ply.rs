@@ -191,6 +191,17 @@ pub(crate) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, IoError>
         }
     }
     let format = format.ok_or_else(|| IoError::malformed(path, "PLY header has no format line"))?;
+    // An element with instances but no properties takes no bytes: its count could never be
+    // checked against the data (and reading it would loop `count` times over nothing).
+    if let Some(e) = elements.iter().find(|e| e.count > 0 && e.props.is_empty()) {
+        return Err(IoError::malformed(
+            path,
+            format!(
+                "PLY element {} has {} instances but no properties",
+                e.name, e.count
+            ),
+        ));
+    }
     Ok(Header {
         format,
         elements,

@@ -18,7 +18,12 @@ pub const DEGENERATE_REL_TOL: f64 = 1e-7;
 /// Topology (edges, boundary, manifoldness, orientation, components, Euler characteristic)
 /// is computed on vertex *indices*: a mesh whose seams hold duplicate vertices (as STL read
 /// without welding would) shows those seams as boundary. Triangles with a repeated or
-/// out-of-range index are left out of the topology.
+/// out-of-range index are left out of the topology entirely: their edges, their face and
+/// the vertices that only they use count neither in χ = V − E + F nor in the components
+/// (those vertices are still *referenced*, so not counted as unreferenced either). The
+/// topology is that of the surface made of the proper triangles. Zero-area triangles with
+/// three distinct indices are proper triangles here. A mesh without any proper triangle is
+/// neither watertight nor consistently oriented.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshReport {
     /// Number of vertices.
@@ -45,15 +50,16 @@ pub struct MeshReport {
     pub boundary_edges: usize,
     /// Edges used by more than two triangles.
     pub non_manifold_edges: usize,
-    /// No boundary and no non-manifold edges.
+    /// At least one proper triangle, no boundary and no non-manifold edges.
     pub watertight: bool,
-    /// Every edge shared by two triangles is used once in each direction, and no directed
-    /// edge is used twice.
+    /// At least one proper triangle; every edge shared by two triangles is used once in each
+    /// direction, and no directed edge is used twice.
     pub consistently_oriented: bool,
-    /// Connected components (of triangles sharing vertices).
+    /// Connected components (of proper triangles sharing vertices).
     pub components: usize,
-    /// V − E + F over referenced vertices, distinct edges and topological triangles (2 for
-    /// a closed sphere-like surface, 2 − 2g for a closed orientable surface of genus g).
+    /// V − E + F over the vertices, distinct edges and triangles of the proper triangles
+    /// (2 for a closed sphere-like surface, 2 − 2g for a closed orientable surface of
+    /// genus g).
     pub euler_characteristic: i64,
 }
 
@@ -147,6 +153,8 @@ impl TriMesh {
     pub fn validate(&self) -> MeshReport {
         let nv = self.positions.len();
         let mut referenced = vec![false; nv];
+        // Used by a proper triangle (three distinct, valid indices).
+        let mut in_face = vec![false; nv];
         let mut degenerate = 0;
         let mut invalid = 0;
         let mut duplicates = 0;
@@ -180,6 +188,9 @@ impl TriMesh {
                 degenerate += 1;
             }
             faces += 1;
+            for &i in t {
+                in_face[i as usize] = true;
+            }
             for k in 0..3 {
                 let (u, v) = (t[k], t[(k + 1) % 3]);
                 let e = edges.entry((u.min(v), u.max(v))).or_insert((0, 0));
@@ -212,9 +223,8 @@ impl TriMesh {
         let mut components = 0;
         let mut used_vertices = 0i64;
         for v in 0..nv as u32 {
-            if referenced[v as usize] {
+            if in_face[v as usize] {
                 used_vertices += 1;
-                // Vertices only in index-degenerate triangles still form a component.
                 if find(&mut parent, v) == v {
                     components += 1;
                 }
@@ -246,8 +256,8 @@ impl TriMesh {
             edges: edges.len(),
             boundary_edges: boundary,
             non_manifold_edges: non_manifold,
-            watertight: boundary == 0 && non_manifold == 0,
-            consistently_oriented: oriented,
+            watertight: faces > 0 && boundary == 0 && non_manifold == 0,
+            consistently_oriented: faces > 0 && oriented,
             components,
             euler_characteristic: used_vertices - edges.len() as i64 + faces,
         }
@@ -264,5 +274,3 @@ fn zero_area(a: DVec3, b: DVec3, c: DVec3) -> bool {
     // reported through non_finite_vertices.
     cross <= DEGENERATE_REL_TOL * longest
 }
-
-pub(crate) use pos_key as position_key;

@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::mesh::face_normal;
-use crate::report::position_key;
+use crate::report::pos_key;
 use crate::util::{Cursor, parse_f64, show};
 use crate::{IoError, TriMesh, atomic_write};
 
@@ -29,7 +29,7 @@ impl Welder {
     fn vertex(&mut self, p: Vec3) -> u32 {
         let n = self.mesh.positions.len() as u32;
         let positions = &mut self.mesh.positions;
-        *self.map.entry(position_key(p)).or_insert_with(|| {
+        *self.map.entry(pos_key(p)).or_insert_with(|| {
             positions.push(p);
             n
         })

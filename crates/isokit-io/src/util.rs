@@ -172,6 +172,11 @@ pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
 /// Decompresses gzip data (one or more members), discarding the first `skip` output bytes
 /// and keeping at most `limit` after them, so a small file cannot claim unbounded memory.
 /// Returns the kept bytes and the number actually skipped.
+///
+/// Callers pass the size the header claims, already checked against
+/// [`isokit_field::MAX_SAMPLES`] by `checked_len`. Nothing is allocated up front: the buffer
+/// grows with the bytes actually inflated, so memory follows the real data, never the
+/// claim.
 pub(crate) fn gunzip(
     data: &[u8],
     skip: u64,

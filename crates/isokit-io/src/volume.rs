@@ -28,7 +28,8 @@ pub struct Volume {
 pub const ISOTROPY_TOL: f32 = 1e-4;
 
 impl Volume {
-    /// The volume holding a grid's samples.
+    /// The volume holding a copy of a grid's samples. To convert without copying (half the
+    /// peak memory), use `Volume::from(grid)`.
     pub fn from_grid(grid: &Grid) -> Self {
         Self {
             dims: grid.dims(),
@@ -36,6 +37,13 @@ impl Volume {
             spacing: Vec3::splat(grid.spacing()),
             data: grid.data().to_vec(),
         }
+    }
+
+    /// True when the spacing is the same on all axes within [`ISOTROPY_TOL`] (relative), so
+    /// that [`Volume::into_grid`] accepts it.
+    pub fn is_uniform(&self) -> bool {
+        let (lo, hi) = (self.spacing.min_element(), self.spacing.max_element());
+        hi - lo <= ISOTROPY_TOL * hi
     }
 
     /// Checks that the fields agree: sizes against [`isokit_field::MAX_SAMPLES`], data
@@ -92,8 +100,7 @@ impl Volume {
     /// [`Volume::resample_uniform`].
     pub fn into_grid(self) -> Result<Grid, IoError> {
         self.check()?;
-        let (lo, hi) = (self.spacing.min_element(), self.spacing.max_element());
-        if hi - lo > ISOTROPY_TOL * hi {
+        if !self.is_uniform() {
             return Err(IoError::Anisotropic {
                 spacing: self.spacing.to_array(),
             });
@@ -149,6 +156,19 @@ impl Volume {
     }
 }
 
+/// Takes a grid's samples without copying them.
+impl From<Grid> for Volume {
+    fn from(grid: Grid) -> Self {
+        let (dims, origin, spacing) = (grid.dims(), grid.origin(), grid.spacing());
+        Self {
+            dims,
+            origin,
+            spacing: Vec3::splat(spacing),
+            data: grid.into_data(),
+        }
+    }
+}
+
 /// The volume file formats, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum VolumeFormat {
@@ -198,10 +218,20 @@ impl VolumeFormat {
 ///   any numeric dtype; NumPy files carry no geometry, so origin is 0 and spacing 1.
 /// - `.nii` / `.nii.gz`: NIfTI-1 of either byte order; datatypes uint8, int16, int32,
 ///   float32, float64, int8, uint16, uint32 (and int64/uint64); `scl_slope`/`scl_inter`
-///   applied (slope 0 means none); spacing from `pixdim[1..3]` (absolute values; 0 becomes
-///   1); origin from the sform translation when `sform_code > 0`, else from `qoffset`. The
-///   rotation of the sform/qform is ignored: the volume is treated as axis-aligned in voxel
-///   order. 4-D files are read when `dim[4..]` are all 1.
+///   applied (slope 0 means none). Geometry from the sform when `sform_code > 0`, else from
+///   the qform (quaternion, `pixdim`, `qfac`, `qoffset`) when `qform_code > 0`, else
+///   `pixdim[1..3]` with origin 0. The matrix must be diagonal (axis-aligned; rotated
+///   grids are refused as unsupported); negative directions are flipped as for NRRD, so
+///   spacing is positive and the origin is the minimum corner. World coordinates are the
+///   file's (RAS+ for NIfTI) without conversion. 4-D files are read when `dim[4..]` are
+///   all 1.
+///
+/// Compressed data (NRRD `gzip`, `.nii.gz`) is inflated only up to the size the header
+/// claims, and that size is first checked against [`isokit_field::MAX_SAMPLES`] (8 GiB of
+/// f32 at most): the buffer grows with the bytes actually inflated, so a small file
+/// claiming a huge volume fails when its data runs out, never by allocating the claim.
+/// There is no ratio limit between compressed and claimed sizes, since real volumes
+/// (mostly background) compress very well.
 pub fn read_volume(path: &Path) -> Result<Volume, IoError> {
     let format = VolumeFormat::from_path(path)?;
     let bytes = read_file(path)?;

@@ -478,6 +478,79 @@ fn open_flipped_degenerate_duplicate_and_non_manifold() {
     let r = TriMesh::default().validate();
     assert_eq!((r.components, r.euler_characteristic), (0, 0));
     assert!(r.bounds.is_empty());
+    // No triangle, or only index-degenerate ones: nothing is closed or oriented.
+    assert!(
+        !r.watertight && !r.consistently_oriented && !r.is_clean(),
+        "{r}"
+    );
+    let r = TriMesh::new(vec![Vec3::ZERO, Vec3::X], vec![[0, 0, 1]]).validate();
+    assert!(
+        !r.watertight && !r.consistently_oriented && !r.is_clean(),
+        "{r}"
+    );
+    assert_eq!(
+        (r.components, r.euler_characteristic, r.edges),
+        (0, 0, 0),
+        "{r}"
+    );
+}
+
+/// Index-degenerate triangles are out of the topology, vertices included: a lone
+/// triangle plus a collapsed one elsewhere has χ = 3 − 3 + 1 = 1 and one component.
+#[test]
+fn euler_characteristic_ignores_index_degenerate_triangles() {
+    let m = TriMesh::new(
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE],
+        vec![[0, 1, 2], [3, 3, 4]],
+    );
+    let r = m.validate();
+    assert_eq!(
+        (
+            r.edges,
+            r.euler_characteristic,
+            r.components,
+            r.unreferenced_vertices,
+            r.degenerate_triangles
+        ),
+        (3, 1, 1, 0, 1),
+        "{r}"
+    );
+    // The collapsed triangle's vertices count only when a proper triangle uses them too.
+    let m = TriMesh::new(
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        vec![[0, 1, 2], [2, 2, 0]],
+    );
+    let r = m.validate();
+    assert_eq!(
+        (r.edges, r.euler_characteristic, r.components),
+        (3, 1, 1),
+        "{r}"
+    );
+}
+
+#[test]
+fn ply_elements_without_properties_are_refused() {
+    let t = std::time::Instant::now();
+    for fmt in ["ascii", "binary_little_endian"] {
+        let bytes = format!(
+            "ply\nformat {fmt} 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement junk 18446744073709551615\nend_header\n"
+        );
+        let e = read_mesh_bytes(bytes.as_bytes(), MeshFormat::Ply, "z.ply").unwrap_err();
+        assert!(
+            e.to_string().contains("junk") && e.to_string().contains("no properties"),
+            "{e}"
+        );
+        assert!(read_points_bytes(bytes.as_bytes(), PointFormat::Ply, "z.ply").is_err());
+    }
+    // An empty element without properties is harmless.
+    let ok = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement nothing 0\nend_header\n1 2 3\n";
+    assert_eq!(
+        read_points_bytes(ok, PointFormat::Ply, "ok.ply")
+            .unwrap()
+            .points,
+        [Vec3::new(1.0, 2.0, 3.0)]
+    );
+    assert!(t.elapsed().as_secs_f32() < 5.0);
 }
 
 // ---------- generated shapes ----------
@@ -538,6 +611,19 @@ fn generated_shapes_are_closed_and_outward() {
             r.unreferenced_vertices
         ),
         (2, 1, 1, 1),
+        "{r}"
+    );
+    // Topology of the five proper triangles (the zero-area [0, 1, 4] included, [3, 3, 2]
+    // left out): V = 8 (0..=7), E = 10, F = 5, so χ = 3; components {0..4} and {5, 6, 7}.
+    assert_eq!(
+        (
+            r.edges,
+            r.euler_characteristic,
+            r.components,
+            r.boundary_edges,
+            r.non_manifold_edges
+        ),
+        (10, 3, 2, 7, 2),
         "{r}"
     );
 

@@ -179,8 +179,28 @@ fn nhdr_with_detached_data() {
     assert!(e.contains("v.nhdr") && e.contains("v.raw"), "{e}");
 }
 
-/// A NIfTI-1 file built by hand: int16 samples with scl_slope, little or big endian.
+/// A NIfTI-1 file built by hand: int16 samples with scl_slope, little or big endian,
+/// pixdim (0.5, 0.25, 2) and an sform of the same diagonal translated to (−10, 20, 30).
 fn nifti(big: bool, dims: [i16; 3], data: &[i16], slope: f32, inter: f32) -> Vec<u8> {
+    let mut sform = [[0.0f32; 4]; 3];
+    for (a, s) in [0.5, 0.25, 2.0].into_iter().enumerate() {
+        sform[a][a] = s;
+    }
+    sform[0][3] = -10.0;
+    sform[1][3] = 20.0;
+    sform[2][3] = 30.0;
+    nifti_with(big, dims, data, slope, inter, Some(sform))
+}
+
+/// [`nifti`] with a chosen sform (rows srow_x, srow_y, srow_z), or none (sform_code 0).
+fn nifti_with(
+    big: bool,
+    dims: [i16; 3],
+    data: &[i16],
+    slope: f32,
+    inter: f32,
+    sform: Option<[[f32; 4]; 3]>,
+) -> Vec<u8> {
     let mut h = vec![0u8; 352];
     let put_i32 = |h: &mut Vec<u8>, o: usize, v: i32| {
         h[o..o + 4].copy_from_slice(&if big {
@@ -216,11 +236,14 @@ fn nifti(big: bool, dims: [i16; 3], data: &[i16], slope: f32, inter: f32) -> Vec
     put_f32(&mut h, 108, 352.0);
     put_f32(&mut h, 112, slope);
     put_f32(&mut h, 116, inter);
-    put_i16(&mut h, 254, 1); // sform_code
-    put_f32(&mut h, 280, 0.5); // srow_x[0] (rotation part, ignored)
-    put_f32(&mut h, 292, -10.0); // srow_x[3]
-    put_f32(&mut h, 308, 20.0); // srow_y[3]
-    put_f32(&mut h, 324, 30.0); // srow_z[3]
+    if let Some(rows) = sform {
+        put_i16(&mut h, 254, 1); // sform_code
+        for (r, row) in rows.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                put_f32(&mut h, 280 + 16 * r + 4 * c, *v);
+            }
+        }
+    }
     h[344..348].copy_from_slice(b"n+1\0");
     for v in data {
         h.extend_from_slice(&if big {
@@ -277,6 +300,95 @@ fn nifti_nii_and_nii_gz() {
         |b| read_volume_bytes(b, VolumeFormat::Nifti, "f.nii"),
         check_volume,
     );
+}
+
+/// Sets bytes of a little-endian header.
+fn put_le(h: &mut [u8], o: usize, v: &[u8]) {
+    h[o..o + v.len()].copy_from_slice(v);
+}
+
+/// A mirrored x axis (sform diagonal (−2, 2, 2), common in radiological images): voxel i
+/// lies at x = x0 − 2i. The reader flips x so the spacing is positive, the origin is the
+/// minimum corner and every sample keeps its world position.
+#[test]
+fn nifti_negative_directions_are_flipped_not_dropped() {
+    let dims = [4i16, 3, 2];
+    let data: Vec<i16> = (0..24).collect();
+    let x0 = 5.0f32;
+    let sform = [
+        [-2.0, 0.0, 0.0, x0],
+        [0.0, 2.0, 0.0, -1.0],
+        [0.0, 0.0, 2.0, 7.0],
+    ];
+    let v = read_volume_bytes(
+        &nifti_with(false, dims, &data, 1.0, 0.0, Some(sform)),
+        VolumeFormat::Nifti,
+        "m.nii",
+    )
+    .unwrap();
+    assert_eq!(v.spacing, Vec3::splat(2.0));
+    assert_eq!(v.origin, Vec3::new(x0 - 2.0 * 3.0, -1.0, 7.0));
+    for k in 0..2 {
+        for j in 0..3 {
+            for i in 0..4 {
+                // File voxel (i, j, k) sits at x = x0 − 2i, i.e. at flipped index 3 − i.
+                let want = data[i + 4 * (j + 3 * k)] as f32;
+                let got = v.data[(3 - i) + 4 * (j + 3 * k)];
+                assert_eq!(got, want, "voxel {i},{j},{k}");
+                let world = x0 - 2.0 * i as f32;
+                assert_eq!(v.origin.x + v.spacing.x * (3 - i) as f32, world);
+            }
+        }
+    }
+
+    // The same through the qform: a 180° turn about z (quaternion d = 1) flips x and y,
+    // qfac = −1 flips z.
+    let mut bytes = nifti_with(false, dims, &data, 1.0, 0.0, None);
+    put_le(&mut bytes, 252, &1i16.to_le_bytes()); // qform_code
+    put_le(&mut bytes, 264, &1.0f32.to_le_bytes()); // quatern_d
+    put_le(&mut bytes, 76, &(-1.0f32).to_le_bytes()); // qfac
+    for (o, x) in [(268, 1.0f32), (272, 2.0), (276, 3.0)] {
+        put_le(&mut bytes, o, &x.to_le_bytes());
+    }
+    let q = read_volume_bytes(&bytes, VolumeFormat::Nifti, "q.nii").unwrap();
+    assert_eq!(q.spacing, Vec3::new(0.5, 0.25, 2.0));
+    assert_eq!(q.origin, Vec3::new(1.0 - 1.5, 2.0 - 0.5, 3.0 - 2.0));
+    for k in 0..2 {
+        for j in 0..3 {
+            for i in 0..4 {
+                let want = data[i + 4 * (j + 3 * k)] as f32;
+                assert_eq!(q.data[(3 - i) + 4 * ((2 - j) + 3 * (1 - k))], want);
+            }
+        }
+    }
+
+    // Neither sform nor qform: pixdim only, origin 0.
+    let p = read_volume_bytes(
+        &nifti_with(false, dims, &data, 1.0, 0.0, None),
+        VolumeFormat::Nifti,
+        "p.nii",
+    )
+    .unwrap();
+    assert_eq!(
+        (p.origin, p.spacing),
+        (Vec3::ZERO, Vec3::new(0.5, 0.25, 2.0))
+    );
+    assert_eq!(p.data, data.iter().map(|&x| x as f32).collect::<Vec<_>>());
+
+    // A rotated grid is refused, clearly, rather than read mirrored or skewed.
+    let rotated = [
+        [0.0, -2.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 2.0, 0.0],
+    ];
+    let e = read_volume_bytes(
+        &nifti_with(false, dims, &data, 1.0, 0.0, Some(rotated)),
+        VolumeFormat::Nifti,
+        "r.nii",
+    )
+    .unwrap_err();
+    assert!(matches!(e, IoError::Unsupported { .. }), "{e}");
+    assert!(e.to_string().contains("not axis-aligned"), "{e}");
 }
 
 fn check_volume(v: &Volume) {

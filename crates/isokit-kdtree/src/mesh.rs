@@ -1,0 +1,732 @@
+//! A triangle mesh as an exact signed distance [`Field`]: closest points through the
+//! kd-tree, signs by angle-weighted pseudonormals or by the generalized winding number.
+
+use crate::pseudonormal::Pseudonormals;
+use crate::tree::{BuildParams, KdTree, QueryStats};
+use crate::triangle::{ClosestPoint, Feature, closest_point, ray_triangle, solid_angle};
+use glam::{DMat3, DVec3, Vec3};
+use isokit_field::{Aabb, Field};
+use isokit_io::TriMesh;
+use std::f64::consts::PI;
+
+/// How the sign of the distance is decided (the user's request).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SignMode {
+    /// Pseudonormals when the mesh is watertight, consistently oriented and free of
+    /// degenerate triangles; the winding number otherwise.
+    #[default]
+    Auto,
+    /// Angle-weighted pseudonormals (Bærentzen and Aanæs 2005): exact for watertight,
+    /// consistently oriented meshes, meaningless on open ones.
+    Pseudonormal,
+    /// Generalized winding number (Jacobson et al. 2013), hierarchical evaluation (Barill
+    /// et al. 2018): inside where it exceeds 1/2. Works for open, non-manifold and
+    /// self-intersecting meshes.
+    Winding,
+    /// No sign: the distance is non-negative everywhere.
+    Unsigned,
+}
+
+/// The sign method actually used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SignMethod {
+    /// Angle-weighted pseudonormals.
+    Pseudonormal,
+    /// Generalized winding number.
+    Winding,
+    /// Unsigned distance.
+    Unsigned,
+}
+
+impl SignMethod {
+    /// Lower-case name (`pseudonormal`, `winding`, `unsigned`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SignMethod::Pseudonormal => "pseudonormal",
+            SignMethod::Winding => "winding",
+            SignMethod::Unsigned => "unsigned",
+        }
+    }
+}
+
+/// Options of [`MeshSdf::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshOptions {
+    /// Sign method.
+    pub sign: SignMode,
+    /// kd-tree knobs.
+    pub tree: BuildParams,
+    /// Accuracy of the hierarchical winding number: a node's expansion replaces its
+    /// triangles when the query point is farther than `beta` times the node's radius from
+    /// its centre (Barill et al. use 2). Larger is slower and more accurate.
+    pub winding_beta: f64,
+}
+
+impl Default for MeshOptions {
+    fn default() -> Self {
+        Self {
+            sign: SignMode::Auto,
+            tree: BuildParams::default(),
+            winding_beta: 2.0,
+        }
+    }
+}
+
+/// Why a mesh cannot become a distance field.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    /// No triangles.
+    #[error("the mesh has no triangles")]
+    Empty,
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has {vertices} vertices")]
+    IndexOutOfRange {
+        /// Triangle number.
+        triangle: usize,
+        /// The bad index.
+        index: u32,
+        /// Vertex count.
+        vertices: usize,
+    },
+    /// A vertex used by a triangle is NaN or infinite.
+    #[error("vertex {0} has a non-finite coordinate")]
+    NonFinite(usize),
+    /// A parameter is out of range.
+    #[error("winding_beta must be finite and at least 1, got {0}")]
+    BadBeta(f64),
+}
+
+/// Per-node far-field expansion of the winding number (Barill et al. 2018): the area
+/// vector of the subtree's triangles, their area-weighted centre, the radius of a ball
+/// around it holding them, and the first-order moment.
+#[derive(Clone, Copy, Debug, Default)]
+struct Expansion {
+    area: DVec3,
+    center: DVec3,
+    radius: f64,
+    /// Σ A_t ⊗ (c_t − center): the second-order term.
+    moment: DMat3,
+    total_area: f64,
+}
+
+/// The result of a closest-point query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Signed distance (per the mesh's sign method), in f64.
+    pub distance: f64,
+    /// Closest point on the mesh.
+    pub point: DVec3,
+    /// Triangle holding it.
+    pub triangle: u32,
+    /// Closest feature of that triangle.
+    pub feature: Feature,
+    /// Barycentric coordinates of the closest point in that triangle.
+    pub bary: [f64; 3],
+}
+
+/// A triangle mesh with a kd-tree: exact distances, closest points, signs, ray hits.
+///
+/// ```
+/// use isokit_kdtree::mesh::{MeshSdf, MeshOptions, SignMethod};
+/// use isokit_field::Field;
+/// use glam::Vec3;
+/// let sphere = isokit_io::generate::icosphere(Vec3::ZERO, 1.0, 3);
+/// let sdf = MeshSdf::new(&sphere, MeshOptions::default()).unwrap();
+/// assert_eq!(sdf.sign_method(), SignMethod::Pseudonormal);
+/// assert!(sdf.value(Vec3::ZERO) < -0.99);
+/// assert!((sdf.value(Vec3::new(0.0, 0.0, 2.0)) - 1.0).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug)]
+pub struct MeshSdf {
+    positions: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    tree: KdTree,
+    /// Triangle boxes, for a cheap distance bound before the exact test.
+    boxes: Vec<Aabb>,
+    pseudo: Option<Pseudonormals>,
+    expansions: Vec<Expansion>,
+    method: SignMethod,
+    reason: String,
+    beta: f64,
+    bounds: Aabb,
+}
+
+impl MeshSdf {
+    /// Builds the tree and the sign data. Validates indices and coordinates; empty meshes
+    /// are an error.
+    pub fn new(mesh: &TriMesh, opts: MeshOptions) -> Result<Self, MeshError> {
+        if mesh.triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        if !(opts.winding_beta.is_finite() && opts.winding_beta >= 1.0) {
+            return Err(MeshError::BadBeta(opts.winding_beta));
+        }
+        let nv = mesh.positions.len();
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &i in tri {
+                match mesh.positions.get(i as usize) {
+                    None => {
+                        return Err(MeshError::IndexOutOfRange {
+                            triangle: t,
+                            index: i,
+                            vertices: nv,
+                        });
+                    }
+                    Some(p) if !p.is_finite() => return Err(MeshError::NonFinite(i as usize)),
+                    _ => {}
+                }
+            }
+        }
+        let positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+        let triangles = mesh.triangles.clone();
+        let boxes: Vec<Aabb> = triangles
+            .iter()
+            .map(|t| Aabb::from_points(t.iter().map(|&i| &mesh.positions[i as usize])))
+            .collect();
+        let tree = KdTree::build(&boxes, opts.tree);
+        let bounds = tree.bounds();
+
+        let (method, reason) = match opts.sign {
+            SignMode::Unsigned => (SignMethod::Unsigned, "requested".to_string()),
+            SignMode::Winding => (SignMethod::Winding, "requested".to_string()),
+            SignMode::Pseudonormal => (SignMethod::Pseudonormal, "requested".to_string()),
+            SignMode::Auto => {
+                let r = mesh.validate();
+                if r.watertight && r.consistently_oriented && r.degenerate_triangles == 0 {
+                    (
+                        SignMethod::Pseudonormal,
+                        "auto: watertight and consistently oriented".to_string(),
+                    )
+                } else {
+                    let why = if !r.watertight {
+                        format!(
+                            "{} boundary and {} non-manifold edges",
+                            r.boundary_edges, r.non_manifold_edges
+                        )
+                    } else if !r.consistently_oriented {
+                        "inconsistently oriented faces".to_string()
+                    } else {
+                        format!("{} degenerate triangles", r.degenerate_triangles)
+                    };
+                    (
+                        SignMethod::Winding,
+                        format!("auto: not watertight and oriented ({why})"),
+                    )
+                }
+            }
+        };
+        let pseudo = (method == SignMethod::Pseudonormal)
+            .then(|| Pseudonormals::new(&positions, &triangles));
+        let mut sdf = Self {
+            positions,
+            triangles,
+            tree,
+            boxes,
+            pseudo,
+            expansions: Vec::new(),
+            method,
+            reason,
+            beta: opts.winding_beta,
+            bounds,
+        };
+        sdf.expansions = sdf.build_expansions();
+        Ok(sdf)
+    }
+
+    /// The sign method in use.
+    pub fn sign_method(&self) -> SignMethod {
+        self.method
+    }
+
+    /// Why that method was chosen (e.g. "auto: watertight and consistently oriented").
+    pub fn sign_reason(&self) -> &str {
+        &self.reason
+    }
+
+    /// The kd-tree.
+    pub fn tree(&self) -> &KdTree {
+        &self.tree
+    }
+
+    /// Vertex positions (f64 copies of the input).
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Triangles.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    #[inline]
+    fn corners(&self, t: u32) -> [DVec3; 3] {
+        self.triangles[t as usize].map(|i| self.positions[i as usize])
+    }
+
+    #[inline]
+    fn closest_on(&self, t: u32, p: DVec3) -> ClosestPoint {
+        let [a, b, c] = self.corners(t);
+        closest_point(p, a, b, c)
+    }
+
+    /// Squared distance to triangle `t`, or the (smaller) squared distance to its box when
+    /// that already reaches `bound`.
+    #[inline]
+    fn dist2_bounded(&self, t: u32, p: DVec3, bound: f64) -> f64 {
+        let b = &self.boxes[t as usize];
+        let lo = b.min.as_dvec3() - p;
+        let hi = p - b.max.as_dvec3();
+        let box2 = lo.max(hi).max(DVec3::ZERO).length_squared();
+        if box2 >= bound {
+            box2
+        } else {
+            self.closest_on(t, p).dist2
+        }
+    }
+
+    /// The closest point on the mesh within `max_dist` of `p` (unsigned; `distance >= 0`).
+    pub fn closest_within(
+        &self,
+        p: DVec3,
+        max_dist: f64,
+        stats: &mut QueryStats,
+    ) -> Option<MeshHit> {
+        let bound = if max_dist.is_finite() {
+            max_dist * max_dist
+        } else {
+            f64::INFINITY
+        };
+        let (t, _) = self
+            .tree
+            .nearest(p, bound, |t, b| self.dist2_bounded(t, p, b), stats)?;
+        let cp = self.closest_on(t, p);
+        Some(MeshHit {
+            distance: cp.dist2.sqrt(),
+            point: cp.point,
+            triangle: t,
+            feature: cp.feature,
+            bary: cp.bary,
+        })
+    }
+
+    /// Sign (+1 outside, −1 inside) at `p` whose closest point is `hit`.
+    fn sign_at(&self, p: DVec3, hit: &MeshHit) -> f64 {
+        match (&self.pseudo, self.method) {
+            (_, SignMethod::Unsigned) => 1.0,
+            (Some(pn), SignMethod::Pseudonormal) => {
+                let cp = ClosestPoint {
+                    point: hit.point,
+                    dist2: hit.distance * hit.distance,
+                    feature: hit.feature,
+                    bary: hit.bary,
+                };
+                pn.sign(p, &cp, hit.triangle as usize)
+            }
+            _ => self.winding_sign(p),
+        }
+    }
+
+    fn winding_sign(&self, p: DVec3) -> f64 {
+        if self.winding_number(p) > 0.5 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+
+    /// Signed distance and closest point at `p`. `None` only for NaN input.
+    pub fn query(&self, p: DVec3, stats: &mut QueryStats) -> Option<MeshHit> {
+        let mut hit = self.closest_within(p, f64::INFINITY, stats)?;
+        hit.distance *= self.sign_at(p, &hit);
+        Some(hit)
+    }
+
+    /// Signed distance clamped to `[-band, band]`: exact within the band; beyond it the
+    /// search exits early and the value is `±band` with the winding-number sign (or
+    /// `+band` when unsigned).
+    pub fn signed_distance_band(&self, p: DVec3, band: f64, stats: &mut QueryStats) -> f64 {
+        match self.closest_within(p, band, stats) {
+            Some(hit) => hit.distance * self.sign_at(p, &hit),
+            None if self.method == SignMethod::Unsigned => band,
+            None => band * self.winding_sign(p),
+        }
+    }
+
+    /// Generalized winding number at `p`, by the hierarchical approximation (exact for the
+    /// triangles of every node closer than `beta` times its radius).
+    pub fn winding_number(&self, p: DVec3) -> f64 {
+        if self.tree.node_count() == 0 || !p.is_finite() {
+            return 0.0;
+        }
+        let mut w = 0.0;
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let e = &self.expansions[n];
+            let r = e.center - p;
+            let d2 = r.length_squared();
+            if e.total_area > 0.0 && d2 > (self.beta * e.radius).powi(2) {
+                // Dipole plus first moment: A·F(r) + J(r) : M with F(r) = r / (4π|r|³).
+                let d = d2.sqrt();
+                let inv3 = 1.0 / (d2 * d);
+                let f = r * inv3;
+                let j = DMat3::IDENTITY * inv3
+                    - DMat3::from_cols(r * r.x, r * r.y, r * r.z) * (3.0 * inv3 / d2);
+                let m = e.moment;
+                let jm = j.col(0).dot(DVec3::new(m.col(0).x, m.col(1).x, m.col(2).x))
+                    + j.col(1).dot(DVec3::new(m.col(0).y, m.col(1).y, m.col(2).y))
+                    + j.col(2).dot(DVec3::new(m.col(0).z, m.col(1).z, m.col(2).z));
+                w += (e.area.dot(f) + jm) / (4.0 * PI);
+                continue;
+            }
+            let (ids, kids) = self.tree.node(n);
+            for &t in ids {
+                let [a, b, c] = self.corners(t);
+                w += solid_angle(p, a, b, c) / (4.0 * PI);
+            }
+            stack.extend(kids.into_iter().flatten());
+        }
+        w
+    }
+
+    /// Generalized winding number by summing every triangle's solid angle (the reference).
+    pub fn winding_number_exact(&self, p: DVec3) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize]);
+                solid_angle(p, a, b, c)
+            })
+            .sum::<f64>()
+            / (4.0 * PI)
+    }
+
+    /// First triangle hit by the ray `origin + t * dir`, `t` in `[0, t_max]`.
+    pub fn ray_hit(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_max: f64,
+        stats: &mut QueryStats,
+    ) -> Option<(u32, f64)> {
+        self.tree.ray_first(
+            origin,
+            dir,
+            t_max,
+            |t, best| {
+                let [a, b, c] = self.corners(t);
+                ray_triangle(origin, dir, a, b, c, best).map(|h| h.t)
+            },
+            stats,
+        )
+    }
+
+    /// The `k` triangles nearest to `p`, sorted, as `(triangle, distance)`.
+    pub fn k_nearest(&self, p: DVec3, k: usize, stats: &mut QueryStats) -> Vec<(u32, f64)> {
+        self.tree
+            .k_nearest(p, k, |t, b| self.dist2_bounded(t, p, b), stats)
+            .into_iter()
+            .map(|(t, d2)| (t, d2.sqrt()))
+            .collect()
+    }
+
+    /// Every triangle within `radius` of `p`, unsorted, as `(triangle, distance)`.
+    pub fn within(&self, p: DVec3, radius: f64, stats: &mut QueryStats) -> Vec<(u32, f64)> {
+        self.tree
+            .within(p, radius, |t, b| self.dist2_bounded(t, p, b), stats)
+            .into_iter()
+            .map(|(t, d2)| (t, d2.sqrt()))
+            .collect()
+    }
+
+    /// Winding-number expansions for every node, children before parents (children have
+    /// larger indices than their parent).
+    fn build_expansions(&self) -> Vec<Expansion> {
+        let n = self.tree.node_count();
+        let mut ex = vec![Expansion::default(); n];
+        for i in (0..n).rev() {
+            let (ids, kids) = self.tree.node(i);
+            // Gather (area vector, centroid, |area|) of own triangles and child expansions.
+            let own = ids.iter().map(|&t| {
+                let [a, b, c] = self.corners(t);
+                let av = 0.5 * (b - a).cross(c - a);
+                (av, (a + b + c) / 3.0, av.length(), DMat3::ZERO, [a, b, c])
+            });
+            let mut area = DVec3::ZERO;
+            let mut total = 0.0;
+            let mut weighted = DVec3::ZERO;
+            let mut count: f64 = 0.0;
+            let mut plain = DVec3::ZERO;
+            let own: Vec<_> = own.collect();
+            for &(av, c, a, _, _) in &own {
+                area += av;
+                total += a;
+                weighted += a * c;
+                plain += c;
+                count += 1.0;
+            }
+            for k in kids.into_iter().flatten() {
+                let e = &ex[k];
+                area += e.area;
+                total += e.total_area;
+                weighted += e.total_area * e.center;
+                plain += e.center;
+                count += 1.0;
+            }
+            let center = if total > 0.0 {
+                weighted / total
+            } else {
+                plain / count.max(1.0)
+            };
+            let mut radius: f64 = 0.0;
+            let mut moment = DMat3::ZERO;
+            let outer = |a: DVec3, b: DVec3| DMat3::from_cols(a * b.x, a * b.y, a * b.z);
+            for &(av, c, _, _, corners) in &own {
+                for v in corners {
+                    radius = radius.max((v - center).length());
+                }
+                moment += outer(av, c - center);
+            }
+            for k in kids.into_iter().flatten() {
+                let e = &ex[k];
+                radius = radius.max((e.center - center).length() + e.radius);
+                moment += e.moment + outer(e.area, e.center - center);
+            }
+            ex[i] = Expansion {
+                area,
+                center,
+                radius,
+                moment,
+                total_area: total,
+            };
+        }
+        ex
+    }
+}
+
+impl Field for MeshSdf {
+    fn value(&self, p: Vec3) -> f32 {
+        let mut st = QueryStats::default();
+        self.query(p.as_dvec3(), &mut st)
+            .map_or(f32::NAN, |h| h.distance as f32)
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    fn is_exact(&self) -> bool {
+        true
+    }
+
+    /// `sign · (p − closest) / |p − closest|`; on the surface, the face normal.
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let q = p.as_dvec3();
+        let mut st = QueryStats::default();
+        let Some(h) = self.query(q, &mut st) else {
+            return Vec3::Z;
+        };
+        let d = q - h.point;
+        let g = if h.distance != 0.0 && d.length_squared() > 0.0 {
+            d.normalize() * h.distance.signum()
+        } else {
+            let [a, b, c] = self.corners(h.triangle);
+            (b - a).cross(c - a).normalize_or(DVec3::Z)
+        };
+        g.as_vec3()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use isokit_field::rng::SplitMix64;
+    use isokit_io::generate;
+
+    fn brute(m: &MeshSdf, p: DVec3) -> f64 {
+        (0..m.triangles.len() as u32)
+            .map(|t| m.closest_on(t, p).dist2)
+            .fold(f64::INFINITY, f64::min)
+            .sqrt()
+    }
+
+    fn meshes() -> Vec<(&'static str, TriMesh)> {
+        vec![
+            ("sphere", generate::icosphere(Vec3::ZERO, 1.0, 2)),
+            ("torus", generate::torus(1.0, 0.35, 32, 16)),
+            (
+                "knot",
+                generate::tube(|u| generate::trefoil(u, 0.5), 0.18, 96, 10),
+            ),
+            ("open cube", generate::open_cube(0.5)),
+            ("degenerate", generate::degenerate_mesh()),
+        ]
+    }
+
+    #[test]
+    fn distances_match_brute_force_for_every_tree() {
+        let mut r = SplitMix64::new(11);
+        for (name, mesh) in meshes() {
+            for tree in [
+                BuildParams::default(),
+                BuildParams::classic(),
+                BuildParams {
+                    leaf_size: 1,
+                    max_overlap: 0.5,
+                    ..Default::default()
+                },
+            ] {
+                let sdf = MeshSdf::new(
+                    &mesh,
+                    MeshOptions {
+                        tree,
+                        sign: SignMode::Unsigned,
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                let b = sdf.bounds();
+                for _ in 0..200 {
+                    let p = r
+                        .point_in(b.min - Vec3::splat(0.5), b.max + Vec3::splat(0.5))
+                        .as_dvec3();
+                    let mut st = QueryStats::default();
+                    let h = sdf.query(p, &mut st).unwrap();
+                    let want = brute(&sdf, p);
+                    assert!(
+                        (h.distance - want).abs() <= 1e-12 * (1.0 + want),
+                        "{name}: {} vs {want}",
+                        h.distance
+                    );
+                    assert!(((h.point - p).length() - want).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn auto_sign_picks_by_validation_and_signs_agree() {
+        let mut r = SplitMix64::new(12);
+        for (name, mesh) in meshes().into_iter().take(3) {
+            let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
+            assert_eq!(sdf.sign_method(), SignMethod::Pseudonormal, "{name}");
+            let wind = MeshSdf::new(
+                &mesh,
+                MeshOptions {
+                    sign: SignMode::Winding,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            let b = sdf.bounds();
+            let diag = b.diagonal() as f64;
+            let mut checked = 0;
+            for _ in 0..400 {
+                let p = r
+                    .point_in(b.min - Vec3::splat(0.3), b.max + Vec3::splat(0.3))
+                    .as_dvec3();
+                let mut st = QueryStats::default();
+                let a = sdf.query(p, &mut st).unwrap().distance;
+                let w = wind.query(p, &mut st).unwrap().distance;
+                assert_eq!(a.abs(), w.abs());
+                if a.abs() > 1e-4 * diag {
+                    checked += 1;
+                    assert_eq!(a.signum(), w.signum(), "{name} at {p}: {a} vs {w}");
+                    let exact = sdf.winding_number_exact(p);
+                    assert_eq!(exact > 0.5, a < 0.0, "{name}: exact winding {exact} vs {a}");
+                }
+            }
+            assert!(checked > 300);
+        }
+        let open = MeshSdf::new(&generate::open_cube(0.5), MeshOptions::default()).unwrap();
+        assert_eq!(open.sign_method(), SignMethod::Winding);
+        assert!(
+            open.sign_reason().contains("boundary"),
+            "{}",
+            open.sign_reason()
+        );
+        // Inside the open cube the winding number is about 5/6 of a closed one's... still > 1/2.
+        assert!(open.value(Vec3::new(0.0, 0.0, -0.2)) < 0.0);
+        assert!(open.value(Vec3::new(0.0, 0.0, 2.0)) > 0.0);
+    }
+
+    #[test]
+    fn hierarchical_winding_is_close_to_exact() {
+        let mut r = SplitMix64::new(13);
+        let mesh = generate::tube(|u| generate::trefoil(u, 0.5), 0.18, 192, 16);
+        let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
+        let b = sdf.bounds();
+        let mut worst: f64 = 0.0;
+        for _ in 0..300 {
+            let p = r
+                .point_in(b.min - Vec3::splat(0.5), b.max + Vec3::splat(0.5))
+                .as_dvec3();
+            worst = worst.max((sdf.winding_number(p) - sdf.winding_number_exact(p)).abs());
+        }
+        eprintln!("hierarchical winding number, beta 2: max error {worst:.2e}");
+        assert!(worst < 1e-2, "{worst}");
+    }
+
+    #[test]
+    fn band_queries_clamp_with_the_right_sign() {
+        let mesh = generate::icosphere(Vec3::ZERO, 1.0, 2);
+        let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
+        let mut st = QueryStats::default();
+        assert_eq!(sdf.signed_distance_band(DVec3::ZERO, 0.1, &mut st), -0.1);
+        assert_eq!(
+            sdf.signed_distance_band(DVec3::splat(3.0), 0.1, &mut st),
+            0.1
+        );
+        let p = DVec3::new(0.0, 0.0, 1.05);
+        let exact = sdf.query(p, &mut st).unwrap().distance;
+        assert_eq!(sdf.signed_distance_band(p, 0.1, &mut st), exact);
+    }
+
+    #[test]
+    fn rays_knn_and_radius() {
+        let mesh = generate::icosphere(Vec3::ZERO, 1.0, 3);
+        let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
+        let mut st = QueryStats::default();
+        let (_, t) = sdf
+            .ray_hit(DVec3::new(0.0, 0.0, -5.0), DVec3::Z, 100.0, &mut st)
+            .unwrap();
+        assert!((t - 4.0).abs() < 0.01, "{t}");
+        assert!(
+            sdf.ray_hit(DVec3::new(0.0, 2.0, -5.0), DVec3::Z, 100.0, &mut st)
+                .is_none()
+        );
+        let p = DVec3::new(0.3, 0.2, 1.4);
+        let k = sdf.k_nearest(p, 5, &mut st);
+        assert_eq!(k.len(), 5);
+        assert!(k.windows(2).all(|w| w[0].1 <= w[1].1));
+        let w = sdf.within(p, k[4].1, &mut st);
+        assert!(w.len() >= 5);
+    }
+
+    #[test]
+    fn bad_meshes_are_errors() {
+        let empty = TriMesh {
+            positions: vec![],
+            triangles: vec![],
+        };
+        assert_eq!(
+            MeshSdf::new(&empty, MeshOptions::default()).unwrap_err(),
+            MeshError::Empty
+        );
+        let bad = TriMesh {
+            positions: vec![Vec3::ZERO; 3],
+            triangles: vec![[0, 1, 3]],
+        };
+        assert!(matches!(
+            MeshSdf::new(&bad, MeshOptions::default()),
+            Err(MeshError::IndexOutOfRange { .. })
+        ));
+        let nan = TriMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert_eq!(
+            MeshSdf::new(&nan, MeshOptions::default()).unwrap_err(),
+            MeshError::NonFinite(2)
+        );
+    }
+}
