@@ -31,6 +31,9 @@ enum Command {
     /// A mesh's signed distance sampled on a grid over its bounds (every sample exact, or
     /// exact within a narrow band).
     Sdf(cmd::sdf::Args),
+    /// In-process comparisons to run on your own machine (e.g. `bench kdtree`).
+    #[command(subcommand)]
+    Bench(cmd::bench::Bench),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Sample(a) => cmd::sample::run(*a),
         Command::Query(a) => cmd::query::run(a),
         Command::Sdf(a) => cmd::sdf::run(a),
+        Command::Bench(b) => cmd::bench::run(b),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -33,6 +33,34 @@ pub struct Args {
     pub knobs: MeshKnobs,
 }
 
+/// Indices of `points` sorted along a Morton (Z-order) curve over their bounds; non-finite
+/// points go last.
+fn morton_order(points: &[DVec3]) -> Vec<u32> {
+    let finite = points.iter().filter(|p| p.is_finite());
+    let lo = finite.clone().fold(DVec3::INFINITY, |a, &p| a.min(p));
+    let hi = finite.fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    // Spreads the low 21 bits of v to every third bit.
+    fn spread(v: u64) -> u64 {
+        let mut x = v & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        (x | x << 2) & 0x1249_2492_4924_9249
+    }
+    let key = |p: &DVec3| {
+        if !p.is_finite() {
+            return u64::MAX;
+        }
+        let q = ((*p - lo) * scale).as_u64vec3();
+        spread(q.x) | spread(q.y) << 1 | spread(q.z) << 2
+    };
+    let mut idx: Vec<u32> = (0..points.len() as u32).collect();
+    idx.par_sort_unstable_by_key(|&i| key(&points[i as usize]));
+    idx
+}
+
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     check_output(&a.output, &[".npy"])?;
@@ -59,21 +87,28 @@ pub fn run(a: Args) -> Result<()> {
     let build = t0.elapsed().as_secs_f64();
     eprintln!("sign: {} ({})", sdf.sign_method().name(), sdf.sign_reason());
 
+    // Visit the points in Morton order so that each query can start from its
+    // predecessor's closest triangle (a tight initial bound); results go back in input order.
+    let order = morton_order(&points);
     let progress = Progress::new("query", points.len() as u64);
     let t1 = Instant::now();
     const CHUNK: usize = 4096;
-    let results: Vec<(Vec<Option<MeshHit>>, QueryStats)> = points
+    let results: Vec<(Vec<Option<MeshHit>>, QueryStats)> = order
         .par_chunks(CHUNK)
         .map(|chunk| {
             let mut st = QueryStats::default();
+            let mut hint = None;
             let hits = chunk
                 .iter()
-                .map(|&p| {
-                    if p.is_finite() {
-                        sdf.query(p, &mut st)
+                .map(|&i| {
+                    let p = points[i as usize];
+                    let h = if p.is_finite() {
+                        sdf.query_near(p, hint, &mut st)
                     } else {
                         None
-                    }
+                    };
+                    hint = h.map(|h| h.triangle).or(hint);
+                    h
                 })
                 .collect();
             progress.advance(chunk.len() as u64);
@@ -84,19 +119,21 @@ pub fn run(a: Args) -> Result<()> {
     let secs = t1.elapsed().as_secs_f64();
 
     let mut stats = QueryStats::default();
-    let mut dist = Vec::with_capacity(points.len());
-    let mut closest = Vec::with_capacity(if a.closest.is_some() {
-        3 * points.len()
+    let mut dist = vec![f32::NAN; points.len()];
+    let mut closest = if a.closest.is_some() {
+        vec![f32::NAN; 3 * points.len()]
     } else {
-        0
-    });
-    for (hits, st) in results {
+        Vec::new()
+    };
+    for ((hits, st), idx) in results.into_iter().zip(order.chunks(CHUNK)) {
         stats += st;
-        for h in hits {
-            dist.push(h.map_or(f32::NAN, |h| h.distance as f32));
-            if a.closest.is_some() {
-                let c = h.map_or(DVec3::NAN, |h| h.point).as_vec3();
-                closest.extend_from_slice(&c.to_array());
+        for (h, &i) in hits.into_iter().zip(idx) {
+            let i = i as usize;
+            if let Some(h) = h {
+                dist[i] = h.distance as f32;
+                if !closest.is_empty() {
+                    closest[3 * i..3 * i + 3].copy_from_slice(&h.point.as_vec3().to_array());
+                }
             }
         }
     }

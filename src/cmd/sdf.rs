@@ -73,9 +73,13 @@ pub fn run(a: Args) -> Result<()> {
         .enumerate()
         .map(|(k, slice)| {
             let mut st = QueryStats::default();
+            // Neighbouring samples share their closest triangle more often than not.
+            let mut hint = None;
             for (n, v) in slice.iter_mut().enumerate() {
                 let p = origin + h * glam::DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64);
-                *v = sdf.signed_distance_band(p, band, &mut st) as f32;
+                let (d, t) = sdf.signed_distance_band_near(p, band, hint, &mut st);
+                hint = t.or(hint);
+                *v = d as f32;
             }
             progress.advance(slice.len() as u64);
             st

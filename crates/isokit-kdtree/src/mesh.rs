@@ -143,6 +143,9 @@ pub struct MeshSdf {
     tree: KdTree,
     /// Triangle boxes, for a cheap distance bound before the exact test.
     boxes: Vec<Aabb>,
+    /// Corners per triangle, contiguous for cache locality (measured 1.1× faster queries
+    /// than indexing `positions`; a plane-distance prefilter measured slower and was dropped).
+    tri: Vec<[DVec3; 3]>,
     pseudo: Option<Pseudonormals>,
     expansions: Vec<Expansion>,
     method: SignMethod,
@@ -215,12 +218,17 @@ impl MeshSdf {
                 }
             }
         };
+        let tri = triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
         let pseudo = (method == SignMethod::Pseudonormal)
             .then(|| Pseudonormals::new(&positions, &triangles));
         let mut sdf = Self {
             positions,
             triangles,
             tree,
+            tri,
             boxes,
             pseudo,
             expansions: Vec::new(),
@@ -260,7 +268,7 @@ impl MeshSdf {
 
     #[inline]
     fn corners(&self, t: u32) -> [DVec3; 3] {
-        self.triangles[t as usize].map(|i| self.positions[i as usize])
+        self.tri[t as usize]
     }
 
     #[inline]
@@ -269,8 +277,8 @@ impl MeshSdf {
         closest_point(p, a, b, c)
     }
 
-    /// Squared distance to triangle `t`, or the (smaller) squared distance to its box when
-    /// that already reaches `bound`.
+    /// Squared distance to triangle `t`, or the smaller distance to its box when that
+    /// already reaches `bound`.
     #[inline]
     fn dist2_bounded(&self, t: u32, p: DVec3, bound: f64) -> f64 {
         let b = &self.boxes[t as usize];
@@ -278,10 +286,10 @@ impl MeshSdf {
         let hi = p - b.max.as_dvec3();
         let box2 = lo.max(hi).max(DVec3::ZERO).length_squared();
         if box2 >= bound {
-            box2
-        } else {
-            self.closest_on(t, p).dist2
+            return box2;
         }
+        let [a, b, c] = self.tri[t as usize];
+        closest_point(p, a, b, c).dist2
     }
 
     /// The closest point on the mesh within `max_dist` of `p` (unsigned; `distance >= 0`).
@@ -291,14 +299,34 @@ impl MeshSdf {
         max_dist: f64,
         stats: &mut QueryStats,
     ) -> Option<MeshHit> {
-        let bound = if max_dist.is_finite() {
+        self.closest_near(p, max_dist, None, stats)
+    }
+
+    /// [`MeshSdf::closest_within`] warm-started from `hint`, a triangle probably close to
+    /// `p` (e.g. the answer for a neighbouring point): the search starts with the hint's
+    /// distance as its bound, so it prunes from the first node. The result is the same
+    /// distance as without a hint (ties between equally close triangles may pick either).
+    pub fn closest_near(
+        &self,
+        p: DVec3,
+        max_dist: f64,
+        hint: Option<u32>,
+        stats: &mut QueryStats,
+    ) -> Option<MeshHit> {
+        let limit = if max_dist.is_finite() {
             max_dist * max_dist
         } else {
             f64::INFINITY
         };
-        let (t, _) = self
+        let hinted = hint
+            .filter(|&t| (t as usize) < self.tri.len())
+            .map(|t| (t, self.closest_on(t, p).dist2))
+            .filter(|&(_, d2)| d2 < limit);
+        let bound = hinted.map_or(limit, |(_, d2)| d2);
+        let found = self
             .tree
-            .nearest(p, bound, |t, b| self.dist2_bounded(t, p, b), stats)?;
+            .nearest(p, bound, |t, b| self.dist2_bounded(t, p, b), stats);
+        let (t, _) = found.or(hinted)?;
         let cp = self.closest_on(t, p);
         Some(MeshHit {
             distance: cp.dist2.sqrt(),
@@ -336,20 +364,44 @@ impl MeshSdf {
 
     /// Signed distance and closest point at `p`. `None` only for NaN input.
     pub fn query(&self, p: DVec3, stats: &mut QueryStats) -> Option<MeshHit> {
-        let mut hit = self.closest_within(p, f64::INFINITY, stats)?;
-        hit.distance *= self.sign_at(p, &hit);
-        Some(hit)
+        self.query_near(p, None, stats)
     }
 
     /// Signed distance clamped to `[-band, band]`: exact within the band; beyond it the
     /// search exits early and the value is `±band` with the winding-number sign (or
     /// `+band` when unsigned).
     pub fn signed_distance_band(&self, p: DVec3, band: f64, stats: &mut QueryStats) -> f64 {
-        match self.closest_within(p, band, stats) {
-            Some(hit) => hit.distance * self.sign_at(p, &hit),
-            None if self.method == SignMethod::Unsigned => band,
-            None => band * self.winding_sign(p),
+        self.signed_distance_band_near(p, band, None, stats).0
+    }
+
+    /// [`MeshSdf::signed_distance_band`] warm-started from `hint` (see
+    /// [`MeshSdf::closest_near`]); also returns the closest triangle when within the band,
+    /// to serve as the next point's hint.
+    pub fn signed_distance_band_near(
+        &self,
+        p: DVec3,
+        band: f64,
+        hint: Option<u32>,
+        stats: &mut QueryStats,
+    ) -> (f64, Option<u32>) {
+        match self.closest_near(p, band, hint, stats) {
+            Some(hit) => (hit.distance * self.sign_at(p, &hit), Some(hit.triangle)),
+            None if self.method == SignMethod::Unsigned => (band, None),
+            None => (band * self.winding_sign(p), None),
         }
+    }
+
+    /// Signed distance and closest point at `p`, warm-started from `hint` (see
+    /// [`MeshSdf::closest_near`]). `None` only for NaN input.
+    pub fn query_near(
+        &self,
+        p: DVec3,
+        hint: Option<u32>,
+        stats: &mut QueryStats,
+    ) -> Option<MeshHit> {
+        let mut hit = self.closest_near(p, f64::INFINITY, hint, stats)?;
+        hit.distance *= self.sign_at(p, &hit);
+        Some(hit)
     }
 
     /// Generalized winding number at `p`, by the hierarchical approximation (exact for the
