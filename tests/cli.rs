@@ -410,3 +410,141 @@ fn bad_input_gives_one_line_and_exit_code_2() {
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }
+
+/// Exact distance from the icosphere mesh, by brute force over its triangles.
+fn brute_mesh_distance(mesh: &isokit::io::TriMesh, p: glam::DVec3) -> f64 {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+            isokit::kdtree::triangle::closest_point(p, a, b, c).dist2
+        })
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
+}
+
+#[test]
+fn query_gives_exact_signed_distances_and_closest_points() {
+    let d = scratch("query");
+    let mesh_path = data("sphere.obj");
+    let mesh = isokit::io::read_mesh(Path::new(&mesh_path)).unwrap();
+    let mut r = isokit::field::rng::SplitMix64::new(5);
+    let pts: Vec<glam::Vec3> = (0..500)
+        .map(|_| r.point_in(glam::Vec3::splat(-1.5), glam::Vec3::splat(1.5)))
+        .collect();
+    let flat: Vec<f32> = pts.iter().flat_map(|p| p.to_array()).collect();
+    let (p, o, c) = (d.join("p.npy"), d.join("d.npy"), d.join("c.npy"));
+    isokit::io::write_npy_f32(&p, &[pts.len(), 3], &flat).unwrap();
+    let out = isokit(&[
+        "query",
+        &mesh_path,
+        "--points",
+        p.to_str().unwrap(),
+        "-o",
+        o.to_str().unwrap(),
+        "--closest",
+        c.to_str().unwrap(),
+        "--stats",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("sign: pseudonormal"), "{err}");
+    assert!(
+        err.contains("queries/s") && err.contains("nodes visited"),
+        "{err}"
+    );
+    let dist = isokit::io::read_npy(&o).unwrap();
+    let cl = isokit::io::read_npy(&c).unwrap();
+    assert_eq!(dist.shape, vec![500]);
+    assert_eq!(cl.shape, vec![500, 3]);
+    for (i, q) in pts.iter().enumerate() {
+        let want = brute_mesh_distance(&mesh, q.as_dvec3());
+        let got = dist.data[i];
+        assert!(
+            (got.abs() - want).abs() <= 1e-6 * want.max(1e-3),
+            "{got} vs {want}"
+        );
+        // The icosphere lies within 0.005 inside the unit sphere.
+        if (q.length() - 1.0).abs() > 0.01 {
+            assert_eq!(got < 0.0, q.length() < 1.0, "sign at {q}: {got}");
+        }
+        let cp = glam::DVec3::new(cl.data[3 * i], cl.data[3 * i + 1], cl.data[3 * i + 2]);
+        assert!(((cp - q.as_dvec3()).length() - want).abs() < 1e-5);
+    }
+    // Bad shapes of the point array are clear errors.
+    isokit::io::write_npy_f32(&p, &[10, 2], &[0.0; 20]).unwrap();
+    let bad = isokit(&[
+        "query",
+        &mesh_path,
+        "--points",
+        p.to_str().unwrap(),
+        "-o",
+        o.to_str().unwrap(),
+    ]);
+    assert_clear_error(&bad, "(n, 3)");
+}
+
+#[test]
+fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
+    let d = scratch("sdf");
+    let mesh_path = data("torus.off");
+    let mesh = isokit::io::read_mesh(Path::new(&mesh_path)).unwrap();
+    let full = d.join("full.nrrd");
+    let band = d.join("band.nrrd");
+    let o = isokit(&[
+        "sdf",
+        &mesh_path,
+        "--method",
+        "kdtree",
+        "--res",
+        "20",
+        "-o",
+        full.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = isokit(&[
+        "sdf",
+        &mesh_path,
+        "--res",
+        "20",
+        "--band",
+        "0.1",
+        "--padding",
+        "0.3",
+        "-o",
+        band.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = isokit::io::read_volume(&full).unwrap().into_grid().unwrap();
+    assert_eq!(g.dims().iter().max(), Some(&20));
+    for ([i, j, k], v) in g.iter() {
+        let p = g.position(i, j, k).as_dvec3();
+        let want = brute_mesh_distance(&mesh, p);
+        // The tool places samples in f64, `position` in f32: allow that rounding.
+        assert!(((v.abs() as f64) - want).abs() <= 1e-6, "{v} vs {want}");
+        // Inside the tube of the torus (R = 1, r = 0.35) means negative.
+        let tube = ((p.x * p.x + p.y * p.y).sqrt() - 1.0).hypot(p.z);
+        if (tube - 0.35).abs() > 0.02 {
+            assert_eq!(v < 0.0, tube < 0.35, "sign at {p}");
+        }
+    }
+    let b = isokit::io::read_volume(&band).unwrap().into_grid().unwrap();
+    let mut clamped = 0;
+    for ([i, j, k], v) in b.iter() {
+        let p = b.position(i, j, k).as_dvec3();
+        let want = brute_mesh_distance(&mesh, p);
+        if want < 0.1 {
+            assert!(((v.abs() as f64) - want).abs() <= 1e-6, "{v} vs {want}");
+        } else {
+            clamped += 1;
+            assert_eq!(v.abs(), 0.1);
+            let tube = ((p.x * p.x + p.y * p.y).sqrt() - 1.0).hypot(p.z);
+            assert_eq!(v < 0.0, tube < 0.35, "band sign at {p}");
+        }
+    }
+    assert!(clamped > 0);
+}

@@ -107,6 +107,39 @@ def run_isokit(exe, mesh, pts, out, extra):
     return np.load(out).astype(np.float64), build, q, float(m.group(4)), float(m.group(5))
 
 
+def write_svg(rows, path):
+    """A grouped bar chart of queries/s (log scale) per mesh and tool, as plain SVG."""
+    import math
+    meshes = list(dict.fromkeys(r[0] for r in rows))
+    tools = list(dict.fromkeys(r[2] for r in rows))
+    colors = ["#1b9e77", "#66a61e", "#d95f02", "#7570b3", "#e7298a", "#e6ab02", "#a6761d", "#666"]
+    bw, gap, h, top, left = 12, 24, 300, 30, 60
+    width = left + len(meshes) * (len(tools) * bw + gap) + 220
+    lo, hi = 3.0, 7.0  # 1e3 .. 1e7 queries/s
+    y = lambda q: top + h - h * (min(max(math.log10(max(q, 1)), lo), hi) - lo) / (hi - lo)
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{h + 120}" '
+           'font-family="sans-serif" font-size="11">',
+           f'<text x="{left}" y="18" font-size="13">Exact signed-distance queries per second '
+           '(log scale; same machine, same run)</text>']
+    for e in range(int(lo), int(hi) + 1):
+        out.append(f'<line x1="{left}" x2="{width - 220}" y1="{y(10**e)}" y2="{y(10**e)}" stroke="#ddd"/>'
+                   f'<text x="{left - 8}" y="{y(10**e) + 4}" text-anchor="end">1e{e}</text>')
+    for i, m in enumerate(meshes):
+        x0 = left + i * (len(tools) * bw + gap)
+        for j, t in enumerate(tools):
+            q = next((r[3] for r in rows if r[0] == m and r[2] == t), None)
+            if q:
+                out.append(f'<rect x="{x0 + j * bw}" y="{y(q)}" width="{bw - 2}" height="{top + h - y(q)}" '
+                           f'fill="{colors[j % len(colors)]}"><title>{t}: {q:,.0f}/s</title></rect>')
+        out.append(f'<text x="{x0}" y="{top + h + 16}" transform="rotate(20 {x0} {top + h + 16})">{m}</text>')
+    for j, t in enumerate(tools):
+        yy = top + 14 * j
+        out.append(f'<rect x="{width - 210}" y="{yy}" width="10" height="10" fill="{colors[j % len(colors)]}"/>'
+                   f'<text x="{width - 195}" y="{yy + 9}">{t}</text>')
+    out.append("</svg>")
+    pathlib.Path(path).write_text("\n".join(out) + "\n")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--isokit", default="target/release/isokit")
@@ -197,6 +230,7 @@ def main():
     print(table)
     if a.out:
         pathlib.Path(a.out).write_text(table + "\n")
+        write_svg(rows, pathlib.Path(a.out).with_suffix(".svg"))
 
 
 if __name__ == "__main__":

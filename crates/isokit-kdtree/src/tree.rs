@@ -39,8 +39,8 @@ pub struct BuildParams {
 impl Default for BuildParams {
     fn default() -> Self {
         Self {
-            leaf_size: 8,
-            max_overlap: 0.1,
+            leaf_size: 16,
+            max_overlap: 0.3,
             sample_size: 33,
             seed: isokit_field::rng::DEFAULT_SEED,
         }
