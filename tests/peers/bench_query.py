@@ -212,6 +212,8 @@ def main():
             print(f"  pysdf missing: {e}", file=sys.stderr)
         try:
             import trimesh
+            if a.slow_points <= 0:
+                raise ImportError("skipped (--slow-points 0)")
             tm = trimesh.Trimesh(V, F, process=False)
             m = min(a.slow_points, len(P) // 2)
             # Same mix: half near, half uniform.
