@@ -10,6 +10,7 @@
 //! | [`field`] | `isokit-field` | bounds, dense and brick grids, the [`Field`] trait, analytic primitives, filters, curvature, camera |
 //! | [`io`] | `isokit-io` | meshes, point clouds, volumes, images; atomic writes |
 //! | [`kdtree`] | `isokit-kdtree` | exact signed distance to triangle meshes: kd-tree with overlapping siblings, pseudonormal and winding-number signs |
+//! | [`octree`] | `isokit-octree` | adaptively sampled fields in a hashed octree (and the linked octree it is measured against) |
 //!
 //! ## Conventions
 //! Signed distances are negative inside and positive outside. Grids are node-centered
@@ -50,6 +51,7 @@
 pub use isokit_field as field;
 pub use isokit_io as io;
 pub use isokit_kdtree as kdtree;
+pub use isokit_octree as octree;
 
 pub use isokit_field::{Aabb, BrickGrid, Field, Grid};
 

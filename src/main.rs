@@ -31,7 +31,11 @@ enum Command {
     /// A mesh's signed distance sampled on a grid over its bounds (every sample exact, or
     /// exact within a narrow band).
     Sdf(cmd::sdf::Args),
-    /// In-process comparisons to run on your own machine (e.g. `bench kdtree`).
+    /// An adaptively sampled field in a hashed octree (mesh, volume or primitive): cells,
+    /// nodes, bytes per cell, build time, error against the exact field at random points near
+    /// the surface, and the share of the dense finest grid evaluated.
+    Octree(Box<cmd::octree::Args>),
+    /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`).
     #[command(subcommand)]
     Bench(cmd::bench::Bench),
 }
@@ -55,6 +59,7 @@ fn main() -> ExitCode {
         Command::Sample(a) => cmd::sample::run(*a),
         Command::Query(a) => cmd::query::run(a),
         Command::Sdf(a) => cmd::sdf::run(a),
+        Command::Octree(a) => cmd::octree::run(*a),
         Command::Bench(b) => cmd::bench::run(b),
     };
     match result {

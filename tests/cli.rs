@@ -548,3 +548,186 @@ fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
     }
     assert!(clamped > 0);
 }
+
+const OCTREE_KEYS: [&str; 7] = [
+    "cells",
+    "nodes",
+    "bytes_per_cell",
+    "build_seconds",
+    "max_error",
+    "rms_error",
+    "dense_fraction",
+];
+
+#[test]
+fn octree_of_a_primitive_a_mesh_and_a_volume() {
+    let d = scratch("octree");
+    // A primitive: the error at independent points near the surface stays within the bound.
+    let v = json(&isokit(&["octree", "sphere", "--max-level", "6", "--json"]));
+    for k in OCTREE_KEYS {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    let f = |k: &str| v[k].as_f64().unwrap();
+    assert!(f("cells") > 8.0 && f("nodes") > 8.0 && f("bytes_per_cell") > 0.0);
+    assert!(
+        f("dense_fraction") > 0.0 && f("dense_fraction") < 0.5,
+        "{v}"
+    );
+    assert!(
+        f("max_error") > 0.0 && f("max_error") <= f("error_bound"),
+        "{v}"
+    );
+    assert!(f("rms_error") <= f("max_error"));
+    assert_eq!(v["test_points"], 20_000);
+    assert_eq!(v["exact_reference"], true);
+    // A mesh, exported on a grid of the default level min(L, 8).
+    let out = d.join("torus.nrrd");
+    let v = json(&isokit(&[
+        "octree",
+        &data("torus.off"),
+        "--max-level",
+        "5",
+        "--error",
+        "0.01",
+        "--json",
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    for k in OCTREE_KEYS {
+        assert!(v[k].is_number(), "{k} missing: {v}");
+    }
+    assert!(v["what"].as_str().unwrap().contains("pseudonormal"), "{v}");
+    let g = isokit::io::read_volume(&out).unwrap().into_grid().unwrap();
+    assert_eq!(g.dims(), [33, 33, 33]);
+    let (lo, hi) = g.min_max().unwrap();
+    assert!(lo < -0.3 && hi > 0.5, "{lo} {hi}");
+    // A volume: its trilinear field is both the input and the reference.
+    let vol = d.join("ball.nrrd");
+    let o = isokit(&[
+        "sample",
+        "sphere",
+        "--res",
+        "33",
+        "-o",
+        vol.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v = json(&isokit(&[
+        "octree",
+        vol.to_str().unwrap(),
+        "--max-level",
+        "5",
+        "--test-points",
+        "2000",
+        "--json",
+    ]));
+    assert_eq!(v["exact_reference"], false);
+    assert!(v["reference"].as_str().unwrap().contains("trilinear"));
+    assert!(
+        v["max_error"].as_f64().unwrap() <= v["error_bound"].as_f64().unwrap(),
+        "{v}"
+    );
+    // Text output names the figures.
+    let o = isokit(&["octree", "torus", "--max-level", "4"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for w in [
+        "cells",
+        "nodes",
+        "bytes per cell",
+        "built in",
+        "max",
+        "rms",
+        "dense",
+    ] {
+        assert!(text.contains(w), "'{w}' not in {text}");
+    }
+}
+
+#[test]
+fn octree_refuses_bad_input_with_one_line() {
+    assert_clear_error(
+        &isokit(&["octree", "no-such-input", "--max-level", "4"]),
+        "not a primitive name",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "sphere", "--max-level", "22"]),
+        "--max-level 22",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "plane", "--max-level", "4"]),
+        "unbounded",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "sphere", "--max-level", "4", "--min-level", "5"]),
+        "min level",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "sphere", "--max-level", "4", "--error", "-1"]),
+        "error",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "sphere", "--max-level", "4", "-o", "x.txt"]),
+        "unknown output format",
+    );
+    assert_clear_error(
+        &isokit(&["octree", "sphere", "--max-level", "21", "--bottom-up"]),
+        "too large",
+    );
+    assert_clear_error(
+        &isokit(&[
+            "octree",
+            "sphere",
+            "--max-level",
+            "9",
+            "--max-cells",
+            "1000",
+        ]),
+        "more than 1000 cells",
+    );
+    assert_clear_error(&isokit(&["octree", "sphere"]), "isokit octree --help");
+}
+
+#[test]
+fn bench_octree_reports_both_trees_per_level() {
+    let v = json(&isokit(&[
+        "bench",
+        "octree",
+        "--json",
+        "--accesses",
+        "3000",
+        "--first-level",
+        "3",
+        "--last-level",
+        "5",
+        "--repeat",
+        "1",
+    ]));
+    let levels = v["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 6, "two datasets x three levels: {v}");
+    assert_eq!(levels[0], 3);
+    assert_eq!(v["datasets"].as_array().unwrap().len(), 6);
+    for k in [
+        "hashed_seconds",
+        "linked_seconds",
+        "hashed_bytes_per_cell",
+        "linked_bytes_per_cell",
+    ] {
+        let col = v[k].as_array().unwrap_or_else(|| panic!("{k}: {v}"));
+        assert_eq!(col.len(), 6, "{k}");
+        assert!(
+            col.iter().all(|x| x.as_f64().unwrap() > 0.0),
+            "{k}: {col:?}"
+        );
+    }
+    // The hashed tree is smaller per cell.
+    for (h, l) in v["hashed_bytes_per_cell"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(v["linked_bytes_per_cell"].as_array().unwrap())
+    {
+        assert!(h.as_f64().unwrap() < l.as_f64().unwrap());
+    }
+    assert_eq!(v["accesses"], 3000);
+}

@@ -2,7 +2,6 @@
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
-use isokit_field::rng::SplitMix64;
 use isokit_io::{TriMesh, generate, read_mesh};
 use isokit_kdtree::tree::TreeStats;
 use isokit_kdtree::{BuildParams, MeshOptions, MeshSdf, QueryStats, SignMode};
@@ -18,6 +17,10 @@ pub enum Bench {
     /// same mesh, same points): build time, queries per second, nodes visited and triangles
     /// tested per query, and a check that both give identical distances.
     Kdtree(KdtreeArgs),
+    /// The hashed octree against the linked octree (002 Table 3.1): time for random cell
+    /// accesses near the surface of a sphere and of a trefoil tube, levels 5 to 10, and
+    /// bytes per cell of both.
+    Octree(super::octree::BenchArgs),
 }
 
 /// Arguments of `isokit bench kdtree`.
@@ -47,28 +50,8 @@ pub struct KdtreeArgs {
 pub fn run(b: Bench) -> Result<()> {
     match b {
         Bench::Kdtree(a) => kdtree(a),
+        Bench::Octree(a) => super::octree::bench(a),
     }
-}
-
-/// Points near the surface and uniform in the padded bounds.
-fn query_points(mesh: &TriMesh, n: usize, seed: u64) -> Vec<DVec3> {
-    let mut r = SplitMix64::new(seed);
-    let b = mesh.bounds();
-    let d = b.diagonal();
-    (0..n)
-        .map(|i| {
-            if i % 2 == 0 {
-                let t = mesh.triangles[r.below(mesh.triangles.len())];
-                let [a, bb, c] = t.map(|v| mesh.positions[v as usize]);
-                let (u, v) = (r.next_f32().sqrt(), r.next_f32());
-                let on = (1.0 - u) * a + u * (1.0 - v) * bb + u * v * c;
-                (on + r.unit_vector() * (0.05 * d * r.next_f32())).as_dvec3()
-            } else {
-                let pad = 0.1 * b.size();
-                r.point_in(b.min - pad, b.max + pad).as_dvec3()
-            }
-        })
-        .collect()
 }
 
 struct Run {
@@ -125,7 +108,10 @@ fn kdtree(a: KdtreeArgs) -> Result<()> {
             generate::tube(|u| generate::trefoil(u, 0.5), 0.18, 192, 16),
         ),
     };
-    let points = query_points(&mesh, a.points, a.seed);
+    let points: Vec<DVec3> = generate::query_points(&mesh, a.points, 0.05, a.seed)
+        .into_iter()
+        .map(|p| p.as_dvec3())
+        .collect();
     let overlap = BuildParams {
         leaf_size: a.leaf_size,
         max_overlap: a.max_overlap,

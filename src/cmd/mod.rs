@@ -4,6 +4,7 @@ pub mod bench;
 pub mod convert;
 pub mod info;
 pub mod mesh_args;
+pub mod octree;
 pub mod progress;
 pub mod query;
 pub mod sample;

@@ -14,6 +14,17 @@ pub const MAX_SAMPLES: usize = 1 << 31;
 /// 2 to stay under [`MAX_SAMPLES`].)
 pub const MAX_AXIS: usize = i32::MAX as usize / 2;
 
+/// Smallest and largest finite value of a slice, or `None` when none is finite.
+pub fn finite_min_max(values: &[f32]) -> Option<(f32, f32)> {
+    let (lo, hi) = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    (lo <= hi).then_some((lo, hi))
+}
+
 /// Checks dimensions against [`MAX_SAMPLES`] and [`MAX_AXIS`] and returns the sample count.
 /// Errors: [`FieldError::EmptyDims`] (an axis is 0), [`FieldError::AxisTooLong`],
 /// [`FieldError::TooLarge`].
@@ -242,14 +253,7 @@ impl Grid {
 
     /// Smallest and largest finite sample, or `None` when no sample is finite.
     pub fn min_max(&self) -> Option<(f32, f32)> {
-        let (lo, hi) = self
-            .data
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
-                (lo.min(v), hi.max(v))
-            });
-        (lo <= hi).then_some((lo, hi))
+        finite_min_max(&self.data)
     }
 
     /// Iterates `((i, j, k), value)` in storage order.

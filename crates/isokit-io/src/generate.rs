@@ -252,3 +252,35 @@ pub fn torus_cloud(major: f32, minor: f32, n: usize, seed: u64) -> PointCloud {
         normals: Some(normals),
     }
 }
+
+/// `n` query points for benchmarks: even indices lie within `band` (a fraction of the
+/// bounding diagonal) of the surface (a random point of a random triangle, moved by a random
+/// offset), odd ones are uniform in the bounds padded by 10% on every side. Deterministic
+/// for a seed. Empty for a mesh without triangles.
+pub fn query_points(mesh: &TriMesh, n: usize, band: f32, seed: u64) -> Vec<Vec3> {
+    if mesh.triangles.is_empty() {
+        return Vec::new();
+    }
+    let mut r = SplitMix64::new(seed);
+    let b = mesh.bounds();
+    let d = b.diagonal();
+    let pad = 0.1 * b.size();
+    (0..n)
+        .map(|i| {
+            if i % 2 == 0 {
+                let t = mesh.triangles[r.below(mesh.triangles.len())];
+                let [a, bb, c] = t.map(|v| {
+                    mesh.positions
+                        .get(v as usize)
+                        .copied()
+                        .unwrap_or(Vec3::ZERO)
+                });
+                let (u, v) = (r.next_f32().sqrt(), r.next_f32());
+                let on = (1.0 - u) * a + u * (1.0 - v) * bb + u * v * c;
+                on + r.unit_vector() * (band * d * r.next_f32())
+            } else {
+                r.point_in(b.min - pad, b.max + pad)
+            }
+        })
+        .collect()
+}

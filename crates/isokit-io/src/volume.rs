@@ -84,14 +84,7 @@ impl Volume {
 
     /// Smallest and largest finite sample, or `None` when no sample is finite.
     pub fn min_max(&self) -> Option<(f32, f32)> {
-        let (lo, hi) = self
-            .data
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
-                (lo.min(v), hi.max(v))
-            });
-        (lo <= hi).then_some((lo, hi))
+        isokit_field::finite_min_max(&self.data)
     }
 
     /// Converts to a [`Grid`] when the spacing is the same on all axes within

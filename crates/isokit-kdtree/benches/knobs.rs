@@ -7,29 +7,10 @@
 //! the dependency tree lean; each cell is the best of three runs.
 
 use glam::{DVec3, Vec3};
-use isokit_field::rng::SplitMix64;
-use isokit_io::{TriMesh, generate};
+use isokit_io::generate;
 use isokit_kdtree::{BuildParams, MeshOptions, MeshSdf, QueryStats, SignMode};
 use rayon::prelude::*;
 use std::time::Instant;
-
-fn points(mesh: &TriMesh, n: usize) -> Vec<DVec3> {
-    let mut r = SplitMix64::new(7);
-    let b = mesh.bounds();
-    let d = b.diagonal();
-    (0..n)
-        .map(|i| {
-            if i % 2 == 0 {
-                let t = mesh.triangles[r.below(mesh.triangles.len())];
-                let v = mesh.positions[t[0] as usize];
-                (v + r.unit_vector() * (0.05 * d * r.next_f32())).as_dvec3()
-            } else {
-                r.point_in(b.min - 0.1 * b.size(), b.max + 0.1 * b.size())
-                    .as_dvec3()
-            }
-        })
-        .collect()
-}
 
 fn main() {
     let meshes = [
@@ -44,7 +25,10 @@ fn main() {
     );
     println!("| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
     for (name, mesh) in &meshes {
-        let pts = points(mesh, 100_000);
+        let pts: Vec<DVec3> = generate::query_points(mesh, 100_000, 0.05, 7)
+            .into_iter()
+            .map(|p| p.as_dvec3())
+            .collect();
         for leaf in [2, 4, 8, 16] {
             for overlap in [0.0, 0.05, 0.1, 0.3, 1.0] {
                 let tree = BuildParams {
