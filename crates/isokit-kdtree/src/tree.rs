@@ -108,6 +108,9 @@ pub struct TreeStats {
 #[derive(Clone, Debug)]
 pub struct KdTree {
     nodes: Vec<Node>,
+    /// Tight box of every node's subtree (its own primitives and all below), a second lower
+    /// bound besides the planes.
+    node_boxes: Vec<Aabb>,
     order: Vec<u32>,
     bounds: Aabb,
     params: BuildParams,
@@ -118,7 +121,11 @@ pub struct KdTree {
 #[derive(Clone, Copy)]
 struct PointEntry {
     node: u32,
+    /// The larger of the two lower bounds below.
     lb2: f64,
+    /// Squared distance to the box the ancestors' planes cut out (kept apart: it is updated
+    /// incrementally).
+    plane2: f64,
     off: [f64; 3],
 }
 
@@ -132,7 +139,8 @@ struct Builder<'a> {
 }
 
 impl KdTree {
-    /// Builds the tree over primitives with the given boxes. Primitives with non-finite or
+    /// Builds the tree over primitives with the given boxes. Each box must contain its
+    /// primitive (queries use box distances as lower bounds). Primitives with non-finite or
     /// empty boxes are left out (they can never be found); the ids the queries report are
     /// indices into `boxes`.
     pub fn build(boxes: &[Aabb], params: BuildParams) -> Self {
@@ -166,8 +174,21 @@ impl KdTree {
         if !ids.is_empty() {
             b.build(ids, 0);
         }
+        // Children have larger indices than their parent: fill boxes bottom-up.
+        let mut node_boxes = vec![Aabb::EMPTY; b.nodes.len()];
+        for i in (0..b.nodes.len()).rev() {
+            let n = b.nodes[i];
+            let own = b.order[n.first as usize..(n.first + n.count) as usize]
+                .iter()
+                .fold(Aabb::EMPTY, |acc, &id| acc.union(&boxes[id as usize]));
+            node_boxes[i] = [n.left, n.right]
+                .into_iter()
+                .filter(|&c| c != NONE)
+                .fold(own, |acc, c| acc.union(&node_boxes[c as usize]));
+        }
         Self {
             nodes: b.nodes,
+            node_boxes,
             order: b.order,
             bounds,
             params,
@@ -198,7 +219,8 @@ impl KdTree {
     pub fn stats(&self) -> TreeStats {
         let mut s = TreeStats {
             nodes: self.nodes.len(),
-            bytes: self.nodes.len() * size_of::<Node>() + self.order.len() * 4,
+            bytes: self.nodes.len() * (size_of::<Node>() + size_of::<Aabb>())
+                + self.order.len() * 4,
             ..Default::default()
         };
         let mut stack = vec![(0u32, 0usize)];
@@ -253,9 +275,11 @@ impl KdTree {
     fn root_entry(&self, p: DVec3) -> PointEntry {
         let (lo, hi) = (self.bounds.min.as_dvec3(), self.bounds.max.as_dvec3());
         let off: [f64; 3] = std::array::from_fn(|a| (lo[a] - p[a]).max(p[a] - hi[a]).max(0.0));
+        let lb2 = off.iter().map(|o| o * o).sum();
         PointEntry {
             node: 0,
-            lb2: off.iter().map(|o| o * o).sum(),
+            lb2,
+            plane2: lb2,
             off,
         }
     }
@@ -277,9 +301,16 @@ impl KdTree {
             let o = e.off[a].max(plane_off);
             let mut off = e.off;
             off[a] = o;
+            let plane2 = e.plane2 - e.off[a] * e.off[a] + o * o;
+            // The subtree's own tight box is never looser than the planes' box.
+            let b = &self.node_boxes[c as usize];
+            let lo = b.min.as_dvec3() - p;
+            let hi = p - b.max.as_dvec3();
+            let box2 = lo.max(hi).max(DVec3::ZERO).length_squared();
             PointEntry {
                 node: c,
-                lb2: e.lb2 - e.off[a] * e.off[a] + o * o,
+                lb2: plane2.max(box2),
+                plane2,
                 off,
             }
         };
@@ -706,8 +737,9 @@ mod tests {
                 let p = r.point_in(Vec3::splat(-1.0), Vec3::splat(1.0)).as_dvec3();
                 // A few long ones that must stay at inner nodes.
                 let len = if i % 50 == 0 { 0.8 } else { 0.03 };
-                a.push(p);
-                b.push(p + r.unit_vector().as_dvec3() * len);
+                // f32-exact ends, so the f32 boxes contain the segments (the tree's contract).
+                a.push(p.as_vec3().as_dvec3());
+                b.push((p + r.unit_vector().as_dvec3() * len).as_vec3().as_dvec3());
             }
             Self { a, b }
         }
