@@ -35,6 +35,10 @@ enum Command {
     /// nodes, bytes per cell, build time, error against the exact field at random points near
     /// the surface, and the share of the dense finest grid evaluated.
     Octree(Box<cmd::octree::Args>),
+    /// A point cloud's approximate signed distance on a grid: partition of unity of linear
+    /// fields through the samples, blended with the distance to the closest sample far away;
+    /// normals given or estimated.
+    Points(Box<cmd::points::Args>),
     /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`).
     #[command(subcommand)]
     Bench(cmd::bench::Bench),
@@ -60,6 +64,7 @@ fn main() -> ExitCode {
         Command::Query(a) => cmd::query::run(a),
         Command::Sdf(a) => cmd::sdf::run(a),
         Command::Octree(a) => cmd::octree::run(*a),
+        Command::Points(a) => cmd::points::run(*a),
         Command::Bench(b) => cmd::bench::run(b),
     };
     match result {

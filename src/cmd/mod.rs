@@ -5,6 +5,7 @@ pub mod convert;
 pub mod info;
 pub mod mesh_args;
 pub mod octree;
+pub mod points;
 pub mod progress;
 pub mod query;
 pub mod sample;

@@ -15,7 +15,8 @@ use std::time::Instant;
 /// Arguments of `isokit query`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Triangle mesh (.obj .gltf .glb .ply .stl .off).
+    /// Triangle mesh (.obj .gltf .glb .ply .stl .off), or a point cloud (.xyz, .ply without
+    /// faces): then the distances are those of `isokit points` (approximate).
     pub mesh: PathBuf,
     /// Query points: an (n, 3) NPY array of f32 or f64 (C order).
     #[arg(long)]
@@ -80,6 +81,9 @@ pub fn run(a: Args) -> Result<()> {
         .chunks_exact(3)
         .map(|c| DVec3::new(c[0], c[1], c[2]))
         .collect();
+    if isokit_io::detect_kind(&a.mesh)? == isokit_io::FileKind::PointCloud {
+        return super::points::query_cloud(&a.mesh, &points, &a.output, a.closest.is_some());
+    }
     let mesh = read_mesh(&a.mesh)?;
     let t0 = Instant::now();
     let sdf =
