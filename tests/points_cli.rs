@@ -1,29 +1,8 @@
 //! End-to-end tests of `isokit points`: the shipped torus cloud through the real binary.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn isokit(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_isokit"))
-        .args(args)
-        .output()
-        .expect("the isokit binary runs")
-}
-
-fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("isokit-points-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::*;
 
 /// Exact signed distance of the shipped torus (R = 1, r = 0.35, z axis).
 fn torus(p: glam::Vec3) -> f32 {
