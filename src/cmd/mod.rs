@@ -47,3 +47,47 @@ pub fn check_output(path: &std::path::Path, allowed: &[&str]) -> anyhow::Result<
     }
     Ok(())
 }
+
+/// The empty output grid over `bounds` padded by `padding` (default: 10% of the diagonal),
+/// `res` samples along the longest side. Made before any expensive work, so an absurd size is
+/// refused at once.
+pub fn padded_grid(
+    bounds: isokit_field::Aabb,
+    res: usize,
+    padding: Option<f32>,
+) -> anyhow::Result<isokit_field::Grid> {
+    let pad = padding.unwrap_or(0.1 * bounds.diagonal());
+    if !(pad.is_finite() && pad >= 0.0) {
+        bail!("--padding {pad} must be finite and non-negative");
+    }
+    Ok(isokit_field::Grid::covering(bounds, res, pad)?)
+}
+
+/// Fills `grid` one z-slice per parallel task, with a progress line labelled `label`:
+/// `slice(k, positions, values)` receives the f64 positions of slice `k` (x fastest) and
+/// writes the values; the per-slice results are combined with `merge`.
+pub fn fill_slices<S: Send + Default>(
+    grid: &mut isokit_field::Grid,
+    label: &'static str,
+    slice: impl Fn(usize, &mut dyn Iterator<Item = glam::DVec3>, &mut [f32]) -> S + Sync,
+    merge: impl Fn(S, S) -> S + Sync + Send,
+) -> S {
+    use rayon::prelude::*;
+    let [nx, ny, _] = grid.dims();
+    let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
+    let progress = progress::Progress::new(label, grid.len() as u64);
+    let out = grid
+        .data_mut()
+        .par_chunks_mut(nx * ny)
+        .enumerate()
+        .map(|(k, values)| {
+            let mut pos = (0..nx * ny)
+                .map(|n| origin + h * glam::DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64));
+            let s = slice(k, &mut pos, values);
+            progress.advance(values.len() as u64);
+            s
+        })
+        .reduce(S::default, &merge);
+    progress.finish();
+    out
+}

@@ -2,9 +2,7 @@
 //! (partition of unity of linear fields, far-field blend) sampled on a grid.
 
 use super::check_output;
-use super::progress::Progress;
 use anyhow::{Context, Result, bail};
-use isokit_field::Grid;
 use isokit_io::{Volume, read_points, write_volume};
 use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions, Weighting};
 use rayon::prelude::*;
@@ -77,6 +75,11 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let cloud = read_points(&a.cloud)?;
+    let mut grid = super::padded_grid(
+        isokit_field::Aabb::from_points(&cloud.points),
+        a.res,
+        a.padding,
+    )?;
     let source = match a.normals {
         Some(Normals::Given) => NormalSource::Given,
         Some(Normals::Estimate) => NormalSource::Estimate(NormalOptions {
@@ -138,28 +141,18 @@ pub fn run(a: Args) -> Result<()> {
     }
     eprintln!("build: {build:.2} s");
 
-    let bounds = isokit_field::Field::bounds(&sdf);
-    let pad = a.padding.unwrap_or(0.1 * bounds.diagonal());
-    if !(pad.is_finite() && pad >= 0.0) {
-        bail!("--padding {pad} must be finite and non-negative");
-    }
-    let mut grid = Grid::covering(bounds, a.res, pad)?;
-    let [nx, ny, _] = grid.dims();
-    let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
-    let progress = Progress::new("points", grid.len() as u64);
     let t = Instant::now();
     let band = a.band.unwrap_or(f32::INFINITY);
-    grid.data_mut()
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .for_each(|(k, slice)| {
-            for (n, v) in slice.iter_mut().enumerate() {
-                let p = origin + h * glam::DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64);
+    super::fill_slices(
+        &mut grid,
+        "points",
+        |_, positions, values| {
+            for (p, v) in positions.zip(values.iter_mut()) {
                 *v = (sdf.evaluate(p).value as f32).clamp(-band, band);
             }
-            progress.advance(slice.len() as u64);
-        });
-    progress.finish();
+        },
+        |(), ()| (),
+    );
     let secs = t.elapsed().as_secs_f64();
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
     write_volume(&a.output, &Volume::from(grid))?;

@@ -2,13 +2,10 @@
 
 use super::check_output;
 use super::mesh_args::MeshKnobs;
-use super::progress::Progress;
 use anyhow::{Context, Result, bail};
-use isokit_field::Grid;
 use isokit_io::{Volume, read_mesh, write_volume};
 use isokit_kdtree::mesh::MeshSdf;
 use isokit_kdtree::tree::QueryStats;
-use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -53,42 +50,34 @@ pub fn run(a: Args) -> Result<()> {
         }
     }
     let mesh = read_mesh(&a.mesh)?;
+    if mesh.triangles.is_empty() {
+        bail!("{}: the mesh has no triangles", a.mesh.display());
+    }
+    let mut grid = super::padded_grid(mesh.bounds(), a.res, a.padding)?;
     let sdf =
         MeshSdf::new(&mesh, a.knobs.options()).with_context(|| a.mesh.display().to_string())?;
     eprintln!("sign: {} ({})", sdf.sign_method().name(), sdf.sign_reason());
-    let bounds = sdf.tree().bounds();
-    let pad = a.padding.unwrap_or(0.1 * bounds.diagonal());
-    if !(pad.is_finite() && pad >= 0.0) {
-        bail!("--padding {pad} must be finite and non-negative");
-    }
-    let mut grid = Grid::covering(bounds, a.res, pad)?;
-    let [nx, ny, _] = grid.dims();
-    let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
-    let progress = Progress::new("sdf", grid.len() as u64);
     let t = Instant::now();
     let band = a.band.unwrap_or(f64::INFINITY);
-    let stats = grid
-        .data_mut()
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .map(|(k, slice)| {
+    let stats = super::fill_slices(
+        &mut grid,
+        "sdf",
+        |_, positions, values| {
             let mut st = QueryStats::default();
             // Neighbouring samples share their closest triangle more often than not.
             let mut hint = None;
-            for (n, v) in slice.iter_mut().enumerate() {
-                let p = origin + h * glam::DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64);
+            for (p, v) in positions.zip(values.iter_mut()) {
                 let (d, t) = sdf.signed_distance_band_near(p, band, hint, &mut st);
                 hint = t.or(hint);
                 *v = d as f32;
             }
-            progress.advance(slice.len() as u64);
             st
-        })
-        .reduce(QueryStats::default, |mut a, b| {
+        },
+        |mut a, b| {
             a += b;
             a
-        });
-    progress.finish();
+        },
+    );
     let secs = t.elapsed().as_secs_f64();
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
     let inside_band = a.band.map(|_| {
