@@ -340,29 +340,16 @@ impl KdTree {
         mut dist2: impl FnMut(u32, f64) -> f64,
         stats: &mut QueryStats,
     ) -> Option<(u32, f64)> {
-        if self.nodes.is_empty() || p.is_nan() {
-            return None;
-        }
         let mut best: Option<(u32, f64)> = None;
-        let mut bound = max_dist2;
-        let mut stack = Vec::with_capacity(STACK);
-        stack.push(self.root_entry(p));
-        while let Some(e) = stack.pop() {
-            if e.lb2 >= bound {
-                continue;
+        self.walk_point(p, max_dist2, stats, |id, bound| {
+            let d = dist2(id, bound);
+            if d < bound {
+                best = Some((id, d));
+                d
+            } else {
+                bound
             }
-            let node = &self.nodes[e.node as usize];
-            stats.nodes_visited += 1;
-            for &id in &self.order[node.first as usize..(node.first + node.count) as usize] {
-                stats.prims_tested += 1;
-                let d = dist2(id, bound);
-                if d < bound {
-                    bound = d;
-                    best = Some((id, d));
-                }
-            }
-            self.push_children(&e, node, p, bound, &mut stack);
-        }
+        });
         best
     }
 
@@ -388,37 +375,25 @@ impl KdTree {
                 self.0.total_cmp(&o.0).then(self.1.cmp(&o.1))
             }
         }
-        if k == 0 || self.nodes.is_empty() || p.is_nan() {
+        if k == 0 {
             return Vec::new();
         }
         let mut heap: BinaryHeap<Item> = BinaryHeap::with_capacity(k + 1);
-        let mut stack = Vec::with_capacity(STACK);
-        stack.push(self.root_entry(p));
-        let bound = |h: &BinaryHeap<Item>| {
-            if h.len() < k {
-                f64::INFINITY
-            } else {
-                h.peek().map_or(f64::INFINITY, |i| i.0)
-            }
-        };
-        while let Some(e) = stack.pop() {
-            if e.lb2 >= bound(&heap) {
-                continue;
-            }
-            let node = &self.nodes[e.node as usize];
-            stats.nodes_visited += 1;
-            for &id in &self.order[node.first as usize..(node.first + node.count) as usize] {
-                stats.prims_tested += 1;
-                let d = dist2(id, bound(&heap));
-                if d < bound(&heap) {
-                    heap.push(Item(d, id));
-                    if heap.len() > k {
-                        heap.pop();
-                    }
+        self.walk_point(p, f64::INFINITY, stats, |id, bound| {
+            let d = dist2(id, bound);
+            if d < bound {
+                heap.push(Item(d, id));
+                if heap.len() > k {
+                    heap.pop();
                 }
             }
-            self.push_children(&e, node, p, bound(&heap), &mut stack);
-        }
+            // The k-th distance once k are found.
+            if heap.len() < k {
+                f64::INFINITY
+            } else {
+                heap.peek().map_or(f64::INFINITY, |i| i.0)
+            }
+        });
         heap.into_sorted_vec()
             .into_iter()
             .map(|Item(d, id)| (id, d))
@@ -435,30 +410,49 @@ impl KdTree {
         stats: &mut QueryStats,
     ) -> Vec<(u32, f64)> {
         let mut out = Vec::new();
-        if self.nodes.is_empty() || p.is_nan() || radius.is_nan() || radius < 0.0 {
+        if radius.is_nan() || radius < 0.0 {
             return out;
         }
         let r2 = radius * radius;
-        // Strictly-greater pruning keeps primitives exactly at the radius.
+        // Pruning at a bound a hair above r² keeps primitives exactly at the radius.
         let bound = r2 * (1.0 + 1e-12) + f64::MIN_POSITIVE;
+        self.walk_point(p, bound, stats, |id, bound| {
+            let d = dist2(id, bound);
+            if d <= r2 {
+                out.push((id, d));
+            }
+            bound
+        });
+        out
+    }
+
+    /// The depth-first walk behind the point queries, near child first: `visit(id, bound)`
+    /// measures one primitive of a node whose lower bound is below the current bound and
+    /// returns the new bound; nodes and children at or beyond it are skipped.
+    fn walk_point(
+        &self,
+        p: DVec3,
+        mut bound: f64,
+        stats: &mut QueryStats,
+        mut visit: impl FnMut(u32, f64) -> f64,
+    ) {
+        if self.nodes.is_empty() || p.is_nan() {
+            return;
+        }
         let mut stack = Vec::with_capacity(STACK);
         stack.push(self.root_entry(p));
         while let Some(e) = stack.pop() {
-            if e.lb2 > r2 {
+            if e.lb2 >= bound {
                 continue;
             }
             let node = &self.nodes[e.node as usize];
             stats.nodes_visited += 1;
             for &id in &self.order[node.first as usize..(node.first + node.count) as usize] {
                 stats.prims_tested += 1;
-                let d = dist2(id, bound);
-                if d <= r2 {
-                    out.push((id, d));
-                }
+                bound = visit(id, bound);
             }
             self.push_children(&e, node, p, bound, &mut stack);
         }
-        out
     }
 
     /// The first primitive hit by the ray `origin + t * dir` for `t` in `[0, t_max]`.
