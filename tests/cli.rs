@@ -9,7 +9,7 @@ use std::path::Path;
 fn sample_writes_an_exact_sphere_distance() {
     let d = scratch("sample");
     let out = d.join("s.nrrd");
-    let o = isokit(&[
+    isokit_ok(&[
         "sample",
         "sphere",
         "--radius",
@@ -19,7 +19,6 @@ fn sample_writes_an_exact_sphere_distance() {
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v = isokit::io::read_volume(&out).unwrap();
     let g = v.into_grid().unwrap();
     assert_eq!(g.dims(), [33, 33, 33]);
@@ -38,7 +37,7 @@ fn sample_writes_an_exact_sphere_distance() {
 fn sample_applies_transforms_and_needs_bounds_for_planes() {
     let d = scratch("transform");
     let out = d.join("t.nrrd");
-    let o = isokit(&[
+    isokit_ok(&[
         "sample",
         "torus",
         "--major",
@@ -54,7 +53,6 @@ fn sample_applies_transforms_and_needs_bounds_for_planes() {
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let g = isokit::io::read_volume(&out).unwrap().into_grid().unwrap();
     // The torus (axis z, R = 1, r = 0.25) turned 90° about x has its axis along y, then
     // moves to centre (0, 0, 2): its distance is |(|(x, z − 2)| − 1, y)| − 0.25.
@@ -364,18 +362,6 @@ fn bad_input_gives_one_line_and_exit_code_2() {
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
 }
 
-/// Exact distance from the icosphere mesh, by brute force over its triangles.
-fn brute_mesh_distance(mesh: &isokit::io::TriMesh, p: glam::DVec3) -> f64 {
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-            isokit::kdtree::triangle::closest_point(p, a, b, c).dist2
-        })
-        .fold(f64::INFINITY, f64::min)
-        .sqrt()
-}
-
 #[test]
 fn query_gives_exact_signed_distances_and_closest_points() {
     let d = scratch("query");
@@ -415,7 +401,7 @@ fn query_gives_exact_signed_distances_and_closest_points() {
     assert_eq!(dist.shape, vec![500]);
     assert_eq!(cl.shape, vec![500, 3]);
     for (i, q) in pts.iter().enumerate() {
-        let want = brute_mesh_distance(&mesh, q.as_dvec3());
+        let want = isokit::kdtree::mesh::brute_force_distance(&mesh, q.as_dvec3());
         let got = dist.data[i];
         assert!(
             (got.abs() - want).abs() <= 1e-6 * want.max(1e-3),
@@ -448,7 +434,7 @@ fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
     let mesh = isokit::io::read_mesh(Path::new(&mesh_path)).unwrap();
     let full = d.join("full.nrrd");
     let band = d.join("band.nrrd");
-    let o = isokit(&[
+    isokit_ok(&[
         "sdf",
         &mesh_path,
         "--method",
@@ -458,8 +444,7 @@ fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
         "-o",
         full.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = isokit(&[
+    isokit_ok(&[
         "sdf",
         &mesh_path,
         "--res",
@@ -471,12 +456,11 @@ fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
         "-o",
         band.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let g = isokit::io::read_volume(&full).unwrap().into_grid().unwrap();
     assert_eq!(g.dims().iter().max(), Some(&20));
     for ([i, j, k], v) in g.iter() {
         let p = g.position(i, j, k).as_dvec3();
-        let want = brute_mesh_distance(&mesh, p);
+        let want = isokit::kdtree::mesh::brute_force_distance(&mesh, p);
         // The tool places samples in f64, `position` in f32: allow that rounding.
         assert!(((v.abs() as f64) - want).abs() <= 1e-6, "{v} vs {want}");
         // Inside the tube of the torus (R = 1, r = 0.35) means negative.
@@ -489,7 +473,7 @@ fn sdf_grid_is_exact_and_the_band_clamps_with_the_right_sign() {
     let mut clamped = 0;
     for ([i, j, k], v) in b.iter() {
         let p = b.position(i, j, k).as_dvec3();
-        let want = brute_mesh_distance(&mesh, p);
+        let want = isokit::kdtree::mesh::brute_force_distance(&mesh, p);
         if want < 0.1 {
             assert!(((v.abs() as f64) - want).abs() <= 1e-6, "{v} vs {want}");
         } else {
@@ -556,7 +540,7 @@ fn octree_of_a_primitive_a_mesh_and_a_volume() {
     assert!(lo < -0.3 && hi > 0.5, "{lo} {hi}");
     // A volume: its trilinear field is both the input and the reference.
     let vol = d.join("ball.nrrd");
-    let o = isokit(&[
+    isokit_ok(&[
         "sample",
         "sphere",
         "--res",
@@ -564,7 +548,6 @@ fn octree_of_a_primitive_a_mesh_and_a_volume() {
         "-o",
         vol.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v = json(&isokit(&[
         "octree",
         vol.to_str().unwrap(),

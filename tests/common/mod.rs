@@ -14,6 +14,18 @@ pub fn isokit(args: &[&str]) -> Output {
         .expect("the isokit binary runs")
 }
 
+/// Runs `isokit` with `args` and checks that it succeeded (printing its stderr if not).
+pub fn isokit_ok(args: &[&str]) -> Output {
+    let out = isokit(args);
+    assert!(
+        out.status.success(),
+        "isokit {} failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Path of a file in `data/`.
 pub fn data(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

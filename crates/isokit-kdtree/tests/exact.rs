@@ -4,7 +4,7 @@
 use glam::{DVec3, Vec3};
 use isokit_field::rng::SplitMix64;
 use isokit_io::{TriMesh, read_mesh};
-use isokit_kdtree::triangle::closest_point;
+use isokit_kdtree::mesh::brute_force_distance;
 use isokit_kdtree::{BuildParams, MeshOptions, MeshSdf, QueryStats, SignMode};
 use std::path::Path;
 
@@ -31,17 +31,6 @@ fn shipped(name: &str) -> TriMesh {
         .join("../../data")
         .join(name);
     read_mesh(&p).unwrap()
-}
-
-fn brute(mesh: &TriMesh, p: DVec3) -> f64 {
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-            closest_point(p, a, b, c).dist2
-        })
-        .fold(f64::INFINITY, f64::min)
-        .sqrt()
 }
 
 /// Query points: uniform in the padded box, far away, on every kind of feature.
@@ -96,7 +85,7 @@ fn distances_and_closest_points_match_brute_force() {
             let overlap = MeshSdf::new(&m, opts(BuildParams::default())).unwrap();
             let classic = MeshSdf::new(&m, opts(BuildParams::classic())).unwrap();
             for p in probes(&m, &mut r) {
-                let want = brute(&m, p);
+                let want = brute_force_distance(&m, p);
                 let mut st = QueryStats::default();
                 let h = overlap.query(p, &mut st).unwrap();
                 let c = classic.query(p, &mut st).unwrap();
@@ -111,7 +100,7 @@ fn distances_and_closest_points_match_brute_force() {
                 );
                 // The closest point is on the mesh and at that distance.
                 assert!(((h.point - p).length() - want).abs() <= 1e-6 * diag);
-                let on = brute(&m, h.point);
+                let on = brute_force_distance(&m, h.point);
                 assert!(
                     on <= 1e-9 * diag,
                     "{name} x{s}: closest point {} is {on} off the mesh",
