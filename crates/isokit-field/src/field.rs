@@ -58,63 +58,55 @@ pub trait Field: Send + Sync {
         Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z))
     }
 
-    /// Hessian at `p`, symmetric (central differences of [`Field::gradient`] by default).
+    /// Hessian at `p`, symmetric ([`finite_difference_hessian`] by default).
     fn hessian(&self, p: Vec3) -> Mat3 {
-        let h = self.fd_step(p) * 10.0;
-        let cols = [Vec3::X, Vec3::Y, Vec3::Z]
-            .map(|e| (self.gradient(p + h * e) - self.gradient(p - h * e)) / (2.0 * h));
-        let m = Mat3::from_cols(cols[0], cols[1], cols[2]);
-        (m + m.transpose()) * 0.5
+        finite_difference_hessian(self, p)
     }
 }
 
-impl<F: Field + ?Sized> Field for &F {
-    fn value(&self, p: Vec3) -> f32 {
-        (**self).value(p)
-    }
-    fn values(&self, points: &[Vec3], out: &mut [f32]) {
-        (**self).values(points, out)
-    }
-    fn bounds(&self) -> Aabb {
-        (**self).bounds()
-    }
-    fn lipschitz(&self) -> f32 {
-        (**self).lipschitz()
-    }
-    fn is_exact(&self) -> bool {
-        (**self).is_exact()
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        (**self).gradient(p)
-    }
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        (**self).hessian(p)
-    }
+/// The symmetrized central differences of `field`'s gradient at `p`, with step
+/// 10 × [`Field::fd_step`]: the default [`Field::hessian`], callable by fields that override
+/// it only where they have a closed form.
+pub fn finite_difference_hessian<F: Field + ?Sized>(field: &F, p: Vec3) -> Mat3 {
+    let h = field.fd_step(p) * 10.0;
+    let cols = [Vec3::X, Vec3::Y, Vec3::Z]
+        .map(|e| (field.gradient(p + h * e) - field.gradient(p - h * e)) / (2.0 * h));
+    let m = Mat3::from_cols(cols[0], cols[1], cols[2]);
+    (m + m.transpose()) * 0.5
 }
 
-impl<F: Field + ?Sized> Field for Box<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        (**self).value(p)
-    }
-    fn values(&self, points: &[Vec3], out: &mut [f32]) {
-        (**self).values(points, out)
-    }
-    fn bounds(&self) -> Aabb {
-        (**self).bounds()
-    }
-    fn lipschitz(&self) -> f32 {
-        (**self).lipschitz()
-    }
-    fn is_exact(&self) -> bool {
-        (**self).is_exact()
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        (**self).gradient(p)
-    }
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        (**self).hessian(p)
-    }
+/// Forwards every method, so references and boxes of fields are fields.
+macro_rules! forward_field {
+    ($($t:ty),*) => {$(
+        impl<F: Field + ?Sized> Field for $t {
+            fn value(&self, p: Vec3) -> f32 {
+                (**self).value(p)
+            }
+            fn values(&self, points: &[Vec3], out: &mut [f32]) {
+                (**self).values(points, out)
+            }
+            fn bounds(&self) -> Aabb {
+                (**self).bounds()
+            }
+            fn lipschitz(&self) -> f32 {
+                (**self).lipschitz()
+            }
+            fn is_exact(&self) -> bool {
+                (**self).is_exact()
+            }
+            fn fd_step(&self, p: Vec3) -> f32 {
+                (**self).fd_step(p)
+            }
+            fn gradient(&self, p: Vec3) -> Vec3 {
+                (**self).gradient(p)
+            }
+            fn hessian(&self, p: Vec3) -> Mat3 {
+                (**self).hessian(p)
+            }
+        }
+    )*};
 }
+forward_field!(&F, Box<F>);
 
 /// Samples `field` at every node of `grid` (in parallel, one z-slice per task), overwriting
 /// its samples.

@@ -38,5 +38,5 @@ pub use aabb::Aabb;
 pub use brick::{BrickGrid, BrickInfo};
 pub use camera::{Camera, Projection, Ray};
 pub use error::FieldError;
-pub use field::{Field, sample_field, sample_into};
+pub use field::{Field, finite_difference_hessian, sample_field, sample_into};
 pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, checked_len, finite_min_max};

@@ -29,6 +29,10 @@ trait Sdf64 {
     fn grad(&self, p: DVec3) -> DVec3;
     /// Tight bounds of the solid.
     fn aabb(&self) -> Aabb;
+    /// Closed-form Hessian where one is written; `None` falls back to finite differences.
+    fn hess(&self, _p: DVec3) -> Option<Mat3> {
+        None
+    }
 }
 
 macro_rules! field_from_sdf64 {
@@ -48,6 +52,10 @@ macro_rules! field_from_sdf64 {
             }
             fn gradient(&self, p: Vec3) -> Vec3 {
                 self.grad(p.as_dvec3()).as_vec3()
+            }
+            fn hessian(&self, p: Vec3) -> Mat3 {
+                self.hess(p.as_dvec3())
+                    .unwrap_or_else(|| crate::finite_difference_hessian(self, p))
             }
         }
     )*};
@@ -210,31 +218,13 @@ impl Sdf64 for Sphere {
     fn aabb(&self) -> Aabb {
         aabb_outward(self.center - self.radius, self.center + self.radius)
     }
-}
-
-impl Field for Sphere {
-    fn value(&self, p: Vec3) -> f32 {
-        self.sd(p.as_dvec3()) as f32
-    }
-    fn bounds(&self) -> Aabb {
-        self.aabb()
-    }
-    fn lipschitz(&self) -> f32 {
-        1.0
-    }
-    fn is_exact(&self) -> bool {
-        true
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        self.grad(p.as_dvec3()).as_vec3()
-    }
     /// Analytic `(I − n nᵀ) / |p − c|`; zero at the centre, where it is undefined.
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        let v = p.as_dvec3() - self.center;
+    fn hess(&self, p: DVec3) -> Option<Mat3> {
+        let v = p - self.center;
         let n = unit_or(v, DVec3::Z);
         let h = (DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)) / v.length();
         let h = h.as_mat3();
-        if h.is_finite() { h } else { Mat3::ZERO }
+        Some(if h.is_finite() { h } else { Mat3::ZERO })
     }
 }
 
@@ -832,6 +822,7 @@ impl Sdf64 for Ellipsoid {
 }
 
 field_from_sdf64!(
+    Sphere,
     Cuboid,
     RoundedBox,
     Torus,
