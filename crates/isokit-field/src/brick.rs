@@ -20,7 +20,8 @@ pub struct BrickInfo {
 /// A sparse node-centered grid split into cubic bricks of `B = 2^n` samples a side, each
 /// stored with an apron of `A` extra samples on every side so filters can read neighbours
 /// without leaving the brick. Unsampled space reads as `background` (for a narrow-band
-/// distance field: `+band`, or `-band` where known to be inside).
+/// distance field: `+band`), or as `-background` in absent bricks known to lie inside
+/// (see [`BrickGrid::is_inside`]), so a band field keeps its sign everywhere.
 ///
 /// The virtual grid has the same geometry as a [`Grid`]: sample `(i, j, k)` at
 /// `origin + spacing * (i, j, k)`. Lookup goes through a dense index of bricks (the
@@ -55,6 +56,15 @@ pub struct BrickGrid {
 }
 
 const ABSENT: u32 = u32::MAX;
+/// An absent brick that lies inside the surface: reads as `-background`.
+const ABSENT_INSIDE: u32 = u32::MAX - 1;
+
+/// What becomes of one brick position while building.
+enum Slot {
+    Stored(BrickInfo, Vec<f32>),
+    Inside([u32; 3]),
+    Outside,
+}
 
 impl BrickGrid {
     /// An empty brick grid over a virtual grid of `dims` samples.
@@ -87,7 +97,7 @@ impl BrickGrid {
         Grid::new([1, 1, 1], origin, spacing)?;
         let brick_dims = dims.map(|d| d.div_ceil(brick));
         let n = brick_dims.iter().product::<usize>();
-        if n >= ABSENT as usize {
+        if n >= ABSENT_INSIDE as usize {
             return Err(FieldError::BadParameter {
                 name: "brick size",
                 value: brick.to_string(),
@@ -110,7 +120,9 @@ impl BrickGrid {
     }
 
     /// Converts a dense grid, keeping the bricks whose values come within `band` of zero
-    /// (`min <= band && max >= -band`); pass `f32::INFINITY` to keep every brick.
+    /// (`min <= band && max >= -band`); pass `f32::INFINITY` to keep every brick. Dropped
+    /// bricks whose values all lie below `-band` are marked inside and read as
+    /// `-background`.
     pub fn from_grid(
         grid: &Grid,
         brick: usize,
@@ -128,21 +140,29 @@ impl BrickGrid {
         )?;
         let side = brick + 2 * apron;
         let coords = b.all_brick_coords();
-        let bricks: Vec<(BrickInfo, Vec<f32>)> = coords
+        let bricks: Vec<Slot> = coords
             .par_iter()
-            .filter_map(|&c| {
+            .map(|&c| {
                 let info = b.info_from(c, |i, j, k| grid.get_clamped(IVec3::new(i, j, k)));
-                (info.min <= band && info.max >= -band).then(|| {
+                if info.max < -band {
+                    Slot::Inside(c)
+                } else if info.min > band {
+                    Slot::Outside
+                } else {
                     let mut data = vec![0.0; side * side * side];
                     b.fill_brick(c, &mut data, |i, j, k| {
                         grid.get_clamped(IVec3::new(i, j, k))
                     });
-                    (info, data)
-                })
+                    Slot::Stored(info, data)
+                }
             })
             .collect();
-        for (info, data) in bricks {
-            b.push(info, data);
+        for slot in bricks {
+            match slot {
+                Slot::Stored(info, data) => b.push(info, data),
+                Slot::Inside(c) => b.mark_inside(c),
+                Slot::Outside => {}
+            }
         }
         Ok(b)
     }
@@ -150,7 +170,10 @@ impl BrickGrid {
     /// Samples `field` lazily: a brick is evaluated only when the field's value at the brick
     /// centre, less the Lipschitz bound times the distance to the brick's farthest sample
     /// (apron included), says the surface may lie within `band`. Everything else reads as
-    /// `background`. Each sample is evaluated once: aprons copy neighbouring bricks where
+    /// `background`, or `-background` where the centre value is negative (inside). The
+    /// field may clamp its values to `±cap` for any `cap > band + L·r` (`L` its Lipschitz
+    /// bound, `r` the brick's half-diagonal with apron) without changing which bricks are
+    /// kept. Each sample is evaluated once: aprons copy neighbouring bricks where
     /// those are kept. [`BrickGrid::evaluated_fraction`] reports the share of the dense grid
     /// that was evaluated (one sample per skipped brick included).
     #[expect(clippy::too_many_arguments, reason = "grid geometry plus brick layout")]
@@ -171,21 +194,31 @@ impl BrickGrid {
         let pos = |q: IVec3| origin + spacing * q.clamp(IVec3::ZERO, mi).as_vec3();
         // Pass 1: one evaluation per brick decides which bricks may hold the band.
         let coords = b.all_brick_coords();
-        let keep: Vec<bool> = coords
+        // `Some(true)` keep, `Some(false)` skip as outside, `None` skip as inside.
+        let keep: Vec<Option<bool>> = coords
             .par_iter()
             .map(|&c| {
                 let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                 let centre = origin + spacing * (lo.as_vec3() + Vec3::splat(0.5 * brick as f32));
                 let v = field.value(centre);
-                !(v.is_finite() && v.abs() - lip * reach > band)
+                if v.is_finite() && v.abs() - lip * reach > band {
+                    (v > 0.0).then_some(false)
+                } else {
+                    Some(true)
+                }
             })
             .collect();
+        for (c, k) in coords.iter().zip(&keep) {
+            if k.is_none() {
+                b.mark_inside(*c);
+            }
+        }
         // Pass 2: the core samples of kept bricks, each evaluated once.
         let cores: Vec<Option<Vec<f32>>> = coords
             .par_iter()
             .zip(keep.par_iter())
             .map(|(&c, &k)| {
-                k.then(|| {
+                (k == Some(true)).then(|| {
                     let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                     (0..brick * brick * brick)
                         .map(|n| {
@@ -315,6 +348,12 @@ impl BrickGrid {
         }
     }
 
+    fn mark_inside(&mut self, c: [u32; 3]) {
+        let [bx, by, _] = self.brick_dims;
+        let [a, b, c] = c.map(|v| v as usize);
+        self.index[a + bx * (b + by * c)] = ABSENT_INSIDE;
+    }
+
     fn push(&mut self, info: BrickInfo, data: Vec<f32>) {
         let [bx, by, _] = self.brick_dims;
         let [a, b, c] = info.coord.map(|v| v as usize);
@@ -382,17 +421,28 @@ impl BrickGrid {
             return None;
         }
         let n = self.index[c[0] + bx * (c[1] + by * c[2])];
-        (n != ABSENT).then_some(n as usize)
+        (n < ABSENT_INSIDE).then_some(n as usize)
+    }
+
+    /// True when the brick at brick coordinates `c` is absent and known to lie inside the
+    /// surface (its samples read as `-background`).
+    pub fn is_inside(&self, c: [usize; 3]) -> bool {
+        let [bx, by, bz] = self.brick_dims;
+        c[0] < bx
+            && c[1] < by
+            && c[2] < bz
+            && self.index[c[0] + bx * (c[1] + by * c[2])] == ABSENT_INSIDE
     }
 
     /// Sample (i, j, k) of the virtual grid; `background` where no brick is stored or the
-    /// index is out of range.
+    /// index is out of range, `-background` in absent bricks marked inside.
     pub fn get(&self, i: usize, j: usize, k: usize) -> f32 {
         if i >= self.dims[0] || j >= self.dims[1] || k >= self.dims[2] {
             return self.background;
         }
         let b = self.brick;
         match self.brick_at([i / b, j / b, k / b]) {
+            None if self.is_inside([i / b, j / b, k / b]) => -self.background,
             None => self.background,
             Some(n) => {
                 let side = b + 2 * self.apron;
@@ -462,7 +512,7 @@ mod tests {
             if v.abs() <= band {
                 assert_eq!(w, v, "band sample dropped at {i},{j},{k}");
             } else {
-                assert!(w == v || w == 7.0);
+                assert!(w == v || w == 7.0f32.copysign(v), "{v} read as {w}");
             }
         }
         // Apron samples equal the virtual grid (clamped at the border).
@@ -559,5 +609,35 @@ mod tests {
         assert!(BrickGrid::new([8; 3], Vec3::ZERO, -1.0, 8, 1, 0.0).is_err());
         let b = BrickGrid::new([8; 3], Vec3::ZERO, 1.0, 8, 1, 3.0).unwrap();
         assert_eq!(b.get(100, 0, 0), 3.0);
+    }
+
+    #[test]
+    fn dropped_bricks_inside_read_negative() {
+        let g = ball_grid(40);
+        let b = BrickGrid::from_grid(&g, 4, 1, 0.1, 0.5).unwrap();
+        // The ball's centre lies deep inside: its brick is dropped and marked inside.
+        let c = [19 / 4, 20 / 4, 17 / 4];
+        assert!(b.brick_at(c).is_none() && b.is_inside(c));
+        assert_eq!(b.get(19, 20, 17), -0.5);
+        assert_eq!(b.get(0, 0, 0), 0.5);
+        let lazy = BrickGrid::sample_field(
+            &Ball(0.6),
+            g.dims(),
+            g.origin(),
+            g.spacing(),
+            4,
+            1,
+            0.1,
+            0.5,
+        )
+        .unwrap();
+        assert!(lazy.is_inside(c));
+        // Every sample has the dense field's sign.
+        for ([i, j, k], v) in g.iter() {
+            if v.abs() > 1e-6 {
+                assert_eq!(lazy.get(i, j, k) > 0.0, v > 0.0, "sample {i} {j} {k}: {v}");
+                assert_eq!(b.get(i, j, k) > 0.0, v > 0.0);
+            }
+        }
     }
 }
