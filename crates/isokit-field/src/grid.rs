@@ -137,6 +137,17 @@ impl Grid {
     /// An empty grid covering `bounds` grown by `pad` on every side, with `res` samples along
     /// the longest axis and the same spacing on the others (at least 2 samples per axis).
     pub fn covering(bounds: Aabb, res: usize, pad: f32) -> Result<Self, FieldError> {
+        let (dims, origin, spacing) = Self::covering_geometry(bounds, res, pad)?;
+        Self::new(dims, origin, spacing)
+    }
+
+    /// The dimensions, origin and spacing [`Grid::covering`] would use, checked against the
+    /// size limits but without allocating (for sparse grids over the same lattice).
+    pub fn covering_geometry(
+        bounds: Aabb,
+        res: usize,
+        pad: f32,
+    ) -> Result<([usize; 3], Vec3, f32), FieldError> {
         let b = bounds.expanded(pad.max(0.0));
         if b.is_empty() || !b.is_finite() {
             return Err(FieldError::BadBounds(bounds));
@@ -164,7 +175,8 @@ impl Grid {
             (dims[2] - 1) as f32,
         ) * spacing;
         let origin = b.center() - 0.5 * span;
-        Self::new(dims, origin, spacing)
+        checked_len(dims)?;
+        Ok((dims, origin, spacing))
     }
 
     /// Samples along x, y, z.
