@@ -39,6 +39,11 @@ enum Command {
     /// fields through the samples, blended with the distance to the closest sample far away;
     /// normals given or estimated.
     Points(Box<cmd::points::Args>),
+    /// Evaluate a scene file (JSON or TOML CSG tree) to a band field or a mesh, computing
+    /// only the bricks that can hold the surface; `--stats` prints what it cost as JSON.
+    Scene(cmd::scene::Args),
+    /// The isosurface of a volume as a watertight, 2-manifold triangle mesh.
+    Mesh(cmd::mesh::Args),
     /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`).
     #[command(subcommand)]
     Bench(cmd::bench::Bench),
@@ -65,6 +70,8 @@ fn main() -> ExitCode {
         Command::Sdf(a) => cmd::sdf::run(a),
         Command::Octree(a) => cmd::octree::run(*a),
         Command::Points(a) => cmd::points::run(*a),
+        Command::Scene(a) => cmd::scene::run(a),
+        Command::Mesh(a) => cmd::mesh::run(a),
         Command::Bench(b) => cmd::bench::run(b),
     };
     match result {

@@ -3,12 +3,14 @@
 pub mod bench;
 pub mod convert;
 pub mod info;
+pub mod mesh;
 pub mod mesh_args;
 pub mod octree;
 pub mod points;
 pub mod progress;
 pub mod query;
 pub mod sample;
+pub mod scene;
 pub mod sdf;
 
 use anyhow::{Context, bail};

@@ -3,9 +3,11 @@
 //! Level-set modeling on distance fields (002 Ch. 2 and Sec. 6.4):
 //!
 //! - [`csg`]: union, intersection, difference and complement with the corrected operators
-//!   of ERRATA 1 (negative inside), smooth variants with a blend radius, offsets, opening
-//!   and closing; on [`isokit_field::Field`]s and on sampled grids.
-//! - [`morph`]: linear interpolation of two distance fields and a level-set morph.
+//!   of ERRATA 1 (negative inside), smooth variants with a blend radius, plain offsets; on
+//!   [`isokit_field::Field`]s and on sampled grids.
+//! - [`offset`]: offsets that re-distance the result, opening and closing, on grids.
+//! - [`morph`]: linear interpolation of two distance fields ([`evolve`] has the level-set
+//!   morph that moves one surface into the other).
 //! - [`evolve`]: level-set evolution with an upwind (Godunov) scheme on a narrow band.
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export.
@@ -16,5 +18,6 @@ pub mod csg;
 pub mod evolve;
 pub mod meshing;
 pub mod morph;
+pub mod offset;
 pub mod reinit;
 pub mod scene;

@@ -187,10 +187,7 @@ impl Scene {
         };
         let root = b.compile(&file.shape, "shape")?;
         let sources = b.sources;
-        let lipschitz = sources
-            .iter()
-            .map(Source::lipschitz)
-            .fold(1.0f32, f32::max);
+        let lipschitz = sources.iter().map(Source::lipschitz).fold(1.0f32, f32::max);
         Ok(Self {
             file,
             name: name.to_owned(),
@@ -559,7 +556,12 @@ impl Builder<'_> {
         Ok(self.source(path.to_owned(), kind, SourceField::Analytic(p.into())))
     }
 
-    fn children(&mut self, of: &[Node], path: &str, min: usize) -> Result<Vec<Compiled>, SceneError> {
+    fn children(
+        &mut self,
+        of: &[Node],
+        path: &str,
+        min: usize,
+    ) -> Result<Vec<Compiled>, SceneError> {
         if of.len() < min {
             let what = if min == 1 { "shape" } else { "shapes" };
             return Err(self.err(
@@ -657,7 +659,11 @@ impl Builder<'_> {
                     .map_err(|e| self.err(&path, format!("{}: {e}", f.display())))?;
                 self.source(path, "mesh", SourceField::Mesh(Box::new(sdf)))
             }
-            Node::Points { path: file, k, normals } => {
+            Node::Points {
+                path: file,
+                k,
+                normals,
+            } => {
                 let f = self.resolve(file, &path)?;
                 let cloud =
                     isokit_io::read_points(&f).map_err(|e| self.err(&path, e.to_string()))?;
@@ -716,7 +722,10 @@ impl Builder<'_> {
                     .and_then(|v| v.into_grid())
                     .map_err(|e| self.err(&path, e.to_string()))?;
                 let (lo, hi) = grid.min_max().ok_or_else(|| {
-                    self.err(&path, format!("{}: the volume has no finite sample", f.display()))
+                    self.err(
+                        &path,
+                        format!("{}: the volume has no finite sample", f.display()),
+                    )
                 })?;
                 if grid.data().iter().any(|x| !x.is_finite()) {
                     return Err(self.err(
@@ -746,14 +755,14 @@ impl Builder<'_> {
                         .chain(std::iter::once(&key))
                         .map(|p| p.display().to_string())
                         .collect();
-                    return Err(self.err(
-                        &path,
-                        format!("include cycle: {}", cycle.join(" -> ")),
-                    ));
+                    return Err(self.err(&path, format!("include cycle: {}", cycle.join(" -> "))));
                 }
                 let name = f.display().to_string();
                 let format = SceneFormat::from_path(&f).ok_or_else(|| {
-                    self.err(&path, format!("{name}: unknown scene format (expected .json or .toml)"))
+                    self.err(
+                        &path,
+                        format!("{name}: unknown scene format (expected .json or .toml)"),
+                    )
                 })?;
                 let text = std::fs::read_to_string(&f)
                     .map_err(|e| self.err(&path, format!("cannot read {name}: {e}")))?;
@@ -771,15 +780,16 @@ impl Builder<'_> {
                 self.stack.pop();
                 compiled?
             }
-            Node::Union(of) => Compiled::new(Op::Union(self.children(of, &path, 1)?), &self.sources),
+            Node::Union(of) => {
+                Compiled::new(Op::Union(self.children(of, &path, 1)?), &self.sources)
+            }
             Node::Intersection(of) => Compiled::new(
                 Op::Intersection(self.children(of, &path, 1)?),
                 &self.sources,
             ),
-            Node::Difference(of) => Compiled::new(
-                Op::Difference(self.children(of, &path, 2)?),
-                &self.sources,
-            ),
+            Node::Difference(of) => {
+                Compiled::new(Op::Difference(self.children(of, &path, 2)?), &self.sources)
+            }
             Node::Complement(of) => {
                 let c = self.compile(of, &path)?;
                 Compiled::new(Op::Complement(Box::new(c)), &self.sources)
@@ -790,7 +800,13 @@ impl Builder<'_> {
             Node::Offset { by, of } => {
                 let by = finite(*by, "by")?;
                 let c = self.compile(of, &format!("{path}.of"))?;
-                Compiled::new(Op::Offset { by, of: Box::new(c) }, &self.sources)
+                Compiled::new(
+                    Op::Offset {
+                        by,
+                        of: Box::new(c),
+                    },
+                    &self.sources,
+                )
             }
             Node::Shell { thickness, of } => {
                 let t = finite(*thickness, "thickness")?;
@@ -843,7 +859,9 @@ impl Builder<'_> {
     }
 
     fn transform(&mut self, t: &TransformSpec, path: &str) -> Result<Compiled, SceneError> {
-        let translation = t.translate.map_or(DVec3::ZERO, |v| Vec3::from(v).as_dvec3());
+        let translation = t
+            .translate
+            .map_or(DVec3::ZERO, |v| Vec3::from(v).as_dvec3());
         if !translation.is_finite() {
             return Err(self.err(&format!("{path}.translate"), "must be finite"));
         }

@@ -122,7 +122,11 @@ fn scene_values_follow_the_corrected_csg_operators() {
     };
     for p in random_points(2000, 2.0, 1) {
         let want = sphere(p).max(-cuboid(p));
-        assert!((s.value(p) - want).abs() < 1e-5, "{p}: {} vs {want}", s.value(p));
+        assert!(
+            (s.value(p) - want).abs() < 1e-5,
+            "{p}: {} vs {want}",
+            s.value(p)
+        );
     }
 }
 
@@ -162,9 +166,15 @@ fn lazy_sampling_matches_dense_in_the_band_and_computes_a_fraction() {
             let w = lazy.get(i, j, k);
             if v.abs() < band {
                 in_band += 1;
-                assert!((w - v).abs() <= 1e-5, "{name} ({i},{j},{k}): lazy {w} dense {v}");
+                assert!(
+                    (w - v).abs() <= 1e-5,
+                    "{name} ({i},{j},{k}): lazy {w} dense {v}"
+                );
             } else {
-                assert!(w.abs() >= band * 0.999 && (w > 0.0) == (v > 0.0), "{name}: {w} vs {v}");
+                assert!(
+                    w.abs() >= band * 0.999 && (w > 0.0) == (v > 0.0),
+                    "{name}: {w} vs {v}"
+                );
             }
         }
         assert!(in_band > 100);
@@ -172,7 +182,12 @@ fn lazy_sampling_matches_dense_in_the_band_and_computes_a_fraction() {
         let lazy_queries: u64 = ls.sources.iter().map(|s| s.queries).sum();
         println!(
             "{name}: dims {:?}, dense_fraction {:.4}, bricks {}/{}, source queries lazy {} dense {}",
-            ls.dims, ls.dense_fraction, ls.bricks_kept, ls.bricks_total, lazy_queries, dense_queries
+            ls.dims,
+            ls.dense_fraction,
+            ls.bricks_kept,
+            ls.bricks_total,
+            lazy_queries,
+            dense_queries
         );
         assert!(ls.dense_fraction < most, "{name}: {}", ls.dense_fraction);
         assert!(lazy_queries * 2 < dense_queries);
@@ -226,7 +241,10 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
             r#"{"shape": {"difference": [{"sphere": {"radius": 1}}]}}"#,
             &["shape.difference", "at least 2 shapes, got 1"],
         ),
-        (r#"{"shape": {"union": []}}"#, &["shape.union", "at least 1 shape"]),
+        (
+            r#"{"shape": {"union": []}}"#,
+            &["shape.union", "at least 1 shape"],
+        ),
         (
             r#"{"shape": {"sphere": {"radius": -1}}}"#,
             &["shape.sphere", "radius"],
@@ -243,8 +261,14 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
             r#"{"shape": {"sphere": {"radius": "big"}}}"#,
             &["shape.sphere.radius", "invalid type"],
         ),
-        (r#"{"shape": {"sphere": {"radius": 1}"#, &["t.json", "invalid JSON"]),
-        (r#"{"camera": {"eye": [0, 0, 1]}}"#, &["missing field `shape`"]),
+        (
+            r#"{"shape": {"sphere": {"radius": 1}"#,
+            &["t.json", "invalid JSON"],
+        ),
+        (
+            r#"{"camera": {"eye": [0, 0, 1]}}"#,
+            &["missing field `shape`"],
+        ),
         (
             r#"{"shape": {"transform": {"scale": 0, "of": {"sphere": {"radius": 1}}}}}"#,
             &["shape.transform.scale", "uniform"],
@@ -258,8 +282,14 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
     }
     // Unbounded shapes need sampling bounds.
     let plane = json(r#"{"shape": {"plane": {"normal": [0, 0, 1]}}}"#);
-    let e = plane.sample(&SampleOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("unbounded") && e.contains("sampling.bounds"), "{e}");
+    let e = plane
+        .sample(&SampleOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("unbounded") && e.contains("sampling.bounds"),
+        "{e}"
+    );
     // Absurd resolutions are refused before allocating.
     let s = json(r#"{"shape": {"sphere": {"radius": 1}}}"#);
     let e = s
@@ -269,18 +299,30 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
         })
         .unwrap_err()
         .to_string();
-    assert!(e.contains("too large") || e.contains("not supported"), "{e}");
+    assert!(
+        e.contains("too large") || e.contains("not supported"),
+        "{e}"
+    );
 }
 
 #[test]
 fn include_cycles_and_nested_errors_are_reported() {
     let dir = Scratch::new("include");
-    dir.write("a.json", r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"include": {"path": "b.toml"}}]}}"#);
+    dir.write(
+        "a.json",
+        r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"include": {"path": "b.toml"}}]}}"#,
+    );
     dir.write("b.toml", "[shape.include]\npath = \"a.json\"\n");
     let e = Scene::load(&dir.0.join("a.json")).unwrap_err().to_string();
-    assert!(e.contains("include cycle") && e.contains("a.json") && e.contains("b.toml"), "{e}");
+    assert!(
+        e.contains("include cycle") && e.contains("a.json") && e.contains("b.toml"),
+        "{e}"
+    );
     // A working include, and an error inside the included file names that file.
-    dir.write("part.toml", "[shape.sphere]\nradius = 0.5\ncenter = [1, 0, 0]\n");
+    dir.write(
+        "part.toml",
+        "[shape.sphere]\nradius = 0.5\ncenter = [1, 0, 0]\n",
+    );
     dir.write("bad.toml", "[shape.sphere]\nradius = 0.5\nfoo = 1\n");
     let s = Scene::load(&dir.write(
         "ok.json",
@@ -292,11 +334,18 @@ fn include_cycles_and_nested_errors_are_reported() {
     let e = Scene::load(&dir.write("c.json", r#"{"shape": {"include": {"path": "bad.toml"}}}"#))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("bad.toml") && e.contains("unknown field `foo`"), "{e}");
+    assert!(
+        e.contains("bad.toml") && e.contains("unknown field `foo`"),
+        "{e}"
+    );
     // Unknown extension, missing scene file.
-    let e = Scene::load(&dir.write("x.yaml", "shape: 1")).unwrap_err().to_string();
+    let e = Scene::load(&dir.write("x.yaml", "shape: 1"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("expected .json or .toml"), "{e}");
-    let e = Scene::load(&dir.0.join("nope.json")).unwrap_err().to_string();
+    let e = Scene::load(&dir.0.join("nope.json"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("nope.json") && e.contains("cannot read"), "{e}");
 }
 
@@ -305,7 +354,9 @@ fn scenes_built_in_code_equal_scene_files() {
     use isokit_levelset::scene::schema::{Node, SceneFile};
     let code = Node::difference(vec![
         Node::sphere(1.0, [0.0; 3]),
-        Node::cuboid([0.5; 3], [0.0; 3]).rotated([0.0, 0.0, 1.0], 45.0).translated([1.0, 0.0, 0.0]),
+        Node::cuboid([0.5; 3], [0.0; 3])
+            .rotated([0.0, 0.0, 1.0], 45.0)
+            .translated([1.0, 0.0, 0.0]),
     ]);
     let text = r#"{"shape": {"difference": [{"sphere": {"radius": 1}},
         {"transform": {"translate": [1, 0, 0], "of":

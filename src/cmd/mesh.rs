@@ -1,0 +1,78 @@
+//! `isokit mesh FIELD -o out.obj`: the isosurface of a volume as a watertight triangle mesh.
+
+use super::check_output;
+use anyhow::{Result, bail};
+use isokit_io::{read_volume, write_mesh};
+use isokit_levelset::meshing::{MeshOptions, mesh_grid};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Which side of the isovalue is inside.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Inside {
+    /// Values below the isovalue (distance fields).
+    Below,
+    /// Values above the isovalue (densities such as CT).
+    Above,
+}
+
+/// Arguments of `isokit mesh`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Volume (.nrrd .nhdr .npy .nii .nii.gz).
+    pub field: PathBuf,
+    /// Output mesh (.obj, .ply, .stl, .off).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Isovalue.
+    #[arg(long, default_value_t = 0.0)]
+    pub iso: f32,
+    /// Which side of the isovalue is inside (the triangles face the other side).
+    #[arg(long, value_enum, default_value_t = Inside::Below)]
+    pub inside: Inside,
+    /// Leave the surface open where it leaves the volume (by default it is closed there,
+    /// so the mesh stays watertight).
+    #[arg(long)]
+    pub open: bool,
+}
+
+/// Runs the command.
+pub fn run(a: Args) -> Result<()> {
+    check_output(&a.output, &[".obj", ".ply", ".stl", ".off"])?;
+    if !a.iso.is_finite() {
+        bail!("--iso {} must be finite", a.iso);
+    }
+    let mut grid = read_volume(&a.field)?.into_grid()?;
+    let mut iso = a.iso;
+    if a.inside == Inside::Above {
+        grid.data_mut().iter_mut().for_each(|v| *v = -*v);
+        iso = -iso;
+    }
+    let t = Instant::now();
+    let opts = MeshOptions {
+        iso,
+        close_boundary: !a.open,
+    };
+    let mesh = mesh_grid(&grid, &opts)?;
+    let secs = t.elapsed().as_secs_f64();
+    if mesh.triangles.is_empty() {
+        eprintln!(
+            "warning: no sample lies on both sides of {}; the mesh is empty",
+            a.iso
+        );
+    }
+    write_mesh(&a.output, &mesh)?;
+    let r = mesh.validate();
+    eprintln!(
+        "{} vertices, {} triangles in {secs:.2} s; watertight {}, consistently oriented {}, {} components, boundary edges {}, non-manifold edges {} -> {}",
+        mesh.positions.len(),
+        mesh.triangles.len(),
+        r.watertight,
+        r.consistently_oriented,
+        r.components,
+        r.boundary_edges,
+        r.non_manifold_edges,
+        a.output.display()
+    );
+    Ok(())
+}
