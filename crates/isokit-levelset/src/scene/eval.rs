@@ -2,9 +2,9 @@
 //!
 //! Every node answers two questions at a point `p`:
 //!
-//! - [`Compiled::lower_bound`]: a cheap lower bound on its value from bounding boxes alone
+//! - its lower bound: a cheap lower bound on its value from bounding boxes alone
 //!   (an exact distance field is at least the distance to its box outside the box);
-//! - [`Compiled::eval`]: its value "clamped to `±cap`": the returned `r` satisfies
+//! - its clamped value: its value "clamped to `±cap`": the returned `r` satisfies
 //!   `clamp(r, −cap, cap) == clamp(f(p), −cap, cap)`, so it is exact wherever `|f| < cap`.
 //!
 //! Clamping lets operations skip work that cannot change the clamped result: a node whose
