@@ -18,8 +18,8 @@
 //! // The box bites into the sphere: (0.6, 0, 0) is now outside, 0.1 from the box's face.
 //! assert!((scene.value(Vec3::new(0.6, 0.0, 0.0)) - 0.1).abs() < 1e-6);
 //!
-//! // Sample the band lazily: far bricks are never evaluated.
-//! let (grid, stats) = scene.sample(&SampleOptions { resolution: 64, ..Default::default() })
+//! // Sample the band lazily: bricks far from the surface are never evaluated.
+//! let (grid, stats) = scene.sample(&SampleOptions { resolution: 128, ..Default::default() })
 //!     .unwrap();
 //! assert!(stats.dense_fraction < 0.5);
 //! assert!(grid.brick_count() > 0);
