@@ -84,7 +84,12 @@ pub fn run(a: Args) -> Result<()> {
             write_mesh(&a.output, &mesh)?;
             Some(mesh.triangles.len())
         } else {
-            write_volume(&a.output, &Volume::from(grid.to_grid()?))?;
+            // Kept bricks hold exact values a little beyond the band: clamp them, so the
+            // file reads "exact within W, ±W beyond" everywhere.
+            let mut dense = grid.to_grid()?;
+            let w = stats.band;
+            dense.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
+            write_volume(&a.output, &Volume::from(dense))?;
             None
         };
         (stats, tris)

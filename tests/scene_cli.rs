@@ -1,0 +1,118 @@
+//! End-to-end tests of `isokit scene` and `isokit mesh` through the real binary.
+
+mod common;
+
+use common::*;
+
+fn example(name: &str) -> String {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/scenes")
+        .join(name)
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn example_scenes_mesh_watertight_and_report_stats() {
+    let d = scratch("examples");
+    for (scene, genus) in [("part.json", 5), ("part.toml", 5), ("trefoil_cut.json", -1)] {
+        let out = d.join(format!("{scene}.obj"));
+        let o = isokit_ok(&[
+            "scene",
+            &example(scene),
+            "-o",
+            out.to_str().unwrap(),
+            "--res",
+            "64",
+            "--stats",
+        ]);
+        let j = json(&o);
+        let fraction = j["dense_fraction"].as_f64().unwrap();
+        assert!(fraction > 0.0 && fraction < 1.0, "{scene}: {fraction}");
+        assert!(j["seconds"].as_f64().unwrap() >= 0.0);
+        assert!(j["triangles"].as_u64().unwrap() > 1000);
+        assert!(!j["sources"].as_array().unwrap().is_empty());
+        let mesh = isokit::io::read_mesh(&out).unwrap();
+        let r = mesh.validate();
+        assert!(r.watertight && r.consistently_oriented, "{scene}: {r}");
+        if genus >= 0 {
+            assert_eq!(r.genus(), Some(genus), "{scene}");
+        }
+    }
+}
+
+#[test]
+fn scene_to_volume_then_mesh_round_trip() {
+    let d = scratch("volume");
+    let scene = d.join("s.toml");
+    std::fs::write(
+        &scene,
+        "[shape]\ndifference = [{ sphere = { radius = 1.0 } }, \
+         { sphere = { radius = 0.5, center = [1, 0, 0] } }]\n",
+    )
+    .unwrap();
+    let vol = d.join("s.nrrd");
+    isokit_ok(&[
+        "scene",
+        scene.to_str().unwrap(),
+        "-o",
+        vol.to_str().unwrap(),
+        "--res",
+        "48",
+        "--band",
+        "0.2",
+    ]);
+    let v = isokit::io::read_volume(&vol).unwrap().into_grid().unwrap();
+    // Band values clamp at ±0.2 with the right sign: the centre is deep inside.
+    let (lo, hi) = v.min_max().unwrap();
+    assert!(lo == -0.2 && hi == 0.2, "{lo} {hi}");
+    let [nx, ny, nz] = v.dims();
+    assert!(v.get(nx / 2 - 4, ny / 2, nz / 2) < 0.0);
+    let obj = d.join("s.obj");
+    let o = isokit_ok(&["mesh", vol.to_str().unwrap(), "-o", obj.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("watertight true"), "{err}");
+    let mesh = isokit::io::read_mesh(&obj).unwrap();
+    // Sphere of radius 1 minus a ball of radius 0.5 centred on its surface.
+    let exact = 4.0 / 3.0 * std::f64::consts::PI - lens_volume(1.0, 0.5, 1.0);
+    let vol_mesh = isokit::levelset::meshing::mesh_volume(&mesh);
+    assert!(
+        (vol_mesh - exact).abs() < 0.01 * exact,
+        "{vol_mesh} vs {exact}"
+    );
+}
+
+/// Volume of the intersection of balls of radii `r1`, `r2` with centres `d` apart.
+fn lens_volume(r1: f64, r2: f64, d: f64) -> f64 {
+    std::f64::consts::PI * (r1 + r2 - d).powi(2)
+        * (d * d + 2.0 * d * r2 - 3.0 * r2 * r2 + 2.0 * d * r1 + 6.0 * r1 * r2 - 3.0 * r1 * r1)
+        / (12.0 * d)
+}
+
+#[test]
+fn scene_and_mesh_errors_are_one_clear_line() {
+    let d = scratch("errors");
+    let bad = d.join("bad.json");
+    std::fs::write(&bad, r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"cube": {}}]}}"#)
+        .unwrap();
+    let out = d.join("o.obj");
+    let o = isokit(&["scene", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_clear_error(&o, "shape.union[1]");
+    assert_clear_error(&o, "unknown variant `cube`");
+    assert!(!out.exists());
+    let o = isokit(&["scene", &example("part.json"), "-o", "x.vtk"]);
+    assert_clear_error(&o, "unknown output format");
+    let o = isokit(&[
+        "scene",
+        &example("part.json"),
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "1000000000",
+    ]);
+    assert_clear_error(&o, "too large");
+    let o = isokit(&["mesh", &data("torus.off"), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = isokit(&["mesh", "missing.nrrd", "-o", out.to_str().unwrap()]);
+    assert_clear_error(&o, "missing.nrrd");
+}
