@@ -84,7 +84,8 @@ fn scene_to_volume_then_mesh_round_trip() {
 
 /// Volume of the intersection of balls of radii `r1`, `r2` with centres `d` apart.
 fn lens_volume(r1: f64, r2: f64, d: f64) -> f64 {
-    std::f64::consts::PI * (r1 + r2 - d).powi(2)
+    std::f64::consts::PI
+        * (r1 + r2 - d).powi(2)
         * (d * d + 2.0 * d * r2 - 3.0 * r2 * r2 + 2.0 * d * r1 + 6.0 * r1 * r2 - 3.0 * r1 * r1)
         / (12.0 * d)
 }
@@ -93,8 +94,11 @@ fn lens_volume(r1: f64, r2: f64, d: f64) -> f64 {
 fn scene_and_mesh_errors_are_one_clear_line() {
     let d = scratch("errors");
     let bad = d.join("bad.json");
-    std::fs::write(&bad, r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"cube": {}}]}}"#)
-        .unwrap();
+    std::fs::write(
+        &bad,
+        r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"cube": {}}]}}"#,
+    )
+    .unwrap();
     let out = d.join("o.obj");
     let o = isokit(&["scene", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert_clear_error(&o, "shape.union[1]");

@@ -88,7 +88,10 @@ pub fn run(a: Args) -> Result<()> {
             // file reads "exact within W, ±W beyond" everywhere.
             let mut dense = grid.to_grid()?;
             let w = stats.band;
-            dense.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
+            dense
+                .data_mut()
+                .iter_mut()
+                .for_each(|v| *v = v.clamp(-w, w));
             write_volume(&a.output, &Volume::from(dense))?;
             None
         };
