@@ -22,6 +22,31 @@ use isokit_kdtree::{QueryStats, mesh::MeshSdf};
 use isokit_points::PointSdf;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// Query counters sharded by thread, so that counting does not make the threads fight over
+/// one cache line.
+struct Counter([Padded; SHARDS]);
+
+const SHARDS: usize = 16;
+
+#[repr(align(64))]
+struct Padded(AtomicU64);
+
+impl Counter {
+    fn new() -> Self {
+        Self(std::array::from_fn(|_| Padded(AtomicU64::new(0))))
+    }
+    fn add(&self) {
+        let i = rayon::current_thread_index().unwrap_or(0) % SHARDS;
+        self.0[i].0.fetch_add(1, Ordering::Relaxed);
+    }
+    fn get(&self) -> u64 {
+        self.0.iter().map(|c| c.0.load(Ordering::Relaxed)).sum()
+    }
+    fn reset(&self) {
+        self.0.iter().for_each(|c| c.0.store(0, Ordering::Relaxed));
+    }
+}
+
 /// The field behind a source node.
 pub(crate) enum SourceField {
     /// An analytic primitive (exact).
@@ -48,7 +73,7 @@ pub struct Source {
     /// The node's kind (`sphere`, `mesh`, …).
     pub kind: &'static str,
     pub(crate) field: SourceField,
-    queries: AtomicU64,
+    queries: Counter,
 }
 
 impl Source {
@@ -57,17 +82,17 @@ impl Source {
             node,
             kind,
             field,
-            queries: AtomicU64::new(0),
+            queries: Counter::new(),
         }
     }
 
     /// How many times the source was evaluated since the last reset.
     pub fn queries(&self) -> u64 {
-        self.queries.load(Ordering::Relaxed)
+        self.queries.get()
     }
 
     pub(crate) fn reset(&self) {
-        self.queries.store(0, Ordering::Relaxed);
+        self.queries.reset();
     }
 
     /// Box holding the source's surface and interior.
@@ -111,7 +136,7 @@ impl Source {
     }
 
     fn eval(&self, p: Vec3, cap: f32) -> f32 {
-        self.queries.fetch_add(1, Ordering::Relaxed);
+        self.queries.add();
         match &self.field {
             SourceField::Analytic(s) => s.value(p),
             SourceField::Mesh(m) => {
@@ -294,6 +319,12 @@ impl Compiled {
         if cap.is_finite() && self.lower_bound(p, sources) >= cap {
             return cap;
         }
+        self.eval_unchecked(p, cap, sources)
+    }
+
+    /// [`Compiled::eval`] without the node's own lower-bound test (for callers that just
+    /// made it).
+    fn eval_unchecked(&self, p: Vec3, cap: f32, sources: &[Source]) -> f32 {
         let v = match &self.op {
             Op::Source(i) => sources[*i].eval(p, cap),
             Op::Union(c) => union_pruned(c, p, cap, sources),
@@ -381,7 +412,8 @@ fn union_pruned(children: &[Compiled], p: Vec3, cap: f32, sources: &[Source]) ->
         if lb >= acc.min(cap) {
             break;
         }
-        acc = csg::union(acc, children[i].eval(p, cap, sources));
+        // `lb < cap`: the child's own test would pass, skip it.
+        acc = csg::union(acc, children[i].eval_unchecked(p, cap, sources));
     }
     acc
 }
