@@ -3,7 +3,8 @@
 
 use super::check_output;
 use anyhow::{Result, bail};
-use isokit_field::Aabb;
+use glam::Vec3;
+use isokit_field::Grid;
 use isokit_io::{Volume, write_mesh, write_volume};
 use isokit_levelset::meshing::{MeshOptions, mesh_brick_grid, mesh_grid};
 use isokit_levelset::scene::{SampleOptions, Scene};
@@ -73,6 +74,8 @@ pub fn run(a: Args) -> Result<()> {
             write_mesh(&a.output, &mesh)?;
             Some(mesh.triangles.len())
         } else {
+            let mut grid = grid;
+            clamp_to_band(&mut grid, stats.band);
             write_volume(&a.output, &Volume::from(grid))?;
             None
         };
@@ -128,9 +131,17 @@ pub fn run(a: Args) -> Result<()> {
         if let Some(t) = triangles {
             j["triangles"] = t.into();
         }
-        let b: Aabb = scene.domain();
-        j["domain"] = serde_json::json!([b.min.to_array(), b.max.to_array()]);
+        // The sampled lattice's extent (the shape's box padded by the band).
+        let hi = Vec3::from(stats.origin)
+            + stats.spacing * Vec3::from_array(stats.dims.map(|d| d.saturating_sub(1) as f32));
+        j["domain"] = serde_json::json!([stats.origin, hi.to_array()]);
         println!("{j}");
     }
     Ok(())
+}
+
+/// Volumes read "exact within W, ±W beyond" everywhere: kept bricks (and dense runs) hold
+/// exact values beyond the band, which are clamped here.
+fn clamp_to_band(grid: &mut Grid, w: f32) {
+    grid.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
 }

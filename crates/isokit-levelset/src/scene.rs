@@ -48,7 +48,7 @@ use isokit_field::{
         Sphere, Torus,
     },
 };
-use isokit_kdtree::mesh::{MeshOptions, MeshSdf, SignMode};
+use isokit_kdtree::mesh::{MeshOptions, MeshSdf, SignMethod, SignMode};
 use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions};
 use rayon::prelude::*;
 use schema::{Node, SceneFile, Smooth, TransformSpec};
@@ -104,10 +104,31 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
     let value: serde_json::Value = match format {
         SceneFormat::Json => serde_json::from_str(text)
             .map_err(|e| SceneError::new(file, "", format!("invalid JSON: {e}")))?,
-        SceneFormat::Toml => toml::from_str(text).map_err(|e| {
-            let msg = e.to_string().replace('\n', " ");
-            SceneError::new(file, "", format!("invalid TOML: {}", msg.trim()))
-        })?,
+        SceneFormat::Toml => {
+            let table: toml::Table = toml::from_str(text).map_err(|e| {
+                // The message and where, without the quoted source line (which may be long).
+                let at = e.span().map_or(String::new(), |r| {
+                    let before = &text[..r.start.min(text.len())];
+                    let line = before.matches('\n').count() + 1;
+                    let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+                    format!(" at line {line} column {col}")
+                });
+                SceneError::new(
+                    file,
+                    "",
+                    format!("invalid TOML{at}: {}", e.message().trim()),
+                )
+            })?;
+            if let Some(node) = non_finite(&toml::Value::Table(table.clone()), String::new()) {
+                return Err(SceneError::new(
+                    file,
+                    &node,
+                    "nan and inf are not allowed (numbers must be finite)",
+                ));
+            }
+            serde_json::to_value(table)
+                .map_err(|e| SceneError::new(file, "", format!("invalid TOML: {e}")))?
+        }
     };
     if !value.is_object() {
         return Err(SceneError::new(
@@ -121,6 +142,26 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
         let node = if node == "." { String::new() } else { node };
         SceneError::new(file, &node, e.into_inner().to_string())
     })
+}
+
+/// The path (in `serde_path_to_error`'s notation) of the first non-finite float in `v`.
+fn non_finite(v: &toml::Value, path: String) -> Option<String> {
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_owned()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some(path),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| non_finite(v, join(k))),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| non_finite(v, format!("{path}[{i}]"))),
+        _ => None,
+    }
 }
 
 /// A compiled scene: the shape tree with its sources loaded, ready to evaluate. It is a
@@ -184,10 +225,19 @@ impl Scene {
             dir,
             stack,
             sources: Vec::new(),
+            depth: 0,
+            nodes: 0,
         };
         let root = b.compile(&file.shape, "shape")?;
         let sources = b.sources;
-        let lipschitz = sources.iter().map(Source::lipschitz).fold(1.0f32, f32::max);
+        let lipschitz = root.lipschitz.max(1.0);
+        if !lipschitz.is_finite() {
+            return Err(SceneError::new(
+                name,
+                "shape",
+                "the field's slope is not finite (a volume with enormous values or a tiny spacing?)",
+            ));
+        }
         Ok(Self {
             file,
             name: name.to_owned(),
@@ -347,6 +397,7 @@ impl Scene {
             ));
         }
         let h0 = domain.size().max_element() / (res - 1).max(1) as f32;
+        let explicit = opts.bounds.is_some() || self.file.sampling.bounds.is_some();
         let band = match opts.band {
             Some(b) if b.is_finite() && b > 0.0 => b,
             Some(b) => {
@@ -355,13 +406,22 @@ impl Scene {
                     format!("{b} must be finite and positive"),
                 ));
             }
-            None => 4.0 * h0,
+            None if h0 > 0.0 && h0.is_finite() => 4.0 * h0,
+            None => {
+                return Err(err(
+                    "sampling",
+                    "the domain has no extent (a single point): give sampling.bounds or a band"
+                        .into(),
+                ));
+            }
         };
-        let pad = if opts.bounds.is_some() || self.file.sampling.bounds.is_some() {
-            0.0
-        } else {
-            band + 2.0 * h0
-        };
+        let pad = if explicit { 0.0 } else { band + 2.0 * h0 };
+        if domain.expanded(pad).size().max_element() <= 0.0 {
+            return Err(err(
+                "sampling.bounds",
+                "the domain has no extent: the corners must differ".into(),
+            ));
+        }
         let (dims, origin, spacing) = Grid::covering_geometry(domain, res, pad)
             .map_err(|e| err("sampling", e.to_string()))?;
         Ok(Plan {
@@ -383,8 +443,9 @@ impl Field for Scene {
         self.root.bounds
     }
 
-    /// The largest of the sources' bounds: CSG operations (min, max, the smooth blends,
-    /// offsets, similarity transforms, morphs with `t` in [0, 1]) do not increase it.
+    /// Computed per node: min, max, the smooth blends, offsets, shells and similarity
+    /// transforms keep the largest of their operands' bounds; a morph has
+    /// `|1 − t|·L_from + |t|·L_to`; a volume's is measured from its samples.
     fn lipschitz(&self) -> f32 {
         self.lipschitz
     }
@@ -524,12 +585,47 @@ impl SampleStats {
     }
 }
 
+/// The deepest tree a scene may build (across includes): evaluation recurses once per
+/// level.
+pub const MAX_DEPTH: usize = 256;
+/// The most nodes a scene may build (across includes; an include used twice counts twice).
+pub const MAX_NODES: usize = 100_000;
+
 /// Compiles schema nodes into the evaluation tree, loading sources.
 struct Builder<'a> {
     file: &'a str,
     dir: &'a Path,
     stack: &'a mut Vec<PathBuf>,
     sources: Vec<Source>,
+    depth: usize,
+    nodes: usize,
+}
+
+/// A Lipschitz bound of a volume source: the largest difference of neighbouring samples
+/// over the spacing, times the filter's factor (sound for samples with that slope), plus 1
+/// for the continuation by the distance to the box outside the grid.
+fn volume_lipschitz(grid: &Grid, filter: Filter) -> f32 {
+    let [nx, ny, nz] = grid.dims();
+    let d = grid.data();
+    let mut slope = 0.0f32;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let n = grid.index(i, j, k);
+                let v = d[n];
+                if i + 1 < nx {
+                    slope = slope.max((d[n + 1] - v).abs());
+                }
+                if j + 1 < ny {
+                    slope = slope.max((d[n + nx] - v).abs());
+                }
+                if k + 1 < nz {
+                    slope = slope.max((d[n + nx * ny] - v).abs());
+                }
+            }
+        }
+    }
+    filter.lipschitz_factor() * slope / grid.spacing() + 1.0
 }
 
 fn canonical(p: &Path) -> PathBuf {
@@ -580,6 +676,9 @@ impl Builder<'_> {
             return Err(self.err(node, "path is empty"));
         }
         let p = self.dir.join(path);
+        if p.is_dir() {
+            return Err(self.err(node, format!("{} is a directory, not a file", p.display())));
+        }
         if !p.is_file() {
             return Err(self.err(node, format!("no such file: {}", p.display())));
         }
@@ -588,6 +687,26 @@ impl Builder<'_> {
 
     fn compile(&mut self, node: &Node, parent: &str) -> Result<Compiled, SceneError> {
         let path = format!("{parent}.{}", node.kind());
+        self.nodes += 1;
+        if self.nodes > MAX_NODES {
+            return Err(self.err(
+                &path,
+                format!("the scene has more than {MAX_NODES} nodes (includes count each time they are used)"),
+            ));
+        }
+        if self.depth >= MAX_DEPTH {
+            return Err(self.err(
+                &path,
+                format!("the tree is nested more than {MAX_DEPTH} levels deep"),
+            ));
+        }
+        self.depth += 1;
+        let out = self.compile_node(node, path);
+        self.depth -= 1;
+        out
+    }
+
+    fn compile_node(&mut self, node: &Node, path: String) -> Result<Compiled, SceneError> {
         let v = Vec3::from;
         let finite = |x: f32, name: &str| -> Result<f32, SceneError> {
             if x.is_finite() {
@@ -657,7 +776,20 @@ impl Builder<'_> {
                 };
                 let sdf = MeshSdf::new(&mesh, opts)
                     .map_err(|e| self.err(&path, format!("{}: {e}", f.display())))?;
-                self.source(path, "mesh", SourceField::Mesh(Box::new(sdf)))
+                // Pseudonormal signs on an open or misoriented mesh can be negative far
+                // outside its box; the winding number and unsigned distances cannot.
+                let box_bound = sdf.sign_method() != SignMethod::Pseudonormal || {
+                    let r = mesh.validate();
+                    r.watertight && r.consistently_oriented
+                };
+                self.source(
+                    path,
+                    "mesh",
+                    SourceField::Mesh {
+                        sdf: Box::new(sdf),
+                        box_bound,
+                    },
+                )
             }
             Node::Points {
                 path: file,
@@ -733,7 +865,16 @@ impl Builder<'_> {
                         format!("{}: the volume holds NaN or infinite samples", f.display()),
                     ));
                 }
-                let min = if sign > 0.0 { lo - iso } else { iso - hi };
+                // Trilinear and B-spline reconstructions are convex combinations of the
+                // samples; tricubic Catmull-Rom can undershoot by up to 0.477 of the range
+                // (the negative lobes of its 64 weights).
+                let undershoot = if filter == Filter::CatmullRom {
+                    0.5 * (hi - lo)
+                } else {
+                    0.0
+                };
+                let min = if sign > 0.0 { lo - iso } else { iso - hi } - undershoot;
+                let lipschitz = volume_lipschitz(&grid, filter);
                 let field = Box::new(SampledField::new(grid, filter));
                 self.source(
                     path,
@@ -743,6 +884,7 @@ impl Builder<'_> {
                         iso,
                         sign,
                         min,
+                        lipschitz,
                     },
                 )
             }
@@ -774,9 +916,12 @@ impl Builder<'_> {
                     dir,
                     stack: &mut *self.stack,
                     sources: std::mem::take(&mut self.sources),
+                    depth: self.depth,
+                    nodes: self.nodes,
                 };
                 let compiled = sub.compile(&inner.shape, &format!("{path}({name}).shape"));
                 self.sources = sub.sources;
+                self.nodes = sub.nodes;
                 self.stack.pop();
                 compiled?
             }

@@ -444,3 +444,257 @@ fn volume_and_point_cloud_sources() {
         "{e}"
     );
 }
+
+/// A random shape tree (JSON) over primitives and, at the leaves, `extra` sources.
+fn random_tree(r: &mut SplitMix64, depth: usize, extra: &[&str]) -> String {
+    let v = |r: &mut SplitMix64, s: f32| {
+        let p = r.point_in(Vec3::splat(-s), Vec3::splat(s));
+        format!("[{}, {}, {}]", p.x, p.y, p.z)
+    };
+    if depth == 0 || r.below(4) == 0 {
+        if !extra.is_empty() && r.below(3) == 0 {
+            return extra[r.below(extra.len())].to_owned();
+        }
+        return match r.below(5) {
+            0 => format!(
+                r#"{{"sphere": {{"radius": {}, "center": {}}}}}"#,
+                r.range(0.2, 0.8),
+                v(r, 0.6)
+            ),
+            1 => format!(
+                r#"{{"box": {{"half": [{}, {}, {}], "center": {}}}}}"#,
+                r.range(0.1, 0.6),
+                r.range(0.1, 0.6),
+                r.range(0.1, 0.6),
+                v(r, 0.6)
+            ),
+            2 => format!(
+                r#"{{"torus": {{"major": {}, "minor": {}, "center": {}}}}}"#,
+                r.range(0.3, 0.6),
+                r.range(0.05, 0.3),
+                v(r, 0.5)
+            ),
+            3 => format!(
+                r#"{{"capsule": {{"a": {}, "b": {}, "radius": {}}}}}"#,
+                v(r, 0.8),
+                v(r, 0.8),
+                r.range(0.05, 0.3)
+            ),
+            _ => format!(
+                r#"{{"ellipsoid": {{"radii": [{}, {}, {}], "center": {}}}}}"#,
+                r.range(0.1, 0.6),
+                r.range(0.1, 0.6),
+                r.range(0.1, 0.6),
+                v(r, 0.5)
+            ),
+        };
+    }
+    let kids = |r: &mut SplitMix64, n: usize| {
+        (0..n)
+            .map(|_| random_tree(r, depth - 1, extra))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let t = [0.0f32, 1.0, -0.5, 0.3, 2.0];
+    let (n1, n2, k) = (1 + r.below(3), 2 + r.below(2), r.range(0.0, 0.5));
+    match r.below(11) {
+        0 => format!(r#"{{"union": [{}]}}"#, kids(r, n1)),
+        1 => format!(r#"{{"intersection": [{}]}}"#, kids(r, n1)),
+        2 => format!(r#"{{"difference": [{}]}}"#, kids(r, n2)),
+        3 => format!(
+            r#"{{"union": [{{"complement": {}}}, {}]}}"#,
+            random_tree(r, depth - 1, extra),
+            kids(r, 1)
+        ),
+        4 => format!(
+            r#"{{"smooth_union": {{"radius": {}, "of": [{}]}}}}"#,
+            k,
+            kids(r, n1)
+        ),
+        5 => format!(
+            r#"{{"smooth_intersection": {{"radius": {}, "of": [{}]}}}}"#,
+            k,
+            kids(r, n1)
+        ),
+        6 => format!(
+            r#"{{"smooth_difference": {{"radius": {}, "of": [{}]}}}}"#,
+            k,
+            kids(r, n2)
+        ),
+        7 => format!(
+            r#"{{"offset": {{"by": {}, "of": {}}}}}"#,
+            r.range(-0.2, 0.2),
+            kids(r, 1)
+        ),
+        8 => format!(
+            r#"{{"shell": {{"thickness": {}, "of": {}}}}}"#,
+            r.range(0.02, 0.2),
+            kids(r, 1)
+        ),
+        9 => format!(
+            r#"{{"morph": {{"t": {}, "from": {}, "to": {}}}}}"#,
+            t[r.below(t.len())],
+            kids(r, 1),
+            kids(r, 1)
+        ),
+        _ => format!(
+            r#"{{"transform": {{"translate": {}, "rotate": {{"axis": {}, "degrees": {}}}, "scale": {}, "of": {}}}}}"#,
+            v(r, 0.3),
+            v(r, 1.0),
+            r.range(-180.0, 180.0),
+            r.range(0.3, 2.5),
+            kids(r, 1)
+        ),
+    }
+}
+
+#[test]
+fn random_trees_prune_exactly_and_sample_lazily_as_densely() {
+    let dir = Scratch::new("random");
+    // Extra leaves whose bounds and slopes are not those of exact distances: a volume of 100×
+    // a ball's distance (Lipschitz 100), the shipped torus cloud, an open mesh signed by
+    // pseudonormals.
+    let ball = isokit_field::primitives::Sphere::new(Vec3::ZERO, 0.4).unwrap();
+    let mut g = isokit_field::sample_field(&ball, 24, 0.2).unwrap();
+    g.data_mut().iter_mut().for_each(|v| *v *= 100.0);
+    isokit_io::write_volume(&dir.0.join("steep.nrrd"), &g.into()).unwrap();
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data");
+    for f in ["torus_cloud.ply", "open_cube.obj"] {
+        std::fs::copy(data.join(f), dir.0.join(f)).unwrap();
+    }
+    let extra = [
+        r#"{"volume": {"path": "steep.nrrd"}}"#,
+        r#"{"transform": {"scale": 0.5, "of": {"points": {"path": "torus_cloud.ply"}}}}"#,
+        r#"{"mesh": {"path": "open_cube.obj", "sign": "pseudonormal"}}"#,
+    ];
+    let mut r = SplitMix64::new(2026);
+    for case in 0..24 {
+        let leaves: &[&str] = if case % 3 == 0 { &extra } else { &[] };
+        let tree = random_tree(&mut r, 3, leaves);
+        let text = format!(
+            r#"{{"shape": {tree}, "sampling": {{"bounds": [[-1.5, -1.5, -1.5], [1.5, 1.5, 1.5]], "resolution": 40, "band": 0.15}}}}"#
+        );
+        let s = Scene::from_text(&text, SceneFormat::Json, "r.json", &dir.0)
+            .unwrap_or_else(|e| panic!("case {case}: {e}\n{text}"));
+        // Pruned evaluation equals the full one, clamped.
+        for cap in [0.05f32, 0.3] {
+            for p in random_points(300, 1.6, case) {
+                let full = s.value(p).clamp(-cap, cap);
+                let pruned = s.value_clamped(p, cap);
+                assert!(
+                    (full - pruned).abs() <= 2e-5 * (1.0 + full.abs()),
+                    "case {case} cap {cap} at {p}: full {full} pruned {pruned}\n{text}"
+                );
+            }
+        }
+        // Bounds hold every point where the value is at most δ, grown by δ.
+        let b = s.bounds();
+        for p in random_points(300, 1.6, case + 100) {
+            let v = s.value(p);
+            if v <= 0.0 {
+                assert!(
+                    b.contains(p),
+                    "case {case}: {p} ({v}) outside {b:?}\n{text}"
+                );
+            }
+        }
+        // Lazy sampling equals dense sampling in the band, with the dense signs elsewhere.
+        let opts = SampleOptions::from_scene(&s);
+        let (lazy, ls) = s.sample(&opts).unwrap();
+        let (dense, _) = s.sample_dense(&opts).unwrap();
+        for ([i, j, k], v) in dense.iter() {
+            let w = lazy.get(i, j, k);
+            if v.abs() < ls.band {
+                assert!(
+                    (w - v).abs() <= 2e-5 * (1.0 + v.abs()),
+                    "case {case} ({i},{j},{k}): lazy {w} dense {v}\n{text}"
+                );
+            } else if v.abs() > ls.band * 1.001 {
+                assert_eq!(
+                    w > 0.0,
+                    v > 0.0,
+                    "case {case} ({i},{j},{k}): lazy {w} dense {v}\n{text}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn review_cases_blends_morph_endpoints_and_limits() {
+    // Three equal spheres blended with a large radius: the fold lowers the value by up to
+    // 2·k/4, and the bounds must hold the bulge (surface at r = 2.5625 on the axis).
+    let s = json(
+        r#"{"shape": {"smooth_union": {"radius": 4, "of": [
+            {"sphere": {"radius": 1}}, {"sphere": {"radius": 1}}, {"sphere": {"radius": 1}}]}}}"#,
+    );
+    let on_axis = Vec3::new(2.5625, 0.0, 0.0);
+    assert!(s.value(on_axis).abs() < 1e-4, "{}", s.value(on_axis));
+    assert!(s.bounds().contains(on_axis));
+    // A morph at t = 0 inside a union is not pruned away (0 · −∞ in its bound).
+    let s = json(
+        r#"{"shape": {"union": [
+            {"morph": {"t": 0, "from": {"sphere": {"radius": 0.5}}, "to": {"sphere": {"radius": 0.7}}}},
+            {"sphere": {"radius": 0.5, "center": [5, 0, 0]}}]}}"#,
+    );
+    assert_eq!(s.value_clamped(Vec3::ZERO, 0.1), -0.1);
+    // Include chains that double at every level are refused, not expanded.
+    let dir = Scratch::new("limits");
+    dir.write("l0.json", r#"{"shape": {"sphere": {"radius": 1}}}"#);
+    for i in 1..24 {
+        dir.write(
+            &format!("l{i}.json"),
+            &format!(
+                r#"{{"shape": {{"union": [{{"include": {{"path": "l{0}.json"}}}}, {{"include": {{"path": "l{0}.json"}}}}]}}}}"#,
+                i - 1
+            ),
+        );
+    }
+    let e = Scene::load(&dir.0.join("l23.json"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("more than 100000 nodes"), "{e}");
+    // Deep nesting across includes is refused before the stack runs out.
+    let deep = format!(
+        r#"{{"shape": {}{{"sphere": {{"radius": 1}}}}{}}}"#,
+        r#"{"complement": "#.repeat(100),
+        "}".repeat(100)
+    );
+    for i in 0..4 {
+        let next = if i == 3 {
+            String::new()
+        } else {
+            format!("d{}.json", i + 1)
+        };
+        let text = if next.is_empty() {
+            deep.clone()
+        } else {
+            deep.replace(
+                r#"{"sphere": {"radius": 1}}"#,
+                &format!(r#"{{"include": {{"path": "{next}"}}}}"#),
+            )
+        };
+        dir.write(&format!("d{i}.json"), &text);
+    }
+    let e = Scene::load(&dir.0.join("d0.json")).unwrap_err().to_string();
+    assert!(e.contains("nested more than 256 levels"), "{e}");
+    // TOML nan, a directory as a path, a domain without extent.
+    let e = Scene::load(&dir.write("n.toml", "[shape.sphere]\nradius = nan\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("shape.sphere.radius") && e.contains("finite"),
+        "{e}"
+    );
+    std::fs::create_dir_all(dir.0.join("sub.obj")).unwrap();
+    let e = json_err(r#"{"shape": {"mesh": {"path": "sub.obj"}}}"#, &dir.0);
+    assert!(e.contains("is a directory"), "{e}");
+    let s = json(
+        r#"{"shape": {"sphere": {"radius": 1}}, "sampling": {"bounds": [[0, 0, 0], [0, 0, 0]]}}"#,
+    );
+    let e = s
+        .sample(&SampleOptions::from_scene(&s))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no extent"), "{e}");
+}

@@ -51,8 +51,10 @@ impl Counter {
 pub(crate) enum SourceField {
     /// An analytic primitive (exact).
     Analytic(Primitive),
-    /// A triangle mesh (exact, kd-tree).
-    Mesh(Box<MeshSdf>),
+    /// A triangle mesh (exact, kd-tree). `box_bound`: the value outside the mesh's box is
+    /// at least the distance to the box (true unless the sign comes from pseudonormals on a
+    /// mesh that is not watertight and consistently oriented).
+    Mesh { sdf: Box<MeshSdf>, box_bound: bool },
     /// A point cloud (partition of unity; approximate).
     Points(Box<PointSdf>),
     /// A sampled volume: `sign · (filter(p) − iso)` inside the volume's box, continued
@@ -61,8 +63,11 @@ pub(crate) enum SourceField {
         field: Box<SampledField>,
         iso: f32,
         sign: f32,
-        /// The smallest value `sign · (v − iso)` over the samples.
+        /// A lower bound on `sign · (filter(p) − iso)` (the smallest sample, less the
+        /// Catmull-Rom filter's undershoot).
         min: f32,
+        /// A Lipschitz bound of the continued field, measured from the samples.
+        lipschitz: f32,
     },
 }
 
@@ -99,9 +104,13 @@ impl Source {
     pub fn bounds(&self) -> Aabb {
         match &self.field {
             SourceField::Analytic(p) => p.bounds(),
-            SourceField::Mesh(m) => m.bounds(),
+            SourceField::Mesh { sdf, .. } => sdf.bounds(),
             SourceField::Points(s) => s.bounds(),
-            SourceField::Volume { field, .. } => field.grid().bounds(),
+            // Outside the grid the value is the boundary value plus the distance to the
+            // grid's box: it can stay negative up to `−min` away.
+            SourceField::Volume { field, min, .. } => {
+                field.grid().bounds().expanded((-min).max(0.0))
+            }
         }
     }
 
@@ -109,29 +118,35 @@ impl Source {
     pub fn lipschitz(&self) -> f32 {
         match &self.field {
             SourceField::Analytic(p) => p.lipschitz(),
-            SourceField::Mesh(m) => m.lipschitz(),
+            SourceField::Mesh { sdf, .. } => sdf.lipschitz(),
             SourceField::Points(s) => s.lipschitz(),
-            SourceField::Volume { field, .. } => field.lipschitz(),
+            SourceField::Volume { lipschitz, .. } => *lipschitz,
         }
     }
 
-    /// Lower bound on the value at `p` from the box alone.
+    /// Lower bound on the value at `p` from the box alone (`−∞` when nothing is known).
     fn lower_bound(&self, p: Vec3) -> f32 {
+        let outside_box = |b: Aabb| {
+            if b.is_finite() && !b.contains(p) {
+                b.distance(p)
+            } else {
+                f32::NEG_INFINITY
+            }
+        };
         match &self.field {
-            // Exact distances (and the point cloud's approximate one, whose far field is the
-            // distance to the nearest sample): at least the distance to the box, outside it.
-            SourceField::Analytic(_) | SourceField::Mesh(_) | SourceField::Points(_) => {
-                let b = self.bounds();
-                if b.is_finite() && !b.contains(p) {
-                    b.distance(p)
+            // Exact distances: at least the distance to the box, outside it.
+            SourceField::Analytic(s) => outside_box(s.bounds()),
+            SourceField::Mesh { sdf, box_bound } => {
+                if *box_bound {
+                    outside_box(sdf.bounds())
                 } else {
                     f32::NEG_INFINITY
                 }
             }
-            SourceField::Volume { field, min, .. } => {
-                let b = field.grid().bounds();
-                b.distance(p) + min
-            }
+            // The cloud's field is signed by the nearest samples' normals even far away:
+            // nothing is known.
+            SourceField::Points(_) => f32::NEG_INFINITY,
+            SourceField::Volume { field, min, .. } => field.grid().bounds().distance(p) + min,
         }
     }
 
@@ -139,12 +154,12 @@ impl Source {
         self.queries.add();
         match &self.field {
             SourceField::Analytic(s) => s.value(p),
-            SourceField::Mesh(m) => {
+            SourceField::Mesh { sdf, .. } => {
                 let mut st = QueryStats::default();
                 if cap.is_finite() {
-                    m.signed_distance_band(p.as_dvec3(), f64::from(cap), &mut st) as f32
+                    sdf.signed_distance_band(p.as_dvec3(), f64::from(cap), &mut st) as f32
                 } else {
-                    m.value(p)
+                    sdf.value(p)
                 }
             }
             SourceField::Points(s) => s.value(p),
@@ -201,16 +216,24 @@ pub(crate) enum Op {
     },
 }
 
-/// A node of the compiled tree with its bounding box (holding the surface and interior).
+/// A node of the compiled tree with its bounding box (holding the surface and interior,
+/// and every point where the value is at most δ once grown by δ) and its Lipschitz bound.
 pub(crate) struct Compiled {
     pub(crate) op: Op,
     pub(crate) bounds: Aabb,
+    pub(crate) lipschitz: f32,
 }
 
-/// Extra cap of the smooth operations' children: with children exact within
-/// `cap + 1.25 k`, the blended value is exact within `cap` (the blend lowers the minimum by
-/// at most `k/4`, and only where the two are within `k`).
-const SMOOTH_CAP: f32 = 1.25;
+/// How far a smooth operation over `n` operands can move the value from the sharp one:
+/// each of the `n − 1` folds of the quadratic blend moves it by at most `k/4`.
+fn smooth_reach(k: f32, n: usize) -> f32 {
+    0.25 * k * n.saturating_sub(1) as f32
+}
+
+/// NaN (e.g. `0 · ∞` in a blend of bounds) means nothing is known.
+fn known(lb: f32) -> f32 {
+    if lb.is_nan() { f32::NEG_INFINITY } else { lb }
+}
 
 impl Compiled {
     pub(crate) fn new(op: Op, sources: &[Source]) -> Self {
@@ -226,7 +249,7 @@ impl Compiled {
                 SmoothKind::Union => of
                     .iter()
                     .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds))
-                    .expanded(0.25 * k),
+                    .expanded(smooth_reach(*k, of.len())),
                 SmoothKind::Intersection => of
                     .iter()
                     .fold(Aabb::INFINITE, |b, c| b.intersection(&c.bounds)),
@@ -235,7 +258,11 @@ impl Compiled {
             Op::Offset { by, of } => of.bounds.expanded(by.max(0.0)),
             Op::Shell { half, of } => of.bounds.expanded(*half),
             Op::Morph { t, from, to } => {
-                if (0.0..=1.0).contains(t) {
+                if *t == 0.0 {
+                    from.bounds
+                } else if *t == 1.0 {
+                    to.bounds
+                } else if (0.0..=1.0).contains(t) {
                     from.bounds.union(&to.bounds)
                 } else {
                     Aabb::INFINITE
@@ -259,11 +286,30 @@ impl Compiled {
                 }
             }
         };
-        Self { op, bounds }
+        let lipschitz = match &op {
+            Op::Source(i) => sources[*i].lipschitz(),
+            Op::Union(c) | Op::Intersection(c) | Op::Difference(c) | Op::Smooth { of: c, .. } => {
+                c.iter().map(|c| c.lipschitz).fold(0.0, f32::max)
+            }
+            Op::Complement(c)
+            | Op::Offset { of: c, .. }
+            | Op::Shell { of: c, .. }
+            | Op::Transform { of: c, .. } => c.lipschitz,
+            Op::Morph { t, from, to } => (1.0 - t).abs() * from.lipschitz + t.abs() * to.lipschitz,
+        };
+        Self {
+            op,
+            bounds,
+            lipschitz,
+        }
     }
 
-    /// A lower bound on the node's value at `p` (`−∞` when nothing is known).
+    /// A lower bound on the node's value at `p` (`−∞` when nothing is known; never NaN).
     pub(crate) fn lower_bound(&self, p: Vec3, sources: &[Source]) -> f32 {
+        known(self.lower_bound_raw(p, sources))
+    }
+
+    fn lower_bound_raw(&self, p: Vec3, sources: &[Source]) -> f32 {
         match &self.op {
             Op::Source(i) => sources[*i].lower_bound(p),
             Op::Union(c) => c
@@ -281,7 +327,7 @@ impl Compiled {
                     of.iter()
                         .map(|c| c.lower_bound(p, sources))
                         .fold(f32::INFINITY, f32::min)
-                        - 0.25 * k
+                        - smooth_reach(*k, of.len())
                 }
                 SmoothKind::Intersection => of
                     .iter()
@@ -292,7 +338,11 @@ impl Compiled {
             Op::Offset { by, of } => of.lower_bound(p, sources) - by,
             Op::Shell { half, of } => of.lower_bound(p, sources).max(0.0) - half,
             Op::Morph { t, from, to } => {
-                if (0.0..=1.0).contains(t) {
+                if *t == 0.0 {
+                    from.lower_bound(p, sources)
+                } else if *t == 1.0 {
+                    to.lower_bound(p, sources)
+                } else if (0.0..=1.0).contains(t) {
                     (1.0 - t) * from.lower_bound(p, sources) + t * to.lower_bound(p, sources)
                 } else {
                     f32::NEG_INFINITY
@@ -354,7 +404,11 @@ impl Compiled {
             }
             Op::Complement(c) => csg::complement(c.eval(p, cap, sources)),
             Op::Smooth { kind, k, of } => {
-                let inner = cap + SMOOTH_CAP * k;
+                // Children exact within `cap + reach + k` make the blend exact within `cap`:
+                // a clamped child either lies `k` or more above the running value (and
+                // does not enter the blend) or the running value already lies above
+                // `cap + reach`, which the remaining folds cannot bring below `cap`.
+                let inner = cap + smooth_reach(*k, of.len()) + k;
                 let mut vals = of.iter().map(|c| c.eval(p, inner, sources));
                 let first = vals.next().unwrap_or(f32::INFINITY);
                 match kind {
