@@ -13,6 +13,7 @@
 //! | [`octree`] | `isokit-octree` | adaptively sampled fields in a hashed octree (and the linked octree it is measured against) |
 //! | [`points`] | `isokit-points` | point cloud → signed distance: normal estimation, partition of unity of linear fields, sparse solve, far-field blend |
 //! | [`levelset`] | `isokit-levelset` | CSG, morph, offset, level-set evolution and reinitialization, scene files evaluated lazily, watertight meshing |
+//! | [`render`] | `isokit-render` | isosurface ray casting (blocks and bricks, empty-space skipping, adaptive sampling, refinement, tricubic curvature), G-buffer, deferred shading |
 //!
 //! ## Conventions
 //! Signed distances are negative inside and positive outside. Grids are node-centered
@@ -56,6 +57,7 @@ pub use isokit_kdtree as kdtree;
 pub use isokit_octree as octree;
 pub use isokit_points as points;
 pub use isokit_levelset as levelset;
+pub use isokit_render as render;
 
 pub use isokit_field::{Aabb, BrickGrid, Field, Grid};
 

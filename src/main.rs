@@ -44,6 +44,12 @@ enum Command {
     Scene(cmd::scene::Args),
     /// The isosurface of a volume as a watertight, 2-manifold triangle mesh.
     Mesh(cmd::mesh::Args),
+    /// Ray cast the isosurface of a scene or volume into a shaded image (and a G-buffer):
+    /// empty-space skipping, brick cache, adaptive sampling, tricubic curvature.
+    Render(Box<cmd::render::Args>),
+    /// Render the bundled demo scene (a mesh blended with a sphere, curvature-shaded) to
+    /// demo.png, printing each stage and its time.
+    Demo(cmd::demo::Args),
     /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`).
     #[command(subcommand)]
     Bench(cmd::bench::Bench),
@@ -72,6 +78,8 @@ fn main() -> ExitCode {
         Command::Points(a) => cmd::points::run(*a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Mesh(a) => cmd::mesh::run(a),
+        Command::Render(a) => cmd::render::run(*a),
+        Command::Demo(a) => cmd::demo::run(a),
         Command::Bench(b) => cmd::bench::run(b),
     };
     match result {

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod convert;
+pub mod demo;
 pub mod info;
 pub mod mesh;
 pub mod mesh_args;
@@ -9,6 +10,7 @@ pub mod octree;
 pub mod points;
 pub mod progress;
 pub mod query;
+pub mod render;
 pub mod sample;
 pub mod scene;
 pub mod sdf;

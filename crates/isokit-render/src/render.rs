@@ -1,0 +1,596 @@
+//! The CPU ray caster: options, the host side of the brick cache, and the passes over the
+//! image (rayon over pixels) that call [`crate::kernel::trace_pixel`].
+
+use crate::kernel::{
+    self, FILTER_TRICUBIC, FILTER_TRILINEAR, GSample, ID_CAP, ID_SURFACE, PixelResult,
+    REFINE_BISECTION, REFINE_SECANT, Resume, TraceData, Uniforms,
+};
+use crate::{BrickCache, GBuffer, RenderError, Volume, check_image_size};
+use glam::IVec3;
+use isokit_field::curvature::Inside;
+use isokit_field::{Camera, Projection};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Instant;
+
+/// Reconstruction filter of the ray caster.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Filter {
+    /// Trilinear: interpolating, C0; one fetch per value. Its Hessian has a zero diagonal,
+    /// so curvature from it is crude.
+    Trilinear,
+    /// Tricubic B-spline by the 8-fetch scheme: C2, approximating (it smooths: a sampled
+    /// sphere shrinks by about `h²/(3R)`); the filter for normals and curvature.
+    #[default]
+    Tricubic,
+}
+
+impl Filter {
+    fn code(self) -> u32 {
+        match self {
+            Filter::Trilinear => FILTER_TRILINEAR,
+            Filter::Tricubic => FILTER_TRICUBIC,
+        }
+    }
+}
+
+impl std::str::FromStr for Filter {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "trilinear" | "linear" => Ok(Self::Trilinear),
+            "tricubic" | "cubic" | "cubic_bspline" | "bspline" => Ok(Self::Tricubic),
+            _ => Err(format!(
+                "unknown filter {s:?} (expected trilinear or tricubic)"
+            )),
+        }
+    }
+}
+
+/// How a detected crossing is refined (002 Sec. 6.3.4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum RefineMethod {
+    /// Halve the bracket each step.
+    Bisection,
+    /// Secant (regula falsi, Eq. 6.4) with the Illinois modification, keeping the bracket.
+    #[default]
+    Secant,
+}
+
+/// The knobs of one rendering: what surface, how it is searched, how precisely.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// The isovalue ρ (default 0).
+    pub iso: f32,
+    /// Which side of ρ is inside (ERRATA 7): [`Inside::Below`] for distance fields,
+    /// [`Inside::Above`] for densities.
+    pub inside: Inside,
+    /// Filter of the intersection search (default tricubic).
+    pub filter: Filter,
+    /// Filter of the gradient and Hessian at the hit (default tricubic).
+    pub shading_filter: Filter,
+    /// Base sampling rate r0 in samples per voxel (default 1; 0 < r0 <= 64).
+    pub r0: f32,
+    /// Fine-rate factor n, r1 = n · r0, used where the field comes within `delta` of ρ
+    /// (default 8 as in 002; 1 turns adaptive sampling off; at most 64).
+    pub fine: u32,
+    /// The threshold of the fine rate in field units; `None`: `gradient_scale · spacing /
+    /// r0`, the change of an L-Lipschitz field over one base step, which is twice what is
+    /// needed for any interval where the field dips below ρ to be resampled finely.
+    pub delta: Option<f32>,
+    /// A bound on `|∇f|` in field units per world unit: 1 for distance fields (default);
+    /// for densities an estimate ([`estimate_gradient_scale`]).
+    pub gradient_scale: f32,
+    /// Refinement steps after a crossing (default 6; at most 64).
+    pub refine_steps: u32,
+    /// Refinement method (default secant).
+    pub refine: RefineMethod,
+    /// Skip blocks whose range excludes ρ (default true). Off, every block is sampled:
+    /// the image is the same, only slower.
+    pub skip_empty: bool,
+    /// Report caps where a ray enters the volume inside the solid (default true).
+    pub caps: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            iso: 0.0,
+            inside: Inside::Below,
+            filter: Filter::Tricubic,
+            shading_filter: Filter::Tricubic,
+            r0: 1.0,
+            fine: 8,
+            delta: None,
+            gradient_scale: 1.0,
+            refine_steps: 6,
+            refine: RefineMethod::Secant,
+            skip_empty: true,
+            caps: true,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// Checks the ranges.
+    pub fn check(&self) -> Result<(), RenderError> {
+        if !self.iso.is_finite() {
+            return Err(RenderError::bad("iso", self.iso, "must be finite"));
+        }
+        if !(self.r0.is_finite() && self.r0 > 0.0 && self.r0 <= 64.0) {
+            return Err(RenderError::bad(
+                "r0",
+                self.r0,
+                "the base sampling rate must lie in (0, 64] samples per voxel",
+            ));
+        }
+        if !(1..=64).contains(&self.fine) {
+            return Err(RenderError::bad(
+                "fine",
+                self.fine,
+                "the fine-rate factor must be 1 to 64",
+            ));
+        }
+        if self.refine_steps > 64 {
+            return Err(RenderError::bad(
+                "refine steps",
+                self.refine_steps,
+                "must be at most 64",
+            ));
+        }
+        if let Some(d) = self.delta
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return Err(RenderError::bad(
+                "delta",
+                d,
+                "must be finite and non-negative",
+            ));
+        }
+        if !(self.gradient_scale.is_finite() && self.gradient_scale > 0.0) {
+            return Err(RenderError::bad(
+                "gradient scale",
+                self.gradient_scale,
+                "must be finite and positive",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The fine-rate threshold used for `volume` (see [`RenderOptions::delta`]).
+    pub fn delta_for(&self, volume: &Volume) -> f32 {
+        self.delta
+            .unwrap_or(self.gradient_scale * volume.spacing() / self.r0)
+    }
+}
+
+/// An estimate of `|∇f|` near the isovalue for data that are not distance fields (CT-like
+/// densities), in field units per world unit: the median over active blocks of
+/// `(max − min) / (block diagonal)`. 1 when no block is active.
+pub fn estimate_gradient_scale(volume: &Volume, iso: f32) -> f32 {
+    let diag = (volume.layout().block + 3) as f32 * 3f32.sqrt() * volume.spacing();
+    let mut g: Vec<f32> = volume
+        .block_ranges()
+        .iter()
+        .filter(|r| r[0] <= iso && iso <= r[1] && r[1] > r[0])
+        .map(|r| (r[1] - r[0]) / diag)
+        .collect();
+    if g.is_empty() {
+        return 1.0;
+    }
+    let mid = g.len() / 2;
+    let (_, m, _) = g.select_nth_unstable_by(mid, f32::total_cmp);
+    if m.is_finite() && *m > 0.0 { *m } else { 1.0 }
+}
+
+/// The uniforms of one rendering of `volume` by `camera` with `opts`.
+pub fn uniforms(
+    volume: &Volume,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<Uniforms, RenderError> {
+    opts.check()?;
+    let (width, height) = check_image_size(camera.width().into(), camera.height().into())?;
+    let forward = camera.forward();
+    // As `Camera::look_at` builds its frame.
+    let right = forward.cross(camera.up()).normalize_or_zero();
+    let up = right.cross(forward);
+    let (ortho, half_height) = match camera.projection() {
+        Projection::Perspective { fov_y_degrees } => (0, (0.5 * fov_y_degrees.to_radians()).tan()),
+        Projection::Orthographic { height } => (1, 0.5 * height),
+    };
+    let layout = volume.layout();
+    let u32s = |a: [usize; 3]| a.map(|v| v as u32);
+    Ok(Uniforms {
+        eye: camera.eye().to_array(),
+        ortho,
+        right: right.to_array(),
+        half_height,
+        up: up.to_array(),
+        aspect: camera.aspect(),
+        forward: forward.to_array(),
+        width,
+        origin: volume.origin().to_array(),
+        spacing: volume.spacing(),
+        dims: u32s(volume.dims()),
+        block: layout.block as u32,
+        block_dims: u32s(volume.block_dims()),
+        brick: layout.brick as u32,
+        brick_dims: u32s(volume.brick_dims()),
+        brick_side: layout.brick_side() as u32,
+        iso: opts.iso,
+        inside_sign: match opts.inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        },
+        r0: opts.r0,
+        fine: opts.fine,
+        delta: opts.delta_for(volume),
+        refine_steps: opts.refine_steps,
+        refine_method: match opts.refine {
+            RefineMethod::Bisection => REFINE_BISECTION,
+            RefineMethod::Secant => REFINE_SECANT,
+        },
+        filter: opts.filter.code(),
+        shading_filter: opts.shading_filter.code(),
+        skip_empty: u32::from(opts.skip_empty),
+        caps: u32::from(opts.caps),
+        height,
+        views: 1,
+        view: 0,
+        subpixels: 1,
+        view_separation: 0.0,
+        window_distance: (camera.target() - camera.eye()).length(),
+        lens_pitch: 1.0,
+        lens_slant: 0.0,
+        lens_offset: 0.0,
+    })
+}
+
+/// A multi-view autostereoscopic display (paper 001): `views` eyes on a line along the
+/// camera's right vector, `separation` apart and centred on the camera's eye, all looking
+/// through the same window (the plane of the camera's target, zero parallax); behind a
+/// slanted lenticular sheet each subpixel shows one view ([`kernel::view_index`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MultiView {
+    /// Number of views, 2 to 64.
+    pub views: u32,
+    /// Distance between neighbouring eyes, world units.
+    pub separation: f32,
+    /// Subpixels under one lens (default: `views`, one view per subpixel along a row).
+    pub pitch: f32,
+    /// Horizontal shift of the lenses per pixel row, in pixels (0 for vertical lenses).
+    pub slant: f32,
+    /// Shift of the pattern, in subpixels.
+    pub offset: f32,
+}
+
+impl MultiView {
+    /// `views` views `separation` apart behind vertical lenses of `views` subpixels.
+    pub fn new(views: u32, separation: f32) -> Self {
+        Self {
+            views,
+            separation,
+            pitch: views as f32,
+            slant: 0.0,
+            offset: 0.0,
+        }
+    }
+
+    /// Checks the ranges.
+    pub fn check(&self) -> Result<(), RenderError> {
+        if !(2..=64).contains(&self.views) {
+            return Err(RenderError::bad("views", self.views, "must be 2 to 64"));
+        }
+        if !(self.separation.is_finite() && self.separation >= 0.0) {
+            return Err(RenderError::bad(
+                "view separation",
+                self.separation,
+                "must be finite and non-negative",
+            ));
+        }
+        if !(self.pitch.is_finite() && self.pitch > 0.0) {
+            return Err(RenderError::bad(
+                "lens pitch",
+                self.pitch,
+                "must be finite and positive",
+            ));
+        }
+        if !(self.slant.is_finite() && self.offset.is_finite()) {
+            return Err(RenderError::bad(
+                "lens slant and offset",
+                format!("{} {}", self.slant, self.offset),
+                "must be finite",
+            ));
+        }
+        Ok(())
+    }
+
+    fn uniforms(
+        &self,
+        volume: &Volume,
+        camera: &Camera,
+        opts: &RenderOptions,
+        view: Option<u32>,
+    ) -> Result<Uniforms, RenderError> {
+        self.check()?;
+        if !matches!(camera.projection(), Projection::Perspective { .. }) {
+            return Err(RenderError::bad(
+                "projection",
+                "orthographic",
+                "multi-view rendering needs a perspective camera",
+            ));
+        }
+        if let Some(v) = view
+            && v >= self.views
+        {
+            return Err(RenderError::bad(
+                "view",
+                v,
+                "must be below the number of views",
+            ));
+        }
+        let mut u = uniforms(volume, camera, opts)?;
+        let subpixels = if view.is_some() { 1 } else { 3 };
+        if u64::from(u.width) * u64::from(u.height) * subpixels > crate::MAX_IMAGE_PIXELS {
+            return Err(RenderError::ImageSize {
+                width: u.width.into(),
+                height: u.height.into(),
+            });
+        }
+        u.views = self.views;
+        u.view = view.map_or(-1, |v| v as i32);
+        u.subpixels = subpixels as u32;
+        u.view_separation = self.separation;
+        u.lens_pitch = self.pitch;
+        u.lens_slant = self.slant;
+        u.lens_offset = self.offset;
+        Ok(u)
+    }
+}
+
+/// The geometric pass for a multi-view display (001): one ray per subpixel, each from the
+/// eye of the view that subpixel shows, so its cost does not grow with the number of
+/// views. The G-buffer is `3·width` wide: column `3x + c` is subpixel `c` of pixel `x`;
+/// [`crate::shade()`] turns it into the interleaved image.
+pub fn render_multiview(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    opts: &RenderOptions,
+    mv: &MultiView,
+) -> Result<Frame, RenderError> {
+    let u = mv.uniforms(volume, camera, opts, None)?;
+    trace_frame(volume, cache, camera, u)
+}
+
+/// One view of a multi-view display rendered alone (every pixel from that view's eye): the
+/// individual view images, and the reference the interleaved image is checked against.
+pub fn render_view(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    opts: &RenderOptions,
+    mv: &MultiView,
+    view: u32,
+) -> Result<Frame, RenderError> {
+    let u = mv.uniforms(volume, camera, opts, Some(view))?;
+    trace_frame(volume, cache, camera, u)
+}
+
+/// What one rendering did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Rays traced: one per pixel, or per subpixel for a multi-view display.
+    pub rays: u64,
+    /// Rays that hit the isosurface.
+    pub hits: u64,
+    /// Rays that hit a cap (the volume's box inside the solid).
+    pub caps: u64,
+    /// Field evaluations along all rays (search and refinement; not the derivatives).
+    pub samples: u64,
+    /// Blocks that hold the isovalue (all blocks when skipping is off).
+    pub blocks_active: usize,
+    /// Blocks of the volume.
+    pub blocks_total: usize,
+    /// Bricks that hold an active block.
+    pub bricks_active: usize,
+    /// Bricks of the volume.
+    pub bricks_total: usize,
+    /// Active bricks already resident when the frame started.
+    pub cache_hits: u64,
+    /// Bricks loaded during the frame.
+    pub bricks_loaded: u64,
+    /// Bricks evicted during the frame.
+    pub evictions: u64,
+    /// Passes over the pending pixels (1 when the cache held every brick rays needed).
+    pub passes: u32,
+    /// Wall-clock seconds of the frame (cache updates and tracing).
+    pub seconds: f64,
+}
+
+impl RenderStats {
+    /// Mean field evaluations per ray.
+    pub fn samples_per_ray(&self) -> f64 {
+        self.samples as f64 / self.rays.max(1) as f64
+    }
+}
+
+/// A rendered frame: the G-buffer and what it cost.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Per-pixel hits, normals, curvature.
+    pub gbuffer: GBuffer,
+    /// Counters and timing.
+    pub stats: RenderStats,
+    /// The uniforms the frame was traced with (shading reads the camera from them).
+    pub uniforms: Uniforms,
+}
+
+/// Ray casts `volume` from `camera` into a G-buffer.
+///
+/// 1. Blocks are culled against ρ; the bricks holding active blocks are the active set.
+/// 2. Active bricks not resident are loaded nearest to the eye first, evicting only
+///    inactive bricks (least recently used first), as far as the cache's capacity allows.
+/// 3. Every pixel is traced (rayon). A ray that reaches an active brick which is not
+///    resident asks for it and stops there.
+/// 4. While rays wait: the bricks asked for are loaded, most requested first, evicting the
+///    least recently used, and the waiting rays resume where they stopped. Because a ray
+///    cuts and samples its segments the same way whether it ran through or was resumed, a
+///    cache smaller than the active set renders exactly the same image, in more passes.
+pub fn render(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<Frame, RenderError> {
+    let u = uniforms(volume, camera, opts)?;
+    trace_frame(volume, cache, camera, u)
+}
+
+/// Traces every ray `u` describes (`width · height · subpixels`).
+fn trace_frame(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    u: Uniforms,
+) -> Result<Frame, RenderError> {
+    let t0 = Instant::now();
+    cache.bind(volume);
+    let before = cache.stats();
+    let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
+    let n_bricks = volume.brick_count();
+
+    // 1. Active blocks and bricks.
+    let [bx, by, _] = volume.block_dims();
+    let mut brick_active = vec![false; n_bricks];
+    let mut blocks_active = 0;
+    for (n, &r) in volume.block_ranges().iter().enumerate() {
+        if kernel::block_active(&u, r) {
+            blocks_active += 1;
+            let c = IVec3::new(
+                (n % bx) as i32,
+                ((n / bx) % by) as i32,
+                (n / (bx * by)) as i32,
+            );
+            brick_active[kernel::brick_of_block(&u, c)] = true;
+        }
+    }
+    // 2. Hits and prefetch, nearest first.
+    cache.tick();
+    let eye = camera.eye();
+    let forward = camera.forward();
+    let mut wanted: Vec<(f32, usize)> = Vec::new();
+    for n in (0..n_bricks).filter(|&n| brick_active[n]) {
+        if cache.slot_of(n).is_some() {
+            cache.count_hit();
+            cache.touch(n);
+        } else {
+            let c = volume.brick_bounds(n).center();
+            let depth = match camera.projection() {
+                Projection::Perspective { .. } => (c - eye).length(),
+                Projection::Orthographic { .. } => (c - eye).dot(forward),
+            };
+            wanted.push((depth, n));
+        }
+    }
+    wanted.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let order: Vec<usize> = wanted.iter().map(|&(_, n)| n).collect();
+    cache.load(volume, &order, |n| brick_active[n]);
+
+    // 3–4. Passes.
+    let mut pixels = vec![GSample::default(); w * h];
+    let mut samples = vec![0u32; w * h];
+    let requests: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
+    let used: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
+    let mut pending: Vec<(u32, Option<Resume>)> = (0..(w * h) as u32).map(|i| (i, None)).collect();
+    let mut passes = 0u32;
+    loop {
+        passes += 1;
+        let data = TraceData {
+            pool: cache.pool(),
+            reference: cache.reference(),
+            block_range: volume.block_ranges(),
+            requests: &requests,
+            used: &used,
+        };
+        let results: Vec<(u32, PixelResult)> = pending
+            .par_iter()
+            .with_min_len(64)
+            .map(|&(i, r)| {
+                let (p, sub) = (i / u.subpixels, i % u.subpixels);
+                let (px, py) = (p % u.width, p / u.width);
+                (i, kernel::trace_pixel(&u, &data, px, py, sub, r))
+            })
+            .collect();
+        pending.clear();
+        for (i, r) in results {
+            let idx = i as usize;
+            match r {
+                PixelResult::Done { sample, samples: s } => {
+                    pixels[idx] = sample;
+                    samples[idx] += s;
+                }
+                PixelResult::Suspended { resume, samples: s } => {
+                    samples[idx] += s;
+                    pending.push((i, Some(resume)));
+                }
+            }
+        }
+        for (n, flag) in used.iter().enumerate() {
+            if flag.swap(0, Ordering::Relaxed) != 0 {
+                cache.touch(n);
+            }
+        }
+        if pending.is_empty() {
+            break;
+        }
+        let mut asked: Vec<(u32, usize)> = requests
+            .iter()
+            .enumerate()
+            .filter_map(|(n, r)| {
+                let c = r.swap(0, Ordering::Relaxed);
+                (c > 0).then_some((c, n))
+            })
+            .collect();
+        asked.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+        let order: Vec<usize> = asked.iter().map(|&(_, n)| n).collect();
+        cache.tick();
+        // Every resident brick may go: rays only move forward, and those still waiting
+        // wait for the ones asked for. Capacity >= 1, so at least one loads.
+        if cache.load(volume, &order, |_| false) == 0 {
+            return Err(RenderError::bad(
+                "cache capacity",
+                cache.capacity(),
+                "no brick could be loaded",
+            ));
+        }
+    }
+    let after = cache.stats();
+    let stats = RenderStats {
+        width: u.width,
+        height: u.height,
+        rays: (w * h) as u64,
+        hits: pixels.iter().filter(|p| p.id == ID_SURFACE).count() as u64,
+        caps: pixels.iter().filter(|p| p.id == ID_CAP).count() as u64,
+        samples: samples.iter().map(|&s| u64::from(s)).sum(),
+        blocks_active,
+        blocks_total: volume.block_ranges().len(),
+        bricks_active: brick_active.iter().filter(|&&a| a).count(),
+        bricks_total: n_bricks,
+        cache_hits: after.hits - before.hits,
+        bricks_loaded: after.loads - before.loads,
+        evictions: after.evictions - before.evictions,
+        passes,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok(Frame {
+        gbuffer: GBuffer::new(w as u32, u.height, pixels, samples),
+        stats,
+        uniforms: u,
+    })
+}

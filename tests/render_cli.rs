@@ -1,0 +1,303 @@
+//! End-to-end tests of `isokit render` and `isokit demo`: scenes and volumes to PNG and
+//! EXR, the GPU fallback, refused sizes, and `--watch` keeping the last good image.
+
+mod common;
+
+use common::{assert_clear_error, isokit, isokit_ok, json, scratch};
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const SCENE: &str = r#"{
+  "shape": {"difference": [
+    {"sphere": {"radius": 0.8}},
+    {"box": {"half": [0.4, 0.4, 0.9], "center": [0.5, 0.3, 0.0]}}
+  ]},
+  "camera": {"eye": [1.5, 1.2, 2.5], "fov": 40},
+  "shading": {"mode": "tone"},
+  "sampling": {"resolution": 48}
+}"#;
+
+#[test]
+fn render_a_scene_to_png_and_gbuffer() {
+    let dir = scratch("render-scene");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("out.png");
+    let exr = dir.join("g.exr");
+    let out = isokit_ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "40",
+        "--gbuffer",
+        exr.to_str().unwrap(),
+        "--stats",
+    ]);
+    let j = json(&out);
+    assert!(j["hits"].as_u64().unwrap() > 300, "{j}");
+    assert_eq!(j["passes"], 1);
+    let (w, h, _) = isokit::io::read_png(&png).unwrap();
+    assert_eq!((w, h), (64, 40));
+    let info = isokit::io::read_exr_info(&exr).unwrap();
+    let mut names = info.channels.clone();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "A", "K1", "K2", "N.X", "N.Y", "N.Z", "P.X", "P.Y", "P.Z", "Z"
+        ]
+    );
+    // A one-brick cache and no skipping render the same picture.
+    let png2 = dir.join("out2.png");
+    isokit_ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png2.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "40",
+        "--cache-mb",
+        "0",
+        "--no-skip",
+        "--backend",
+        "cpu",
+    ]);
+    assert_eq!(
+        isokit::io::read_png(&png).unwrap(),
+        isokit::io::read_png(&png2).unwrap()
+    );
+}
+
+#[test]
+fn render_a_volume_with_the_inside_above() {
+    let dir = scratch("render-volume");
+    // A density: 1 − |p| over [-1, 1]³, the ball |p| < 0.6 is where it exceeds 0.4.
+    let mut g = isokit::Grid::new([33; 3], glam::Vec3::splat(-1.0), 2.0 / 32.0).unwrap();
+    for ([i, j, k], _) in g.clone().iter() {
+        let p = g.position(i, j, k);
+        g.set(i, j, k, 1.0 - p.length());
+    }
+    let vol = dir.join("d.nrrd");
+    isokit::io::write_volume(&vol, &isokit::io::Volume::from(g)).unwrap();
+    let png = dir.join("d.png");
+    let run = |inside: &str| {
+        json(&isokit_ok(&[
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--iso",
+            "0.4",
+            "--inside",
+            inside,
+            "--shading",
+            "curvature",
+            "--stats",
+        ]))
+    };
+    let above = run("above");
+    assert!(above["hits"].as_u64().unwrap() > 50, "{above}");
+    assert_eq!(above["caps"], 0);
+    // With the inside below, the solid is the complement: the box's faces are caps.
+    let below = run("below");
+    assert_eq!(below["hits"], 0, "{below}");
+    assert!(below["caps"].as_u64().unwrap() > 300, "{below}");
+}
+
+#[test]
+fn gpu_backend_falls_back_with_a_note() {
+    let dir = scratch("render-gpu");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("out.png");
+    let out = isokit_ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--backend",
+        "gpu",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("GPU ray caster is not built yet"), "{err}");
+    assert!(png.is_file());
+}
+
+#[test]
+fn absurd_and_bad_arguments_are_refused_clearly() {
+    let dir = scratch("render-bad");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("out.png");
+    let s = scene.to_str().unwrap();
+    let p = png.to_str().unwrap();
+    let out = isokit(&[
+        "render",
+        s,
+        "-o",
+        p,
+        "--width",
+        "100000000",
+        "--height",
+        "100000000",
+    ]);
+    assert_clear_error(&out, "image size 100000000x100000000");
+    let out = isokit(&["render", s, "-o", p, "--width", "0"]);
+    assert_clear_error(&out, "image size");
+    let out = isokit(&["render", s, "-o", p, "--shading", "sparkly"]);
+    assert_clear_error(&out, "unknown shading mode");
+    let out = isokit(&[
+        "render", s, "-o", p, "--r0", "0", "--width", "8", "--height", "8",
+    ]);
+    assert_clear_error(&out, "r0");
+    let out = isokit(&["render", s, "-o", dir.join("x.jpg").to_str().unwrap()]);
+    assert_clear_error(&out, "unknown output format");
+    std::fs::write(&scene, "{\"shape\": {\"sphere\": {\"radius\": -1}}}").unwrap();
+    let out = isokit(&["render", s, "-o", p, "--width", "8", "--height", "8"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(!png.exists());
+}
+
+/// `--watch` renders again when the scene changes, keeps the last good image when the
+/// scene is broken, and picks up the repaired scene.
+#[test]
+fn watch_keeps_the_last_good_image() {
+    let dir = scratch("render-watch");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("w.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isokit"))
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--watch",
+            "--watch-renders",
+            "3",
+        ])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let wait_for = |needle: &str| {
+        let t = Instant::now();
+        loop {
+            let line = rx
+                .recv_timeout(Duration::from_secs(120).saturating_sub(t.elapsed()))
+                .unwrap_or_else(|_| panic!("no line with {needle:?}"));
+            if line.contains(needle) {
+                return line;
+            }
+        }
+    };
+    wait_for("[watch] waiting");
+    let first = std::fs::read(&png).unwrap();
+    std::thread::sleep(Duration::from_millis(50));
+    std::fs::write(&scene, "{\"shape\": {\"sphere\": {\"radius\": \"big\"}}}").unwrap();
+    let err = wait_for("[watch] error");
+    assert!(err.contains("keeping the last good image"), "{err}");
+    assert_eq!(std::fs::read(&png).unwrap(), first);
+    wait_for("[watch] waiting");
+    std::fs::write(&scene, SCENE.replace("0.8", "0.6")).unwrap();
+    wait_for("[watch] rendered");
+    assert!(child.wait().unwrap().success());
+    assert_ne!(std::fs::read(&png).unwrap(), first);
+}
+
+#[test]
+fn demo_renders_the_bundled_scene() {
+    let dir = scratch("demo");
+    let png = dir.join("demo.png");
+    let out = isokit_ok(&[
+        "demo",
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--res",
+        "64",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    for stage in [
+        "load", "sample", "blocks", "trace", "shade", "write", "total",
+    ] {
+        assert!(err.lines().any(|l| l.starts_with(stage)), "{stage}: {err}");
+    }
+    let (w, h, px) = isokit::io::read_png(&png).unwrap();
+    assert_eq!((w, h), (48, 36));
+    // Not just background: the knot and sphere cover part of the image.
+    let bg = &px[0..4];
+    let covered = px.chunks(4).filter(|p| p != &bg).count();
+    assert!(covered > 200, "{covered} pixels differ from the background");
+}
+
+#[test]
+fn render_for_a_multiview_display() {
+    let dir = scratch("render-views");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("mv.png");
+    let views = dir.join("views");
+    let j = json(&isokit_ok(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--width",
+        "20",
+        "--height",
+        "12",
+        "--views",
+        "4",
+        "--lens-slant",
+        "0.333",
+        "--views-out",
+        views.to_str().unwrap(),
+        "--stats",
+    ]));
+    assert_eq!(j["width"], 20);
+    let (w, h, _) = isokit::io::read_png(&png).unwrap();
+    assert_eq!((w, h), (20, 12));
+    for k in 0..4 {
+        let (w, h, _) = isokit::io::read_png(&views.join(format!("view_{k:02}.png"))).unwrap();
+        assert_eq!((w, h), (20, 12));
+    }
+    let out = isokit(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--views",
+        "1",
+    ]);
+    assert_clear_error(&out, "views");
+}
