@@ -27,7 +27,8 @@ fn torus_cloud_to_volume_given_and_estimated_normals() {
         ]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{err}");
-        assert!(err.contains("solve: GMRES"), "{err}");
+        assert!(err.contains("solve: LSQR"), "{err}");
+        assert!(err.contains("(converged)"), "{err}");
         if normals == "estimate" {
             assert!(err.contains("normals: estimated"), "{err}");
         }
@@ -41,6 +42,93 @@ fn torus_cloud_to_volume_given_and_estimated_normals() {
             }
         }
         assert!(worst < 0.03, "{normals}: {worst}");
+    }
+}
+
+/// `--band W` evaluates only bricks near the surface, yet writes the same file as the dense
+/// path clamped to ±W; and it reports the fraction evaluated.
+#[test]
+fn band_is_lazy_and_equals_the_clamped_dense_field() {
+    let d = scratch("band");
+    let (dense, band) = (d.join("dense.nrrd"), d.join("band.nrrd"));
+    let base = [
+        "points",
+        &data("torus_cloud.ply"),
+        "--res",
+        "64",
+        "--brick",
+        "4",
+    ];
+    isokit_ok(&[&base[..], &["-o", dense.to_str().unwrap()]].concat());
+    let w = 0.06f32;
+    let o = isokit_ok(&[&base[..], &["--band", "0.06", "-o", band.to_str().unwrap()]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    let pct: f64 = err
+        .split("band 0.06: ")
+        .nth(1)
+        .and_then(|s| s.split('%').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no evaluated fraction in: {err}"));
+    println!("{err}");
+    // 59% measured: the torus fills much of its own bounds at this resolution.
+    assert!(pct > 0.0 && pct < 70.0, "{pct}% evaluated");
+    let a = isokit_io::read_volume(&dense).unwrap().into_grid().unwrap();
+    let b = isokit_io::read_volume(&band).unwrap().into_grid().unwrap();
+    assert_eq!(a.dims(), b.dims());
+    assert_eq!(a.origin(), b.origin());
+    let (mut inside, mut worst) = (0, 0.0f32);
+    for (x, y) in a.data().iter().zip(b.data()) {
+        let want = x.clamp(-w, w);
+        worst = worst.max((want - y).abs());
+        inside += usize::from(x.abs() < w);
+    }
+    // The lazy path evaluates at f32 positions, the dense one at f64 ones.
+    assert!(worst < 1e-5, "lazy and dense differ by {worst}");
+    assert!(inside > 1000, "{inside} samples within the band");
+    // The .npy output of the band path too.
+    let npy = d.join("band.npy");
+    isokit_ok(&[&base[..], &["--band", "0.06", "-o", npy.to_str().unwrap()]].concat());
+    assert_eq!(isokit_io::read_npy(&npy).unwrap().data.len(), a.len());
+}
+
+/// The comparison variants and solvers are reachable from the command line.
+#[test]
+fn variants_and_solvers() {
+    let d = scratch("variants");
+    let out = d.join("v.npy");
+    for extra in [
+        &["--weights", "shepard"][..],
+        &["--weights", "nie04", "--nie04-neighbours", "12"],
+        &["--solver", "gmres", "--max-iter", "30"],
+        &["--solver", "bicgstab"],
+        &["--damping", "1", "--k", "32"],
+        &["--no-far"],
+    ] {
+        let o = isokit_ok(
+            &[
+                &["points", &data("torus_cloud.ply"), "--res", "24"][..],
+                extra,
+                &["-o", out.to_str().unwrap()],
+            ]
+            .concat(),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        let v = isokit_io::read_npy(&out).unwrap().data;
+        assert!(v.iter().all(|x| x.is_finite()), "{extra:?}");
+        assert!(
+            v.iter().any(|&x| x < 0.0) && v.iter().any(|&x| x > 0.0),
+            "{extra:?}"
+        );
+        if extra[0] == "--weights" {
+            assert!(!err.contains("solve:"), "{err}");
+        }
+        if extra[0] == "--solver" {
+            assert!(
+                err.contains(&format!("solve: {}", extra[1].to_uppercase()))
+                    || err.contains("BiCGSTAB"),
+                "{err}"
+            );
+        }
     }
 }
 
@@ -73,6 +161,28 @@ fn clear_errors() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2));
     assert!(err.contains("no normals"), "{err}");
+
+    let out = d.join("x.npy");
+    for (extra, needle) in [
+        (&["--damping=-1"][..], "damping"),
+        (&["--band", "0"], "--band"),
+        (&["--band", "0.1", "--brick", "3"], "brick size"),
+        (
+            &["--weights", "nie04", "--nie04-neighbours", "0"],
+            "neighbours",
+        ),
+        (&["--k", "0"], "k must be"),
+    ] {
+        let o = isokit(
+            &[
+                &["points", &data("torus_cloud.ply"), "--res", "16"][..],
+                extra,
+                &["-o", out.to_str().unwrap()],
+            ]
+            .concat(),
+        );
+        assert_clear_error(&o, needle);
+    }
 }
 
 #[test]

@@ -8,11 +8,14 @@
 //!   reported.
 //! - [`PointSdf`]: local linear fields `c_i + n_i·(x − p_i)` blended by a partition of unity
 //!   with the weight `(1 − r²/R²)³` (R the distance to the evaluation point's k-th nearest
-//!   sample, so the field is defined everywhere), constants `c_i` from a sparse solve so
-//!   that the field interpolates zero at the samples, and a blend with the signed distance
-//!   to the closest sample away from the surface ([`far`], ERRATA 6). It is a
-//!   [`isokit_field::Field`]. Comparison variants: [`Weighting::Shepard`] and
+//!   sample, so the field is defined everywhere), constants `c_i` from a damped sparse
+//!   least-squares solve so that the field nearly vanishes at the samples, and a blend with
+//!   the signed distance to the closest sample away from the surface ([`far`], ERRATA 6). It
+//!   is a [`isokit_field::Field`]. Comparison variants: [`Weighting::Shepard`] and
 //!   [`Weighting::Nie04`].
+//!
+//! Not for: clouds without a surface (volumetric scatter), or exact distances (use a mesh
+//! and `isokit-kdtree`); the field is an approximation whose error is stated below.
 //!
 //! ```
 //! use isokit_points::{PointSdf, PointSdfOptions};
@@ -28,55 +31,105 @@
 //! ```
 //!
 //! ## The solver
-//! The system `A c = b` with `A_ij` the normalized weight of sample j at sample i is
-//! row-stochastic, not symmetric (each row has its own support radius) and not diagonally
-//! dominant (the diagonal is `1/Σ_j w_ij`, about 0.2 at k = 16), so neither Jacobi nor
-//! Gauss–Seidel is guaranteed to converge. [`solve::gmres`] (restarted GMRES(50), right
-//! Jacobi preconditioner, on sprs CSR products) is the default, [`solve::bicgstab`] the
-//! alternative ([`Solver`]). Measured on 6000 samples of the unit sphere
-//! (`cargo test -p isokit-points --test solver -- --nocapture`; h = mean nearest-sample
-//! spacing):
+//! The constants solve `A c = b` ([`PointSdf::interpolation_system`]): `A_ij` is the
+//! normalized weight (Eq. 4.10) of sample j at sample i, `b_i = −Σ_j A_ij n_j·(p_i − p_j)`, so
+//! `(A c − b)_i` is exactly the near field at `p_i` (same neighbours, same weights as an
+//! evaluation there). That is the assembly 002 Sec. 4.3.4 describes; it is not the cause of
+//! the stagnation that GMRES and BiCGSTAB showed on random clouds. The system is:
 //!
-//! | sampling | solver | k | iterations | relative residual | max \|f(p_i)\| |
-//! | --- | --- | --- | --- | --- | --- |
-//! | Fibonacci (quasi-regular) | GMRES | 8 | 15 | 5.1e-7 | 7e-8 h |
-//! | Fibonacci | GMRES | 16 | 100 (cap) | 6.2e-4 | 1.2e-4 h |
-//! | Fibonacci | BiCGSTAB | 16 | 100 (cap) | 9.5e-4 | 2.0e-4 h |
-//! | uniform random | GMRES | 16 | 100 (cap) | 7.5e-2 | 1.8e-2 h |
-//! | uniform random | GMRES | 16 | 400 (cap) | 7.5e-2 | 1.8e-2 h |
-//! | uniform random | BiCGSTAB | 16 | 100 (cap) | 1.0e-1 | 2.4e-2 h |
+//! - **Ill-posed on random clouds.** `A` is row-stochastic, not symmetric, not diagonally
+//!   dominant, and on random samplings numerically singular and indefinite. A dense
+//!   analysis of 3000 random samples of the unit sphere (k = 16, numpy SVD) gives singular
+//!   values from 1.0 down to 9e-9 (condition 1e8), 30% of them below 1e-2, and 670 of 3000
+//!   eigenvalues with a negative real part; the smallest singular vectors sit on pairs of
+//!   samples closer than 0.03 h (h the mean nearest-sample spacing), whose rows are nearly
+//!   equal, but thinning pairs closer than 0.1–0.5 h leaves the condition at 5e5–2e7 and the
+//!   exact solution as bad as below. The same analysis
+//!   of a Fibonacci (quasi-regular) sphere gives condition 8 at k = 8 and 1.5e4 at k = 16.
+//! - **Its exact solution is a bad field.** Solved exactly (dense LU, `tests/solver.rs`,
+//!   1500 random samples of the sphere) the field vanishes at the samples to 3e-13 h, but
+//!   with constants up to 3.1e3 h, and the near field *between* the samples is off by 2.05 h
+//!   RMS (27.6 h max) in the band ±2h, against 0.038 h with the damped solve below. On the
+//!   Fibonacci sphere the exact solution is harmless (constants ≤ 0.35 h, 0.006 h RMS).
+//!   Driving the residual down is the wrong goal on random clouds; the stalled Krylov
+//!   solvers were regularizing by stopping early.
+//! - **ILU(0) does not help.** Without pivoting its pivots come out as small as 4e-6 of
+//!   their row ([`solve::Ilu0::smallest_pivot`]), so `(LU)⁻¹` is huge and GMRES on the
+//!   preconditioned operator ends with a residual larger than `b` (table below).
 //!
-//! On random clouds the system is numerically singular: both solvers stagnate at a relative
-//! residual of 5–10% whatever the cap, so the field misses zero at the samples by up to about
-//! 0.02–0.04 h (asserted below 0.05 h in `tests/shapes.rs`). Thinning nearly coincident
-//! samples (closer than 0.1–0.3 of the k-th neighbour distance) was tried and does not change
-//! the stagnation, so it is not the cause; the kernel `(1 − r²/R²)³` is not positive
-//! definite and random sample positions put eigenvalues of `A` at 0. GMRES is the default
-//! because its residual never grows, so the iteration cap returns the best iterate; the
-//! default cap is 30, since the residual is within 10% of its floor by 25 iterations. On a
-//! 10^6-sample torus the whole solve step (assembly by k-nearest queries, 30 iterations,
-//! and the check of `f` at every sample) took 15 s on 2 shared cores, 19 s with a cap of
-//! 100: assembly and the check dominate.
+//! So the default is [`Solver::Lsqr`]: the damped least-squares problem
+//! `min ‖A c − b‖² + λ²‖c‖²` by LSQR ([`solve::lsqr`]). It is well posed for every cloud
+//! (its condition is at most `√(1 + λ²)/λ`, since `‖A‖ ≈ 1`), converges in a number of
+//! iterations that does not grow with the cloud (63–65 at λ = 0.05 to an optimality of
+//! 1e-4, for 6000 and 10^6 samples alike), and its prior `c = 0` (each linear field through its
+//! sample) is the right one. λ is dimensionless because `A` is row-stochastic. Measured on
+//! 6000 samples of the unit sphere, k = 16 (`cargo test -p isokit-points --test solver --
+//! --nocapture`; "near band" is the near field alone against the exact distance at 3000
+//! points within ±2h of the surface):
 //!
-//! ## Accuracy (tests/shapes.rs, 6000 samples with exact normals)
-//! Error against the exact signed distance at 4000 points within ±2h of the surface:
+//! | sampling | solver | iterations | relative residual | max \|f(p_i)\| | max \|c\| | near band RMS | near band max |
+//! | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |
+//! | random | none (c = 0) | 0 | 1 | 0.090 h | 0 | 0.053 h | 0.16 h |
+//! | random | LSQR λ 0.3 | 13 | 0.17 | 0.028 h | 0.09 h | 0.020 h | 0.12 h |
+//! | random | LSQR λ 0.1 | 34 | 0.11 | 0.020 h | 0.16 h | 0.018 h | 0.11 h |
+//! | random | **LSQR λ 0.05 (default)** | 63 | 0.097 | **0.018 h** | 0.21 h | **0.018 h** | 0.12 h |
+//! | random | LSQR λ 0.01 | 242 | 0.063 | 0.012 h | 0.76 h | 0.019 h | 0.21 h |
+//! | random | GMRES (old default, cap 30) | 30 | 0.081 | 0.015 h | 0.96 h | 0.020 h | 0.24 h |
+//! | random | GMRES, cap 400 | 400 | 0.075 | 0.018 h | 2.1 h | 0.023 h | 0.30 h |
+//! | random | GMRES + ILU(0), cap 100 | 100 | 24 | 65 h | 2.7e3 h | 0.62 h | 18 h |
+//! | random | BiCGSTAB, cap 100 | 100 | 0.10 | 0.024 h | 0.58 h | 0.018 h | 0.20 h |
+//! | Fibonacci | none (c = 0) | 0 | 1 | 0.026 h | 0 | 0.024 h | 0.031 h |
+//! | Fibonacci | **LSQR λ 0.05 (default)** | 46 | 0.006 | 0.0015 h | 0.04 h | 0.0023 h | 0.009 h |
+//! | Fibonacci | GMRES, cap 400 | 400 | 3e-4 | 4e-5 h | 0.08 h | 0.0024 h | 0.009 h |
+//! | Fibonacci | GMRES + ILU(0), cap 100 | 100 | 39 | 23 h | 310 h | 1.0 h | 18 h |
 //!
-//! | shape | h | RMS | max | near field alone: RMS / max |
-//! | --- | --- | --- | --- | --- |
-//! | sphere r = 1 | 0.0227 | 0.038 h | 0.33 h | 0.020 h / 0.24 h |
-//! | torus 1, 0.35 | 0.0238 | 0.053 h | 0.55 h | 0.035 h / 0.25 h |
-//! | rounded box | 0.0179 | 0.049 h | 0.44 h | 0.035 h / 0.29 h |
+//! The damped solve converges where the plain solvers stall, keeps the constants 5–10×
+//! smaller than GMRES does, and halves the largest error between the samples. It brings the field within
+//! 0.018 h of zero at every sample of the random sphere (0.040 h on the random torus and
+//! 0.042 h on the rounded box; 0.09–0.23 h with no solve; asserted below 0.02 h and
+//! 0.05 h). The *relative* residual `‖A c − b‖/‖b‖` stays near 10% on random clouds by
+//! construction: `b` is itself tiny (curvature × h²), and the part of it left lies in the
+//! near-null space, where fitting it would take the large constants above. Smaller λ
+//! interpolates more closely but makes the field worse from about 0.01 on; 0.03–0.1 are
+//! equally accurate between the samples, and 0.05 leaves 0.018 h at the samples against
+//! 0.020 h at 0.1 and 0.028 h at 0.3, for 1.9× the iterations of 0.1. On noisy clouds the same knob turns
+//! interpolation into approximation: with noise of about one spacing (0.5% of the
+//! bounding diagonal) the band error of the torus falls from 0.97 h (default) to 0.33 h with
+//! `k = 64, damping = 1` (`tests/meshes.rs`). On a 10^6-sample torus the whole solve step
+//! (assembly, 65 iterations, the check of every sample) takes 5.5 s on 2 shared cores;
+//! storing the samples in Morton order made it 2.7× faster (15 s before).
 //!
-//! Asserted bounds: RMS below 0.1 h and max below 0.75 h. With estimated normals (k = 16;
-//! 0 flips, angle RMS 0.8°–2.3°) the RMS is 0.045–0.053 h. Comparison variants on the
-//! torus: Shepard RMS 0.126 h (max 0.83 h), Nie04 0.075 h (max 0.63 h).
+//! ## Accuracy
+//! Error against the exact signed distance at 4000 points within ±2h of the surface, default
+//! options (`cargo test -p isokit-points --test shapes --test meshes -- --nocapture`):
 //!
-//! Most of the error near the surface comes from the far-field blend: on a random cloud the
-//! statistics σ̄ fluctuate, so w dips below 1 between samples and mixes in the distance to
-//! the closest sample. More samples in the statistics (`far_k`, default 64) halve it
-//! (torus RMS 0.132 h with 16, 0.080 h with 32, 0.058 h with 64). No grid sign change lies
-//! farther than 2h from the true surface on 40³ grids over the padded bounds, and beyond
-//! the blend's reach the field equals the distance to the cloud exactly.
+//! | cloud | samples | h | RMS | max | near field alone: RMS / max | max \|f(p_i)\| |
+//! | --- | ---: | --- | --- | --- | --- | --- |
+//! | sphere r = 1 (random) | 6000 | 0.0227 | 0.037 h | 0.34 h | 0.018 h / 0.12 h | 0.018 h |
+//! | torus 1, 0.35 (random) | 6000 | 0.0238 | 0.050 h | 0.55 h | 0.032 h / 0.17 h | 0.040 h |
+//! | rounded box | 6000 | 0.0179 | 0.047 h | 0.40 h | 0.031 h / 0.23 h | 0.042 h |
+//! | `data/sphere.obj` (1280 faces) | 20,000 | 0.0125 | 0.041 h | 0.33 h | 0.020 h / 0.15 h | 0.040 h |
+//! | `data/torus.off` (2304 faces) | 20,000 | 0.0131 | 0.055 h | 0.44 h | 0.041 h / 0.32 h | 0.090 h |
+//! | `data/trefoil.ply` (6144 faces) | 20,000 | 0.0142 | 0.073 h | 0.58 h | 0.070 h / 0.73 h | 0.132 h |
+//!
+//! Mesh clouds are sampled uniformly by area with exact face normals and compared with the
+//! mesh's exact distance (`isokit_kdtree::mesh::MeshSdf`); their creases (face normals jump
+//! across every edge) cost accuracy at the samples. Asserted bounds: RMS below 0.1 h (0.15 h
+//! on the trefoil), max below 0.75 h (1.0 h), no spurious zero crossing on 40³ grids over the
+//! padded bounds, and beyond the blend's reach the field equals the distance to the cloud
+//! exactly. With estimated normals (k = 16; 0 flips, angle RMS 0.8°–2.3°) the RMS is
+//! 0.044–0.050 h. Comparison variants on the random torus: Shepard RMS 0.126 h (max 0.83 h),
+//! Nie04 0.075 h (max 0.63 h). With 0.5% noise and exact normals, Shepard's averaging does
+//! better than the default (torus 0.50 h against 0.97 h) and the smoothing options better
+//! still (0.33 h); with a density varying 20:1 along x (trefoil) the default stays at
+//! 0.16 h RMS, Nie04 0.20 h, Shepard 0.32 h.
+//!
+//! Most of the remaining error near the surface comes from the far-field blend: on a random
+//! cloud the statistics σ̄ fluctuate, so w dips below 1 between samples and mixes in the
+//! distance to the closest sample (compare the near field alone above). More samples in the
+//! statistics (`far_k`, default 64) reduce it (torus RMS 0.132 h with 16, 0.080 h with 32,
+//! 0.058 h with 64, measured with the earlier GMRES solve); the 64-nearest query is also most
+//! of the evaluation time.
 
 pub mod eigen;
 mod error;
@@ -88,7 +141,10 @@ pub mod solve;
 
 pub use error::PointsError;
 pub use normals::{NormalOptions, NormalReport, estimate_normals};
-pub use sdf::{BuildStats, Evaluation, NormalSource, PointSdf, PointSdfOptions, Solver, Weighting};
+pub use sdf::{
+    BuildStats, DEFAULT_DAMPING, Evaluation, NormalSource, PointSdf, PointSdfOptions, Solver,
+    Weighting,
+};
 pub use solve::SolveStats;
 
 use glam::Vec3;

@@ -179,3 +179,104 @@ fn extreme_scales() {
         assert_eq!(flips, 0, "scale {s}");
     }
 }
+
+#[test]
+fn opposite_normals_at_one_position_and_near_duplicates() {
+    // The same position twice with opposite normals: the first is kept (exact duplicate),
+    // so the result is the same as without the second.
+    let (p, n) = sphere(1500);
+    let mut p2 = p.clone();
+    let mut n2 = n.clone();
+    p2.push(p[10]);
+    n2.push(-n[10]);
+    let a = PointSdf::new(&p, &n, &PointSdfOptions::default()).unwrap();
+    let b = PointSdf::new(&p2, &n2, &PointSdfOptions::default()).unwrap();
+    assert_eq!(b.stats().duplicates_removed, 1);
+    let q = p[10] * 1.05;
+    assert_eq!(a.value(q), b.value(q));
+    // Near duplicates (1e-7 apart, so not removed) with opposite normals: the system is
+    // singular there, the damped solve still converges and the field stays finite.
+    let mut p3 = p.clone();
+    let mut n3 = n.clone();
+    for i in (0..p.len()).step_by(50) {
+        p3.push(p[i] + Vec3::splat(1e-7));
+        n3.push(-n[i]);
+    }
+    let c = PointSdf::new(&p3, &n3, &PointSdfOptions::default()).unwrap();
+    let st = c.stats().solve.unwrap();
+    assert!(st.converged && st.relative_residual.is_finite(), "{st:?}");
+    assert!(c.constants().iter().all(|v| v.is_finite()));
+    for x in [Vec3::ZERO, Vec3::new(0.3, 0.2, 0.9), Vec3::splat(4.0)] {
+        assert!(c.value(x).is_finite(), "{x}");
+    }
+}
+
+#[test]
+fn odd_options_give_a_result_or_a_clear_error() {
+    let (p, n) = sphere(500);
+    let o = PointSdfOptions::default();
+    for damping in [-1.0, f64::NAN, f64::INFINITY] {
+        let e = PointSdf::new(&p, &n, &PointSdfOptions { damping, ..o }).unwrap_err();
+        assert!(matches!(e, PointsError::Parameter(_)), "{e}");
+        println!("damping {damping}: {e}");
+    }
+    for tol in [0.0, -1.0, f64::NAN] {
+        let e = PointSdf::new(&p, &n, &PointSdfOptions { tol, ..o }).unwrap_err();
+        assert!(matches!(e, PointsError::Parameter(_)), "{e}");
+    }
+    let e = PointSdf::new(
+        &p,
+        &n,
+        &PointSdfOptions {
+            weighting: Weighting::Nie04 { neighbours: 0 },
+            ..o
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(e, PointsError::Parameter(_)), "{e}");
+    let inf = vec![Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::X];
+    let e = PointSdf::new(&inf, &[Vec3::Z; 3], &o).unwrap_err();
+    assert!(
+        matches!(e, PointsError::NonFinitePoint { index: 1, .. }),
+        "{e}"
+    );
+    // Results: no iterations (constants 0), damping 0 (plain least squares), k = 1,
+    // far_k below k, more Nie04 neighbours than points, every solver.
+    // 0.1 outside the tube (R = 1, r = 0.4).
+    let q = Vec3::new(1.5, 0.0, 0.0);
+    for opts in [
+        PointSdfOptions { max_iter: 0, ..o },
+        PointSdfOptions { damping: 0.0, ..o },
+        PointSdfOptions { k: 1, ..o },
+        PointSdfOptions { far_k: 2, ..o },
+        PointSdfOptions {
+            solver: isokit_points::Solver::Gmres,
+            ..o
+        },
+        PointSdfOptions {
+            solver: isokit_points::Solver::Bicgstab,
+            ..o
+        },
+    ] {
+        let sdf = PointSdf::new(&p, &n, &opts).unwrap();
+        let v = sdf.value(q);
+        assert!((v - 0.1).abs() < 0.05, "{opts:?}: {v}");
+    }
+    // ILU(0)-preconditioned GMRES is unstable on these systems (see the crate docs): a
+    // finite result, not an accurate one.
+    let opts = PointSdfOptions {
+        solver: isokit_points::Solver::GmresIlu0,
+        ..o
+    };
+    assert!(PointSdf::new(&p, &n, &opts).unwrap().value(q).is_finite());
+    // Every sample inside every Nie04 support: a global inverse-square blend, far from
+    // exact but finite and with the right sign.
+    let opts = PointSdfOptions {
+        weighting: Weighting::Nie04 { neighbours: 10_000 },
+        ..o
+    };
+    let v = PointSdf::new(&p, &n, &opts)
+        .unwrap()
+        .value(Vec3::new(2.0, 0.0, 0.0));
+    assert!(v.is_finite() && v > 0.0, "{v}");
+}

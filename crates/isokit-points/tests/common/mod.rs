@@ -123,3 +123,28 @@ pub fn spacing(points: &[Vec3]) -> f64 {
     }
     s / points.len() as f64
 }
+
+/// `m` points offset from fresh surface samples (seed `seed`) along the exact normal by
+/// t ∈ [−2h, 2h], with their exact signed distances.
+pub fn band_points(shape: &Shape, h: f64, m: usize, seed: u64) -> Vec<(DVec3, f64)> {
+    let mut rng = SplitMix64::new(seed);
+    (0..m)
+        .map(|_| {
+            let (p, n) = (shape.sample)(&mut rng);
+            let t = (2.0 * rng.next_f64() - 1.0) * 2.0 * h;
+            let x = p + t * n;
+            (x, (shape.sdf)(x))
+        })
+        .collect()
+}
+
+/// RMS and max of `f(x) − exact` over `pts`.
+pub fn rms_max(pts: &[(DVec3, f64)], f: impl Fn(DVec3) -> f64) -> (f64, f64) {
+    let (mut s2, mut max) = (0.0, 0.0f64);
+    for &(x, exact) in pts {
+        let e = f(x) - exact;
+        s2 += e * e;
+        max = max.max(e.abs());
+    }
+    ((s2 / pts.len().max(1) as f64).sqrt(), max)
+}
