@@ -13,6 +13,7 @@
 //! | [`octree`] | `isokit-octree` | adaptively sampled fields in a hashed octree (and the linked octree it is measured against) |
 //! | [`points`] | `isokit-points` | point cloud → signed distance: normal estimation, partition of unity of linear fields, sparse solve, far-field blend |
 //! | [`levelset`] | `isokit-levelset` | CSG, morph, offset, level-set evolution and reinitialization, scene files evaluated lazily, watertight meshing |
+//! | [`prism`] | `isokit-prism` | mesh → narrow-band signed distance by prism scan conversion, CPU (rayon) and GPU (wgpu compute), saddle-gap repair, dense or brick output |
 //! | [`render`] | `isokit-render` | isosurface ray casting (blocks and bricks, empty-space skipping, adaptive sampling, refinement, tricubic curvature), G-buffer, deferred shading |
 //!
 //! ## Conventions
@@ -54,9 +55,10 @@
 pub use isokit_field as field;
 pub use isokit_io as io;
 pub use isokit_kdtree as kdtree;
+pub use isokit_levelset as levelset;
 pub use isokit_octree as octree;
 pub use isokit_points as points;
-pub use isokit_levelset as levelset;
+pub use isokit_prism as prism;
 pub use isokit_render as render;
 
 pub use isokit_field::{Aabb, BrickGrid, Field, Grid};

@@ -1,5 +1,6 @@
 //! End-to-end tests of `isokit render` and `isokit demo`: scenes and volumes to PNG and
-//! EXR, the GPU fallback, refused sizes, and `--watch` keeping the last good image.
+//! EXR, the GPU backend against the CPU's and the fallback without an adapter, refused
+//! sizes, and `--watch` keeping the last good image.
 
 mod common;
 
@@ -37,9 +38,12 @@ fn render_a_scene_to_png_and_gbuffer() {
         "--gbuffer",
         exr.to_str().unwrap(),
         "--stats",
+        "--backend",
+        "cpu",
     ]);
     let j = json(&out);
     assert!(j["hits"].as_u64().unwrap() > 300, "{j}");
+    assert_eq!(j["backend"], "cpu");
     assert_eq!(j["passes"], 1);
     let (w, h, _) = isokit::io::read_png(&png).unwrap();
     assert_eq!((w, h), (64, 40));
@@ -115,27 +119,151 @@ fn render_a_volume_with_the_inside_above() {
     assert!(below["caps"].as_u64().unwrap() > 300, "{below}");
 }
 
+/// Mean absolute difference of two 8-bit RGBA images' colour channels.
+fn mean_rgb8(a: &[u8], b: &[u8]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let sum: u64 = a
+        .chunks(4)
+        .zip(b.chunks(4))
+        .map(|(p, q)| (0..3).map(|c| u64::from(p[c].abs_diff(q[c]))).sum::<u64>())
+        .sum();
+    sum as f64 / (3 * a.len() / 4) as f64
+}
+
+/// `--backend gpu` renders on the GPU (lavapipe in CI) the image and G-buffer the CPU
+/// renders: the same hit count and a mean colour difference below 0.05 of an 8-bit step.
+/// Without an adapter the GPU part is skipped with a note (or fails when
+/// `ISOKIT_REQUIRE_GPU=1`).
 #[test]
-fn gpu_backend_falls_back_with_a_note() {
+fn gpu_backend_renders_like_the_cpu() {
+    let software = match isokit::render::gpu::GpuRenderer::open() {
+        Ok(g) => Some(g.is_software()),
+        Err(e) if isokit::render::gpu::testing::gpu_required() => {
+            panic!("ISOKIT_REQUIRE_GPU=1 but no GPU: {e}")
+        }
+        Err(e) => {
+            eprintln!("gpu_backend_renders_like_the_cpu: SKIPPED (no GPU: {e})");
+            None
+        }
+    };
+    let Some(software) = software else {
+        return;
+    };
     let dir = scratch("render-gpu");
     let scene = dir.join("s.json");
     std::fs::write(&scene, SCENE).unwrap();
-    let png = dir.join("out.png");
-    let out = isokit_ok(&[
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        png.to_str().unwrap(),
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--backend",
+    let run = |backend: &str, extra: &[&str]| {
+        let png = dir.join(format!("{backend}.png"));
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "48",
+            "--height",
+            "40",
+            "--backend",
+            backend,
+            "--stats",
+        ];
+        args.extend(extra);
+        let j = json(&isokit_ok(&args));
+        (j, isokit::io::read_png(&png).unwrap())
+    };
+    let (cj, (_, _, cpx)) = run("cpu", &[]);
+    let (gj, (w, h, gpx)) = run("gpu", &[]);
+    // `auto` takes a hardware GPU, and passes over a software one (lavapipe) with a note.
+    let (aj, _) = run("auto", &[]);
+    assert_eq!(aj["backend"], if software { "cpu" } else { "gpu" }, "{aj}");
+    assert_eq!((w, h), (48, 40));
+    assert_eq!(cj["backend"], "cpu");
+    assert_eq!(gj["backend"], "gpu", "{gj}");
+    assert!(gj["device"].as_str().unwrap().starts_with("GPU"), "{gj}");
+    let (ch, gh) = (cj["hits"].as_i64().unwrap(), gj["hits"].as_i64().unwrap());
+    assert!(ch > 300 && (ch - gh).abs() <= 2, "{ch} {gh}");
+    let mean = mean_rgb8(&cpx, &gpx);
+    assert!(mean < 0.05, "mean |Δ| {mean}");
+    // A one-brick cache on the GPU: several passes, the same picture.
+    let (sj, (_, _, spx)) = run("gpu", &["--cache-mb", "0", "--shading", "curvature"]);
+    assert!(sj["passes"].as_u64().unwrap() > 1, "{sj}");
+    assert_eq!(sj["cache_capacity"], 1);
+    let (_, (_, _, cspx)) = run("cpu", &["--shading", "curvature"]);
+    assert!(mean_rgb8(&cspx, &spx) < 0.05);
+    // A multi-view display and its views, on the GPU.
+    let views = dir.join("views");
+    let (mj, (mw, mh, mpx)) = run(
         "gpu",
-    ]);
+        &[
+            "--views",
+            "4",
+            "--lens-slant",
+            "0.333",
+            "--views-out",
+            views.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        (mw, mh, &mj["backend"]),
+        (48, 40, &serde_json::json!("gpu"))
+    );
+    let (_, (_, _, cmpx)) = run("cpu", &["--views", "4", "--lens-slant", "0.333"]);
+    assert!(mean_rgb8(&cmpx, &mpx) < 0.05);
+    for k in 0..4 {
+        let (w, h, _) = isokit::io::read_png(&views.join(format!("view_{k:02}.png"))).unwrap();
+        assert_eq!((w, h), (48, 40));
+    }
+}
+
+/// Without a usable adapter (simulated by narrowing wgpu to a backend this build lacks),
+/// `auto` renders on the CPU and says why, `--backend gpu` is a clear error; the
+/// environment's `ISOKIT_BACKEND` is honoured and checked.
+#[test]
+fn backend_choice_without_an_adapter() {
+    let dir = scratch("render-no-gpu");
+    let scene = dir.join("s.json");
+    std::fs::write(&scene, SCENE).unwrap();
+    let png = dir.join("out.png");
+    let run = |backend: &str, env: &[(&str, &str)]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_isokit"));
+        cmd.args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--backend",
+            backend,
+            "--stats",
+        ])
+        .env_remove("ISOKIT_BACKEND")
+        .env("WGPU_BACKEND", "dx12");
+        for (k, v) in env {
+            cmd.env(k, v);
+        }
+        cmd.output().unwrap()
+    };
+    let out = run("auto", &[]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("GPU ray caster is not built yet"), "{err}");
+    assert!(err.contains("note: no usable GPU"), "{err}");
+    assert!(err.contains("rendering on the CPU twin"), "{err}");
+    assert_eq!(json(&out)["backend"], "cpu");
     assert!(png.is_file());
+    let out = run("gpu", &[]);
+    assert_clear_error(&out, "no GPU adapter");
+    let out = run("auto", &[("ISOKIT_BACKEND", "cpu")]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("note: no usable GPU"));
+    assert_eq!(json(&out)["backend"], "cpu");
+    let out = run("auto", &[("ISOKIT_BACKEND", "gpu")]);
+    assert_clear_error(&out, "no GPU adapter");
+    let out = run("auto", &[("ISOKIT_BACKEND", "quantum")]);
+    assert_clear_error(&out, "unknown backend 'quantum'");
+    // --backend cpu wins over the environment.
+    let out = run("cpu", &[("ISOKIT_BACKEND", "gpu")]);
+    assert_eq!(json(&out)["backend"], "cpu");
 }
 
 #[test]

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# The whole test suite: Rust tests, then the reference tests against libigl (pytest).
+# The whole test suite: Rust tests (GPU tests on lavapipe when present), then the reference
+# tests against libigl and manifold3d (pytest).
 # Sets up a Python virtual environment in .venv on first use (needs python3 with venv).
 #
 #   bash tools/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Mesa's software Vulkan (lavapipe) warns on every device when this is unset; harmless.
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cargo test --workspace
 cargo build --bin isokit
 if [ ! -x .venv/bin/python ]; then

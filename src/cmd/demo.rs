@@ -1,8 +1,10 @@
 //! `isokit demo`: renders the bundled demo scene (`examples/scenes/demo.json`: the trefoil
 //! knot mesh from `data/` turned into a distance field and blended with a sphere,
-//! curvature-shaded) to `demo.png`, printing each stage and how long it took.
+//! curvature-shaded) to `demo.png` on a hardware GPU when one exists (else on the CPU
+//! twin), printing each stage and how long it took.
 
 use super::check_output;
+use super::render::{Backend, backend_name, open_backend};
 use anyhow::{Result, bail};
 use isokit_levelset::scene::{SampleOptions, Scene};
 use isokit_render::setup::{ProjectionKind, camera_for_scene, shading_for_scene};
@@ -29,6 +31,11 @@ pub struct Args {
     /// Sampling resolution (samples along the longest side) [default: the scene's].
     #[arg(long)]
     pub res: Option<usize>,
+    /// Backend: auto (`ISOKIT_BACKEND=cpu|gpu` when set, else a hardware GPU when one
+    /// exists and the CPU otherwise), cpu, gpu (any adapter, software ones included; an
+    /// error without one).
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
 }
 
 const SCENE: &str = "examples/scenes/demo.json";
@@ -63,6 +70,10 @@ pub fn run(a: Args) -> Result<()> {
         None => find_scene()?,
     };
     let total = Instant::now();
+
+    let t = Instant::now();
+    let mut gpu = open_backend(a.backend)?;
+    stage("device", t, backend_name(gpu.as_ref()));
 
     let t = Instant::now();
     let scene = Scene::load(&path)?;
@@ -122,17 +133,26 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     let mut shading = shading_for_scene(settings.shading.as_ref(), &settings.lights)?;
     shading.curvature_scale = default_curvature_scale(volume.bounds());
-    let mut cache = BrickCache::for_volume(&volume);
     let t = Instant::now();
-    let frame = render(&volume, &mut cache, &camera, &RenderOptions::default())?;
+    let opts = RenderOptions::default();
+    let frame = match gpu.as_mut() {
+        Some(g) => g.render(&volume, &camera, &opts)?,
+        None => render(
+            &volume,
+            &mut BrickCache::for_volume(&volume),
+            &camera,
+            &opts,
+        )?,
+    };
     let st = &frame.stats;
     stage(
         "trace",
         t,
         format!(
-            "{}x{} rays (CPU, tricubic, r0 1, r1 8, 6 secant steps): {} hits, {:.1} samples/ray, {} bricks loaded, {} pass(es)",
+            "{}x{} rays ({}, tricubic, r0 1, r1 8, 6 secant steps): {} hits, {:.1} samples/ray, {} bricks loaded, {} pass(es)",
             st.width,
             st.height,
+            if gpu.is_some() { "GPU" } else { "CPU" },
             st.hits,
             st.samples_per_ray(),
             st.bricks_loaded,
@@ -141,8 +161,19 @@ pub fn run(a: Args) -> Result<()> {
     );
 
     let t = Instant::now();
-    let image = shade(&frame.gbuffer, &frame.uniforms, &shading)?;
-    stage("shade", t, format!("{} shading", shading.mode.name()));
+    let image = match gpu.as_ref() {
+        Some(g) => g.shade(&frame.gbuffer, &frame.uniforms, &shading)?,
+        None => shade(&frame.gbuffer, &frame.uniforms, &shading)?,
+    };
+    stage(
+        "shade",
+        t,
+        format!(
+            "{} shading ({})",
+            shading.mode.name(),
+            if gpu.is_some() { "GPU" } else { "CPU" }
+        ),
+    );
 
     let t = Instant::now();
     image.write_png(&a.output)?;

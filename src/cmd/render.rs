@@ -9,6 +9,7 @@ use isokit_field::Aabb;
 use isokit_io::read_volume;
 use isokit_levelset::scene::schema::{Node, SceneFile};
 use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
+use isokit_render::gpu::{BackendChoice, GpuRenderer, select_backend};
 use isokit_render::setup::{ProjectionKind, camera_for_scene, shading_for_scene};
 use isokit_render::shade::default_curvature_scale;
 use isokit_render::{
@@ -22,12 +23,41 @@ use std::time::{Duration, Instant, SystemTime};
 /// Which implementation renders.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
-    /// The CPU unless `ISOKIT_BACKEND` says otherwise.
+    /// `ISOKIT_BACKEND=cpu|gpu` when set; else a hardware GPU when one exists, the CPU
+    /// (with a note) when none does or the only adapter is a software one (lavapipe).
     Auto,
     /// The CPU ray caster (rayon).
     Cpu,
-    /// The GPU ray caster (not built yet: falls back to the CPU with a note).
+    /// The GPU ray caster (wgpu); an error when no adapter exists.
     Gpu,
+}
+
+impl Backend {
+    fn choice(self) -> BackendChoice {
+        match self {
+            Backend::Auto => BackendChoice::Auto,
+            Backend::Cpu => BackendChoice::Cpu,
+            Backend::Gpu => BackendChoice::Gpu,
+        }
+    }
+}
+
+/// Opens the renderer `backend` asks for: `Some` GPU renderer, or `None` for the CPU twin
+/// (printing why when `auto` found no hardware GPU).
+pub fn open_backend(backend: Backend) -> Result<Option<GpuRenderer>> {
+    let selected = select_backend(backend.choice()).context("choosing the backend")?;
+    if let Some(note) = &selected.note {
+        eprintln!("{note}");
+    }
+    Ok(selected.gpu)
+}
+
+/// The name of the backend for messages and `--stats`.
+pub fn backend_name(gpu: Option<&GpuRenderer>) -> String {
+    match gpu {
+        Some(g) => format!("GPU ({})", g.describe()),
+        None => "CPU".to_string(),
+    }
 }
 
 /// Refinement method.
@@ -64,7 +94,9 @@ pub struct Args {
     /// Which side of the isovalue is inside.
     #[arg(long, value_enum, default_value_t = InsideArg::Below)]
     pub inside: InsideArg,
-    /// Backend: auto (the CPU, or `ISOKIT_BACKEND=cpu|gpu`), cpu, gpu.
+    /// Backend: auto (`ISOKIT_BACKEND=cpu|gpu` when set, else a hardware GPU when one
+    /// exists and the CPU otherwise), cpu, gpu (any adapter, software ones included; an
+    /// error without one).
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
     /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
@@ -152,16 +184,6 @@ pub fn run(a: Args) -> Result<()> {
         .map(str::parse)
         .transpose()
         .map_err(anyhow::Error::msg)?;
-    let backend = match (a.backend, std::env::var("ISOKIT_BACKEND").ok().as_deref()) {
-        (Backend::Auto, Some("gpu")) => Backend::Gpu,
-        (Backend::Auto, _) => Backend::Cpu,
-        (b, _) => b,
-    };
-    if backend == Backend::Gpu {
-        eprintln!(
-            "note: the GPU ray caster is not built yet; rendering on the CPU (same algorithm)"
-        );
-    }
     // Refuse bad knobs now rather than on every rendering of --watch.
     RenderOptions {
         iso: a.iso.unwrap_or(0.0),
@@ -187,10 +209,12 @@ pub fn run(a: Args) -> Result<()> {
         projection,
         mode,
     };
+    // Opened once: --watch reuses the device, its compiled kernels and its brick cache.
+    let mut gpu = open_backend(a.backend)?;
     if !a.watch {
-        return render_once(&a, &settings).map(|_| ());
+        return render_once(&a, &settings, gpu.as_mut()).map(|_| ());
     }
-    watch(&a, &settings)
+    watch(&a, &settings, gpu.as_mut())
 }
 
 struct Settings {
@@ -260,7 +284,7 @@ fn load(a: &Args) -> Result<(Volume, Option<Scene>, String)> {
     }
 }
 
-fn render_once(a: &Args, s: &Settings) -> Result<Rendered> {
+fn render_once(a: &Args, s: &Settings, mut gpu: Option<&mut GpuRenderer>) -> Result<Rendered> {
     let t0 = Instant::now();
     // Scene and volume errors already name the file.
     let (volume, scene, what) = load(a)?;
@@ -323,6 +347,9 @@ fn render_once(a: &Args, s: &Settings) -> Result<Rendered> {
         Some(mb) => BrickCache::with_bytes(&volume, mb.saturating_mul(1 << 20))?,
         None => BrickCache::for_volume(&volume),
     };
+    if let (Some(g), Some(mb)) = (gpu.as_deref_mut(), a.cache_mb) {
+        g.set_cache_bytes(mb.saturating_mul(1 << 20));
+    }
     let multiview = a.views.map(|n| MultiView {
         pitch: a.lens_pitch.unwrap_or(n as f32),
         slant: a.lens_slant,
@@ -333,28 +360,43 @@ fn render_once(a: &Args, s: &Settings) -> Result<Rendered> {
         )
     });
     let prepare_seconds = t0.elapsed().as_secs_f64();
-    let frame = match &multiview {
-        Some(mv) => render_multiview(&volume, &mut cache, &camera, &opts, mv)?,
-        None => render(&volume, &mut cache, &camera, &opts)?,
+    let frame = match (&multiview, gpu.as_deref_mut()) {
+        (Some(mv), Some(g)) => g.render_multiview(&volume, &camera, &opts, mv)?,
+        (Some(mv), None) => render_multiview(&volume, &mut cache, &camera, &opts, mv)?,
+        (None, Some(g)) => g.render(&volume, &camera, &opts)?,
+        (None, None) => render(&volume, &mut cache, &camera, &opts)?,
+    };
+    let shade_with = |f: &Frame, g: Option<&GpuRenderer>| -> Result<Image> {
+        Ok(match g {
+            Some(g) => g.shade(&f.gbuffer, &f.uniforms, &shading)?,
+            None => shade(&f.gbuffer, &f.uniforms, &shading)?,
+        })
     };
     let t1 = Instant::now();
-    let image: Image = shade(&frame.gbuffer, &frame.uniforms, &shading)?;
+    let image: Image = shade_with(&frame, gpu.as_deref())?;
     let shade_seconds = t1.elapsed().as_secs_f64();
     image.write_png(&a.output)?;
     if let (Some(mv), Some(dir)) = (&multiview, &a.views_out) {
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
         for k in 0..mv.views {
-            let f = render_view(&volume, &mut cache, &camera, &opts, mv, k)?;
-            shade(&f.gbuffer, &f.uniforms, &shading)?
-                .write_png(&dir.join(format!("view_{k:02}.png")))?;
+            let f = match gpu.as_deref_mut() {
+                Some(g) => g.render_view(&volume, &camera, &opts, mv, k)?,
+                None => render_view(&volume, &mut cache, &camera, &opts, mv, k)?,
+            };
+            shade_with(&f, gpu.as_deref())?.write_png(&dir.join(format!("view_{k:02}.png")))?;
         }
     }
     if let Some(g) = &a.gbuffer {
         frame.gbuffer.write_exr(g)?;
     }
     let st = &frame.stats;
+    let backend = backend_name(gpu.as_deref());
+    let capacity = match gpu.as_deref() {
+        Some(g) => g.cache_capacity().unwrap_or(0),
+        None => cache.capacity(),
+    };
     eprintln!(
-        "{what}; {}x{}{} {} image: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
+        "{what}; {backend}: {}x{}{} {} image: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
         frame.uniforms.width,
         st.height,
         multiview.map_or(String::new(), |m| format!(" {}-view", m.views)),
@@ -393,12 +435,13 @@ fn render_once(a: &Args, s: &Settings) -> Result<Rendered> {
             "bricks_active": st.bricks_active,
             "bricks_total": st.bricks_total,
             "bricks_loaded": st.bricks_loaded,
-            "cache_capacity": cache.capacity(),
+            "cache_capacity": capacity,
             "passes": st.passes,
             "prepare_seconds": prepare_seconds,
             "trace_seconds": st.seconds,
             "shade_seconds": shade_seconds,
-            "backend": "cpu",
+            "backend": if gpu.is_some() { "gpu" } else { "cpu" },
+            "device": backend,
             "output": a.output.display().to_string(),
         });
         println!("{j}");
@@ -472,7 +515,7 @@ fn stamp(files: &[PathBuf]) -> Vec<Option<(SystemTime, u64)>> {
         .collect()
 }
 
-fn watch(a: &Args, s: &Settings) -> Result<()> {
+fn watch(a: &Args, s: &Settings, mut gpu: Option<&mut GpuRenderer>) -> Result<()> {
     let limit = a.watch_renders.unwrap_or(u32::MAX);
     if limit == 0 {
         bail!("--watch-renders must be at least 1");
@@ -481,7 +524,7 @@ fn watch(a: &Args, s: &Settings) -> Result<()> {
     loop {
         let files = watched_files(&a.input);
         let before = stamp(&files);
-        match render_once(a, s) {
+        match render_once(a, s, gpu.as_deref_mut()) {
             Ok(r) => eprintln!(
                 "[watch] rendered in {:.2} s",
                 r.prepare_seconds + r.frame.stats.seconds + r.shade_seconds

@@ -7,6 +7,12 @@
 //! whose hit status differs, depth and normal errors where both hit, and the mean
 //! difference of the Phong-shaded 8-bit images.
 //!
+//! GPU rows (when a wgpu adapter exists; `ISOKIT_BENCH_GPU=0` leaves them out): the GPU twin
+//! with the default configuration and with a cache of 16 bricks, compared with the same
+//! reference, and its agreement with the CPU twin's frame of the same configuration (hit
+//! mask, depth). On a software adapter (lavapipe, llvmpipe) the rows are labelled so: their
+//! times measure the CPU running the shader, not a GPU, and mean nothing for GPU speed.
+//!
 //! Run: `cargo bench -p isokit-render --bench raycast`. Knobs: `ISOKIT_BENCH_RES` (grid
 //! resolution, default 256), `ISOKIT_BENCH_SIZE` (image side, default 512),
 //! `ISOKIT_BENCH_RUNS` (best of, default 2). The mesh is `data/external/bunny00.off` when
@@ -17,6 +23,7 @@ use glam::Vec3;
 use isokit_field::primitives::Sphere;
 use isokit_field::{Aabb, Camera, Grid, Projection, sample_into};
 use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
+use isokit_render::gpu::GpuRenderer;
 use isokit_render::{
     BrickCache, Filter, Frame, Layout, RefineMethod, RenderOptions, Shading, Volume, render, shade,
 };
@@ -105,6 +112,32 @@ fn time(
     best.unwrap()
 }
 
+/// The best of `runs` GPU frames, each with an empty cache of `capacity` bricks (or the
+/// default), so that loading counts as it does for the CPU rows.
+fn time_gpu(
+    gpu: &mut GpuRenderer,
+    case: &Case,
+    cam: &Camera,
+    opts: &RenderOptions,
+    capacity: Option<usize>,
+    runs: usize,
+) -> (Frame, f64) {
+    let mut best: Option<(Frame, f64)> = None;
+    for _ in 0..runs {
+        match capacity {
+            Some(c) => gpu.set_cache_bricks(c).unwrap(),
+            None => gpu.set_cache_bytes(isokit_render::DEFAULT_CACHE_BYTES),
+        }
+        let t = Instant::now();
+        let f = gpu.render(&case.volume, cam, opts).unwrap();
+        let s = t.elapsed().as_secs_f64();
+        if best.as_ref().is_none_or(|b| s < b.1) {
+            best = Some((f, s));
+        }
+    }
+    best.unwrap()
+}
+
 /// Errors of `f` against the reference `r`: differing hit pixels, mean and max depth error
 /// (voxels) and mean normal error (degrees) where both hit, mean 8-bit image difference.
 fn compare(f: &Frame, r: &Frame, spacing: f32) -> (usize, f64, f64, f64, f64) {
@@ -117,7 +150,9 @@ fn compare(f: &Frame, r: &Frame, spacing: f32) -> (usize, f64, f64, f64, f64) {
             let e = f64::from((a.depth - b.depth).abs() / spacing);
             dz += e;
             dz_max = dz_max.max(e);
-            dn += f64::from(a.normal.dot(b.normal).clamp(-1.0, 1.0).acos().to_degrees());
+            // atan2(|a × b|, a · b) in f64: f32 acos cannot resolve less than ~0.02°.
+            let (na, nb) = (a.normal.as_dvec3(), b.normal.as_dvec3());
+            dn += na.cross(nb).length().atan2(na.dot(nb)).to_degrees();
         }
     }
     let sh = Shading::default();
@@ -145,7 +180,7 @@ fn main() {
         ("torus mesh", root.join("data/torus.off"))
     };
     println!(
-        "isokit-render CPU ray caster, {size}x{size} pixels, {} threads, best of {runs}",
+        "isokit-render ray caster, {size}x{size} pixels, CPU twin on {} threads, best of {runs}",
         rayon::current_num_threads()
     );
     let cases = [
@@ -153,6 +188,24 @@ fn main() {
         mesh("trefoil knot", &root.join("data/trefoil.ply"), res),
         mesh(mesh_name, &mesh_path, res),
     ];
+    let mut gpu = if std::env::var("ISOKIT_BENCH_GPU").is_ok_and(|v| v == "0") {
+        None
+    } else {
+        match GpuRenderer::open() {
+            Ok(g) => {
+                println!("GPU twin on {}", g.describe());
+                Some(g)
+            }
+            Err(e) => {
+                println!("no GPU rows: {e}");
+                None
+            }
+        }
+    };
+    let gpu_label = match &gpu {
+        Some(g) if g.is_software() => "GPU twin on a software adapter (CPU time, not GPU speed)",
+        _ => "GPU twin",
+    };
     let base = RenderOptions::default();
     let configs: Vec<(&str, RenderOptions, Option<usize>)> = vec![
         ("default: tricubic, r0 1, n 8, 6 secant", base, None),
@@ -277,6 +330,26 @@ fn main() {
                 hit_samples as f64 / (f.stats.hits + f.stats.caps).max(1) as f64,
                 f.stats.passes
             );
+        }
+        if let Some(g) = gpu.as_mut() {
+            // Warm-up: the first dispatch compiles the kernel (lavapipe compiles lazily).
+            let _ = g.render(&case.volume, &cam, &base);
+            for (name, cap) in [("default", None), ("cache of 16 bricks", Some(16))] {
+                let (f, s) = time_gpu(g, case, &cam, &base, cap, runs);
+                let (mask, dz, dz_max, dn, rgb) = compare(&f, &r, h);
+                let (cpu, _) = time(case, &cam, &base, cap, 1);
+                let (cmask, _, cdz_max, cdn, _) = compare(&f, &cpu, h);
+                println!(
+                    "| {gpu_label}: {name} | {:.0} | {:.2} | {:.1} | – | {} | {mask} | {dz:.2e} | {dz_max:.2e} | {dn:.3} | {rgb:.3} |",
+                    1e3 * s,
+                    1.0 / s,
+                    f.stats.samples_per_ray(),
+                    f.stats.passes
+                );
+                println!(
+                    "| ↳ GPU against the CPU twin's frame | | | | | | {cmask} | | {cdz_max:.2e} | {cdn:.2e} | |"
+                );
+            }
         }
     }
 }

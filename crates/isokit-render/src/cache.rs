@@ -47,6 +47,9 @@ pub struct BrickCache {
     reference: Vec<u32>,
     clock: u64,
     stats: CacheStats,
+    /// False for the bookkeeping of a pool that lives elsewhere (the GPU renderer's): no
+    /// samples are kept on the host.
+    host_samples: bool,
 }
 
 impl BrickCache {
@@ -71,7 +74,17 @@ impl BrickCache {
             reference: vec![NOT_RESIDENT; volume.brick_count()],
             clock: 0,
             stats: CacheStats::default(),
+            host_samples: true,
         })
+    }
+
+    /// The bookkeeping of a cache whose samples live elsewhere (the GPU renderer's pool):
+    /// slots, reference index and LRU as [`BrickCache::new`], but [`BrickCache::pool`] stays
+    /// empty and the loaders copy the bricks themselves ([`BrickCache::load_slots`]).
+    pub(crate) fn bookkeeping(volume: &Volume, capacity: usize) -> Result<Self, RenderError> {
+        let mut c = Self::new(volume, capacity)?;
+        c.host_samples = false;
+        Ok(c)
     }
 
     /// A cache holding up to `bytes` of samples (at least one brick).
@@ -154,13 +167,26 @@ impl BrickCache {
     /// Loads `bricks` (not resident, in priority order) as far as the capacity allows,
     /// evicting the least recently used bricks that `keep` does not protect. Returns how
     /// many were loaded.
+    #[cfg(test)]
     pub(crate) fn load(
         &mut self,
         volume: &Volume,
         bricks: &[usize],
         keep: impl Fn(usize) -> bool,
     ) -> usize {
-        let mut loaded = 0;
+        self.load_slots(volume, bricks, keep).len()
+    }
+
+    /// [`BrickCache::load`], returning the `(slot, brick)` pairs it filled, in order. A
+    /// cache made by [`BrickCache::bookkeeping`] only assigns the slots: the caller copies
+    /// the bricks into its own pool.
+    pub(crate) fn load_slots(
+        &mut self,
+        volume: &Volume,
+        bricks: &[usize],
+        keep: impl Fn(usize) -> bool,
+    ) -> Vec<(usize, usize)> {
+        let mut loaded = Vec::new();
         // Eviction candidates, popped least recently used first (ties: lower slot).
         let mut victims: Vec<usize> = (0..self.slot_brick.len())
             .filter(|&s| !keep(self.slot_brick[s] as usize))
@@ -171,8 +197,10 @@ impl BrickCache {
             let slot = if self.slot_brick.len() < self.capacity {
                 self.slot_brick.push(n as u32);
                 self.last_used.push(self.clock);
-                self.pool
-                    .resize(self.slot_brick.len() * self.brick_samples, 0.0);
+                if self.host_samples {
+                    self.pool
+                        .resize(self.slot_brick.len() * self.brick_samples, 0.0);
+                }
                 self.slot_brick.len() - 1
             } else if let Some(s) = victims.pop() {
                 let old = self.slot_brick[s] as usize;
@@ -184,11 +212,13 @@ impl BrickCache {
             } else {
                 break;
             };
-            let b = self.brick_samples;
-            volume.fill_brick(n, &mut self.pool[slot * b..(slot + 1) * b]);
+            if self.host_samples {
+                let b = self.brick_samples;
+                volume.fill_brick(n, &mut self.pool[slot * b..(slot + 1) * b]);
+            }
             self.reference[n] = slot as u32;
             self.stats.loads += 1;
-            loaded += 1;
+            loaded.push((slot, n));
         }
         loaded
     }

@@ -47,6 +47,9 @@ pub enum RenderError {
     /// From file output.
     #[error(transparent)]
     Io(#[from] IoError),
+    /// From the GPU (no adapter, a device or shader error, a limit exceeded).
+    #[error(transparent)]
+    Gpu(#[from] isokit_gpu::GpuError),
 }
 
 impl RenderError {

@@ -64,9 +64,9 @@ pub const RANGE_MARGIN: f32 = 16.0 * f32::EPSILON;
 /// Everything a trace pass reads that is the same for all pixels: the GPU uniform buffer.
 ///
 /// `#[repr(C)]`, 16-byte rows (a `[f32; 3]` then a scalar, matching WGSL's
-/// `vec3<f32>` + `f32` packing), 208 bytes.
+/// `vec3<f32>` + `f32` packing), 208 bytes; `Uniforms` in `shaders/raycast_common.wgsl`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Uniforms {
     /// Eye position (perspective) or image-plane centre (orthographic), world.
     pub eye: [f32; 3],

@@ -4,11 +4,17 @@
 //! paper 000): rays find the surface, the hits and their differential geometry go to a
 //! G-buffer, and every shading effect is computed from it per pixel.
 //!
-//! This crate holds the **CPU twin** (rayon). Its per-pixel logic ([`kernel`],
-//! [`shade::shade_pixel`]) is written over flat data — the brick pool, the reference index,
-//! the block ranges, the [`Uniforms`] — so that the WGSL twin can mirror it function by
-//! function. It does not open windows, talk to a GPU, or sample fields: scenes are sampled
-//! by `isokit-levelset`, volumes read by `isokit-io`.
+//! This crate holds the **CPU twin** (rayon) and the **GPU twin** ([`gpu::GpuRenderer`],
+//! wgpu compute, WGSL in `shaders/raycast*.wgsl` and `shaders/shade.wgsl`). The CPU's
+//! per-pixel logic ([`kernel`], [`shade::shade_pixel`]) is written over flat data — the
+//! brick pool, the reference index, the block ranges, the [`Uniforms`] — and the WGSL
+//! mirrors it function by function; both render the same [`GBuffer`] and image, the GPU's
+//! to rounding. It does not open windows or sample fields: scenes are sampled by
+//! `isokit-levelset`, volumes read by `isokit-io`.
+//!
+//! Choosing: [`render`] and [`shade()`] run everywhere; [`gpu::GpuRenderer`] needs a wgpu
+//! adapter (Vulkan or GLES 3.1 with compute); [`gpu::select_backend`] resolves a user's
+//! `cpu|gpu|auto` request.
 //!
 //! ## Pipeline
 //! 1. [`Volume`]: the samples (a dense [`isokit_field::Grid`] or a lazily sampled band
@@ -65,6 +71,7 @@
 mod cache;
 mod error;
 mod gbuffer;
+pub mod gpu;
 pub mod kernel;
 mod render;
 pub mod setup;

@@ -306,7 +306,9 @@ impl MultiView {
         Ok(())
     }
 
-    fn uniforms(
+    /// The uniforms of the geometric pass (`view` `None`: one ray per subpixel) or of one
+    /// view rendered alone.
+    pub(crate) fn uniforms(
         &self,
         volume: &Volume,
         camera: &Camera,
@@ -452,32 +454,39 @@ pub fn render(
     trace_frame(volume, cache, camera, u)
 }
 
-/// Traces every ray `u` describes (`width · height · subpixels`).
-fn trace_frame(
+/// The host's first steps of a frame, shared by the CPU and GPU twins: which bricks hold an
+/// active block (and how many blocks are active), and what the prefetch of those bricks
+/// (nearest to the eye first, evicting only inactive ones) loaded.
+pub(crate) struct Prefetch {
+    /// Per brick: does it hold an active block?
+    pub brick_active: Vec<bool>,
+    /// Active blocks.
+    pub blocks_active: usize,
+    /// `(slot, brick)` pairs loaded by the prefetch.
+    pub loaded: Vec<(usize, usize)>,
+}
+
+/// Steps 1–2 of [`render`] (see there).
+pub(crate) fn prefetch(
     volume: &Volume,
     cache: &mut BrickCache,
     camera: &Camera,
-    u: Uniforms,
-) -> Result<Frame, RenderError> {
-    let t0 = Instant::now();
-    cache.bind(volume);
-    let before = cache.stats();
-    let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
+    u: &Uniforms,
+) -> Prefetch {
     let n_bricks = volume.brick_count();
-
     // 1. Active blocks and bricks.
     let [bx, by, _] = volume.block_dims();
     let mut brick_active = vec![false; n_bricks];
     let mut blocks_active = 0;
     for (n, &r) in volume.block_ranges().iter().enumerate() {
-        if kernel::block_active(&u, r) {
+        if kernel::block_active(u, r) {
             blocks_active += 1;
             let c = IVec3::new(
                 (n % bx) as i32,
                 ((n / bx) % by) as i32,
                 (n / (bx * by)) as i32,
             );
-            brick_active[kernel::brick_of_block(&u, c)] = true;
+            brick_active[kernel::brick_of_block(u, c)] = true;
         }
     }
     // 2. Hits and prefetch, nearest first.
@@ -500,7 +509,91 @@ fn trace_frame(
     }
     wanted.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let order: Vec<usize> = wanted.iter().map(|&(_, n)| n).collect();
-    cache.load(volume, &order, |n| brick_active[n]);
+    let loaded = cache.load_slots(volume, &order, |n| brick_active[n]);
+    Prefetch {
+        brick_active,
+        blocks_active,
+        loaded,
+    }
+}
+
+/// Step 4 of [`render`], shared by the twins: after a pass in which rays waited, the bricks
+/// they asked for (`requests[n]` rays asked for brick `n`) are loaded, most requested first,
+/// evicting the least recently used. Returns the `(slot, brick)` pairs loaded; an error when
+/// none could be.
+pub(crate) fn load_requested(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    requests: impl Iterator<Item = u32>,
+) -> Result<Vec<(usize, usize)>, RenderError> {
+    let mut asked: Vec<(u32, usize)> = requests
+        .enumerate()
+        .filter_map(|(n, c)| (c > 0).then_some((c, n)))
+        .collect();
+    asked.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    let order: Vec<usize> = asked.iter().map(|&(_, n)| n).collect();
+    cache.tick();
+    // Every resident brick may go: rays only move forward, and those still waiting
+    // wait for the ones asked for. Capacity >= 1, so at least one loads.
+    let loaded = cache.load_slots(volume, &order, |_| false);
+    if loaded.is_empty() {
+        return Err(RenderError::bad(
+            "cache capacity",
+            cache.capacity(),
+            "no brick could be loaded",
+        ));
+    }
+    Ok(loaded)
+}
+
+/// The counters of a finished frame (shared by the twins).
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the frame's parts, as both twins hold them"
+)]
+pub(crate) fn frame_stats(
+    volume: &Volume,
+    u: &Uniforms,
+    pixels: &[GSample],
+    samples: &[u32],
+    pre: &Prefetch,
+    before: crate::CacheStats,
+    after: crate::CacheStats,
+    passes: u32,
+    seconds: f64,
+) -> RenderStats {
+    RenderStats {
+        width: u.width,
+        height: u.height,
+        rays: pixels.len() as u64,
+        hits: pixels.iter().filter(|p| p.id == ID_SURFACE).count() as u64,
+        caps: pixels.iter().filter(|p| p.id == ID_CAP).count() as u64,
+        samples: samples.iter().map(|&s| u64::from(s)).sum(),
+        blocks_active: pre.blocks_active,
+        blocks_total: volume.block_ranges().len(),
+        bricks_active: pre.brick_active.iter().filter(|&&a| a).count(),
+        bricks_total: volume.brick_count(),
+        cache_hits: after.hits - before.hits,
+        bricks_loaded: after.loads - before.loads,
+        evictions: after.evictions - before.evictions,
+        passes,
+        seconds,
+    }
+}
+
+/// Traces every ray `u` describes (`width · height · subpixels`).
+fn trace_frame(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    u: Uniforms,
+) -> Result<Frame, RenderError> {
+    let t0 = Instant::now();
+    cache.bind(volume);
+    let before = cache.stats();
+    let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
+    let n_bricks = volume.brick_count();
+    let pre = prefetch(volume, cache, camera, &u);
 
     // 3–4. Passes.
     let mut pixels = vec![GSample::default(); w * h];
@@ -549,45 +642,23 @@ fn trace_frame(
         if pending.is_empty() {
             break;
         }
-        let mut asked: Vec<(u32, usize)> = requests
-            .iter()
-            .enumerate()
-            .filter_map(|(n, r)| {
-                let c = r.swap(0, Ordering::Relaxed);
-                (c > 0).then_some((c, n))
-            })
-            .collect();
-        asked.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-        let order: Vec<usize> = asked.iter().map(|&(_, n)| n).collect();
-        cache.tick();
-        // Every resident brick may go: rays only move forward, and those still waiting
-        // wait for the ones asked for. Capacity >= 1, so at least one loads.
-        if cache.load(volume, &order, |_| false) == 0 {
-            return Err(RenderError::bad(
-                "cache capacity",
-                cache.capacity(),
-                "no brick could be loaded",
-            ));
-        }
+        load_requested(
+            volume,
+            cache,
+            requests.iter().map(|r| r.swap(0, Ordering::Relaxed)),
+        )?;
     }
-    let after = cache.stats();
-    let stats = RenderStats {
-        width: u.width,
-        height: u.height,
-        rays: (w * h) as u64,
-        hits: pixels.iter().filter(|p| p.id == ID_SURFACE).count() as u64,
-        caps: pixels.iter().filter(|p| p.id == ID_CAP).count() as u64,
-        samples: samples.iter().map(|&s| u64::from(s)).sum(),
-        blocks_active,
-        blocks_total: volume.block_ranges().len(),
-        bricks_active: brick_active.iter().filter(|&&a| a).count(),
-        bricks_total: n_bricks,
-        cache_hits: after.hits - before.hits,
-        bricks_loaded: after.loads - before.loads,
-        evictions: after.evictions - before.evictions,
+    let stats = frame_stats(
+        volume,
+        &u,
+        &pixels,
+        &samples,
+        &pre,
+        before,
+        cache.stats(),
         passes,
-        seconds: t0.elapsed().as_secs_f64(),
-    };
+        t0.elapsed().as_secs_f64(),
+    );
     Ok(Frame {
         gbuffer: GBuffer::new(w as u32, u.height, pixels, samples),
         stats,

@@ -1,0 +1,147 @@
+//! The host side of GPU deferred shading (the twin of [`crate::shade()`]).
+
+use super::{GpuPixel, GpuRenderer, WORKGROUP, check_fits, mode_code, scoped};
+use crate::kernel::Uniforms;
+use crate::shade::default_light;
+use crate::{GBuffer, Image, Light, RenderError, Shading};
+use bytemuck::{Pod, Zeroable};
+use isokit_gpu::wgpu;
+
+/// `ShadeParams` in `shade.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct ShadeParams {
+    color: [f32; 3],
+    mode: u32,
+    background: [f32; 4],
+    ambient: f32,
+    specular: f32,
+    shininess: f32,
+    curvature_scale: f32,
+    contour_pixels: f32,
+    lights: u32,
+    pixel_angle: f32,
+    pixel_base: u32,
+    count: u32,
+    stride: u32,
+    pad: [u32; 2],
+}
+
+/// `Light` in `shade.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct GpuLight {
+    dir: [f32; 3],
+    point: u32,
+    color: [f32; 3],
+    pad: f32,
+}
+
+impl GpuLight {
+    /// What `light_at` in `shade.rs` computes that does not depend on the pixel, computed
+    /// here the same way: a directional light's direction toward the light and every
+    /// light's colour times intensity.
+    fn new(l: &Light) -> Self {
+        let (dir, point) = match (l.direction, l.position) {
+            (Some(d), _) => (-d.normalize_or_zero(), 0),
+            (None, Some(q)) => (q, 1),
+            (None, None) => (glam::Vec3::ZERO, 2),
+        };
+        Self {
+            dir: dir.to_array(),
+            point,
+            color: (l.color * l.intensity).to_array(),
+            pad: 0.0,
+        }
+    }
+}
+
+/// Shades `gbuffer` on the GPU (see [`GpuRenderer::shade`]).
+pub(crate) fn shade(
+    r: &GpuRenderer,
+    gbuffer: &GBuffer,
+    u: &Uniforms,
+    sh: &Shading,
+) -> Result<Image, RenderError> {
+    sh.check()?;
+    let subs = u.subpixels.max(1);
+    if gbuffer.width() != u.width * subs || gbuffer.height() != u.height {
+        return Err(RenderError::bad(
+            "G-buffer",
+            format!("{}x{}", gbuffer.width(), gbuffer.height()),
+            "does not match the uniforms it is shaded with",
+        ));
+    }
+    let gpu = &r.gpu;
+    let lights: Vec<GpuLight> = if sh.lights.is_empty() {
+        vec![GpuLight::new(&default_light(u))]
+    } else {
+        sh.lights.iter().map(GpuLight::new).collect()
+    };
+    let storage = wgpu::BufferUsages::STORAGE;
+    let total = u.width as usize * u.height as usize;
+    let per_pixel = (size_of::<GpuPixel>() * subs as usize) as u64;
+    let chunk = ((gpu.max_storage_bytes() / per_pixel) as usize)
+        .min(r.max_rays_per_dispatch())
+        .min(total)
+        .max(1);
+    check_fits(
+        gpu,
+        "the lights",
+        std::mem::size_of_val(lights.as_slice()) as u64,
+    )?;
+    // The uniforms and lights are only read through the bind group.
+    let (_ubuf, pbuf, gbuf, _lbuf, image, bind) =
+        scoped(gpu, "allocating the shading buffers", || {
+            let ubuf = gpu.upload("shade uniforms", &[*u], wgpu::BufferUsages::UNIFORM);
+            let pbuf = gpu.buffer(
+                "shade params",
+                size_of::<ShadeParams>() as u64,
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let gbuf = gpu.buffer("shade g-buffer", chunk as u64 * per_pixel, storage);
+            let lbuf = gpu.upload("shade lights", &lights, storage);
+            let image = gpu.buffer("shade image", 16 * chunk as u64, storage);
+            let bind = gpu.bind_buffers("shade", &r.shade, &[&ubuf, &pbuf, &gbuf, &lbuf, &image]);
+            (ubuf, pbuf, gbuf, lbuf, image, bind)
+        })?;
+    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
+    let mut pixels = Vec::with_capacity(total);
+    for base in (0..total).step_by(chunk) {
+        let len = chunk.min(total - base);
+        let s = subs as usize;
+        let up: Vec<GpuPixel> = gbuffer.pixels()[base * s..(base + len) * s]
+            .iter()
+            .map(GpuPixel::from_sample)
+            .collect();
+        gpu.write(&gbuf, 0, bytemuck::cast_slice(&up));
+        let groups = len.div_ceil(WORKGROUP as usize);
+        let gx = groups.min(max);
+        let gy = groups.div_ceil(gx);
+        let params = ShadeParams {
+            color: sh.color.to_array(),
+            mode: mode_code(sh.mode),
+            background: sh.background,
+            ambient: sh.ambient,
+            specular: sh.specular,
+            shininess: sh.shininess,
+            curvature_scale: sh.curvature_scale,
+            contour_pixels: sh.contour_pixels,
+            lights: lights.len() as u32,
+            pixel_angle: 2.0 * u.half_height / u.height as f32,
+            pixel_base: base as u32,
+            count: len as u32,
+            stride: gx as u32 * WORKGROUP,
+            pad: [0; 2],
+        };
+        gpu.write(&pbuf, 0, bytemuck::bytes_of(&params));
+        gpu.dispatch("shade", &r.shade, &bind, [gx as u32, gy as u32, 1])?;
+        let out: Vec<[f32; 4]> = gpu.read_buffer(&image, 0, len)?;
+        pixels.extend(out);
+    }
+    Ok(Image {
+        width: u.width,
+        height: u.height,
+        pixels,
+    })
+}
