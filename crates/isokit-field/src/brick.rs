@@ -36,7 +36,9 @@ pub struct BrickInfo {
 /// let b = BrickGrid::from_grid(&g, 8, 2, 1.5, 99.0).unwrap();
 /// assert!(b.brick_count() < b.brick_dims().iter().product::<usize>());
 /// assert_eq!(b.get(10, 3, 3), 0.0);
-/// assert_eq!(b.get(0, 0, 0), 99.0);
+/// // Dropped bricks read as the background, negated where they lie inside (x < 10).
+/// assert_eq!(b.get(19, 0, 0), 99.0);
+/// assert_eq!(b.get(0, 0, 0), -99.0);
 /// ```
 #[derive(Clone, Debug)]
 pub struct BrickGrid {

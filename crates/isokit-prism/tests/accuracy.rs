@@ -325,3 +325,32 @@ fn narrow_bands_fill_the_outside_with_the_right_sign() {
         }
     }
 }
+
+/// The real meshes `tools/fetch-data.sh` fetches (CGAL's sample data): scanned, CAD with sharp
+/// edges, and open. Meshes not fetched are skipped.
+#[test]
+#[ignore = "needs data/external (bash tools/fetch-data.sh); about a minute; run: cargo test --release -p isokit-prism --test accuracy -- --ignored"]
+fn external_meshes_match_the_kdtree() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/external");
+    let mut ran = 0;
+    for name in [
+        "bunny00.off",
+        "armadillo.off",
+        "fandisk.off",
+        "knot1.off",
+        "elephant.off",
+        "elephant-with-holes.off",
+    ] {
+        let Ok(mesh) = read_mesh(&dir.join(name)) else {
+            eprintln!("{name}: not fetched, skipped");
+            continue;
+        };
+        check(name, &mesh, 96, 0.05);
+        check(&format!("{name} wide"), &mesh, 64, 0.2);
+        ran += 1;
+    }
+    assert!(
+        ran > 0,
+        "no external mesh found: run bash tools/fetch-data.sh"
+    );
+}
