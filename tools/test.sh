@@ -14,4 +14,4 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/reference/requirements.txt
-ISOKIT_BIN="$PWD/target/debug/isokit" .venv/bin/python -m pytest -q tests/reference
+ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q tests/reference
