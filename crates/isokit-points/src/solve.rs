@@ -63,29 +63,40 @@ fn norm(a: &[f64]) -> f64 {
     dot(a, a).sqrt()
 }
 
+/// The common start of the solvers: `x = 0` of `n` unknowns, the statistics, and `‖b‖`;
+/// `stats.converged` is already true when there is nothing to solve (`b = 0` or `n = 0`).
+fn start(a: &CsMat<f64>, n: usize, b: &[f64]) -> (Vec<f64>, SolveStats, f64) {
+    let bnorm = norm(b);
+    let stats = SolveStats {
+        unknowns: n,
+        nonzeros: a.nnz(),
+        converged: bnorm == 0.0 || n == 0,
+        ..SolveStats::default()
+    };
+    (vec![0.0; n], stats, bnorm)
+}
+
+/// The inverse diagonal of `a` (1 where the diagonal is zero, missing or not finite).
+fn jacobi(a: &CsMat<f64>) -> Vec<f64> {
+    (0..a.rows())
+        .map(|i| match a.get(i, i) {
+            Some(&d) if d != 0.0 && d.is_finite() => 1.0 / d,
+            _ => 1.0,
+        })
+        .collect()
+}
+
 /// Solves `A x = b` by Jacobi-preconditioned BiCGSTAB from `x = 0`, until the relative
 /// residual is below `tol` or `max_iter` iterations. `A` must be square CSR with a non-zero
 /// diagonal (ours has the self weight). Returns the solution and the statistics (with
 /// `max_sample_value` left 0 for the caller).
 pub fn bicgstab(a: &CsMat<f64>, b: &[f64], tol: f64, max_iter: usize) -> (Vec<f64>, SolveStats) {
     let n = b.len();
-    let mut stats = SolveStats {
-        unknowns: n,
-        nonzeros: a.nnz(),
-        ..SolveStats::default()
-    };
-    let mut x = vec![0.0; n];
-    let bnorm = norm(b);
-    if bnorm == 0.0 || n == 0 {
-        stats.converged = true;
+    let (mut x, mut stats, bnorm) = start(a, n, b);
+    if stats.converged {
         return (x, stats);
     }
-    let dinv: Vec<f64> = (0..n)
-        .map(|i| match a.get(i, i) {
-            Some(&d) if d != 0.0 && d.is_finite() => 1.0 / d,
-            _ => 1.0,
-        })
-        .collect();
+    let dinv = jacobi(a);
     let mut r = b.to_vec();
     let r0 = r.clone();
     let (mut rho, mut alpha, mut omega) = (1.0f64, 1.0f64, 1.0f64);
@@ -310,14 +321,7 @@ enum Prec {
 impl Prec {
     fn new(a: &CsMat<f64>, p: Preconditioner) -> Self {
         match p {
-            Preconditioner::Jacobi => Prec::Jacobi(
-                (0..a.rows())
-                    .map(|i| match a.get(i, i) {
-                        Some(&d) if d != 0.0 && d.is_finite() => 1.0 / d,
-                        _ => 1.0,
-                    })
-                    .collect(),
-            ),
+            Preconditioner::Jacobi => Prec::Jacobi(jacobi(a)),
             Preconditioner::Ilu0 => Prec::Ilu(Ilu0::new(a)),
         }
     }
@@ -350,15 +354,8 @@ pub fn gmres(
     prec: Preconditioner,
 ) -> (Vec<f64>, SolveStats) {
     let n = b.len();
-    let mut stats = SolveStats {
-        unknowns: n,
-        nonzeros: a.nnz(),
-        ..SolveStats::default()
-    };
-    let mut x = vec![0.0; n];
-    let bnorm = norm(b);
-    if bnorm == 0.0 || n == 0 {
-        stats.converged = true;
+    let (mut x, mut stats, bnorm) = start(a, n, b);
+    if stats.converged {
         return (x, stats);
     }
     let m = restart.max(1);
@@ -460,16 +457,9 @@ pub fn lsqr(
     max_iter: usize,
 ) -> (Vec<f64>, SolveStats) {
     let n = a.cols();
-    let mut stats = SolveStats {
-        unknowns: n,
-        nonzeros: a.nnz(),
-        damping: damp,
-        ..SolveStats::default()
-    };
-    let mut x = vec![0.0; n];
-    let bnorm = norm(b);
-    if bnorm == 0.0 || n == 0 {
-        stats.converged = true;
+    let (mut x, mut stats, bnorm) = start(a, n, b);
+    stats.damping = damp;
+    if stats.converged {
         return (x, stats);
     }
     let at: CsMat<f64> = a.transpose_view().to_csr();

@@ -19,7 +19,7 @@
 //!   same decisions: block skipping, fine sampling, brackets).
 
 use glam::Vec3;
-use isokit_field::{Camera, Grid, Projection};
+use isokit_field::{Camera, Projection};
 use isokit_gpu::testing::gpu_or_skip;
 use isokit_render::gpu::{GpuRenderer, raycast_shader, shade_shader};
 use isokit_render::{
@@ -28,6 +28,9 @@ use isokit_render::{
 };
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, OnceLock};
+
+mod common;
+use common::*;
 
 // ---------------------------------------------------------------------------------------
 // One GPU renderer for the whole file (opening lavapipe and compiling the kernels takes a
@@ -58,63 +61,6 @@ fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
 // ---------------------------------------------------------------------------------------
 // Scenes.
 // ---------------------------------------------------------------------------------------
-
-/// A grid of `n³` samples over `[-1, 1]³` holding `f`.
-fn grid_of(n: usize, f: impl Fn(Vec3) -> f32) -> Grid {
-    let h = 2.0 / (n - 1) as f32;
-    let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let p = g.position(i, j, k);
-                g.set(i, j, k, f(p));
-            }
-        }
-    }
-    g
-}
-
-fn sphere_grid(n: usize) -> Grid {
-    grid_of(n, |p| p.length() - 0.7)
-}
-
-fn two_spheres() -> Grid {
-    grid_of(64, |p| {
-        let a = (p - Vec3::new(-0.45, 0.1, 0.0)).length() - 0.35;
-        let b = (p - Vec3::new(0.5, -0.2, -0.3)).length() - 0.25;
-        a.min(b)
-    })
-}
-
-fn perspective(eye: Vec3, w: u32, h: u32) -> Camera {
-    Camera::look_at(
-        eye,
-        Vec3::ZERO,
-        Vec3::Y,
-        Projection::Perspective {
-            fov_y_degrees: 40.0,
-        },
-        w,
-        h,
-    )
-    .unwrap()
-}
-
-fn orthographic(eye: Vec3, height: f32, w: u32, h: u32) -> Camera {
-    Camera::look_at(
-        eye,
-        Vec3::ZERO,
-        Vec3::Y,
-        Projection::Orthographic { height },
-        w,
-        h,
-    )
-    .unwrap()
-}
-
-fn volume(g: Grid) -> Volume {
-    Volume::from_grid(g, Layout::default()).unwrap()
-}
 
 /// The trefoil knot mesh of `data/` as a lazily sampled band (its exact mesh distance).
 fn trefoil_band(res: usize) -> Volume {
@@ -179,13 +125,6 @@ struct Report {
     max_k: f32,
     same_samples: usize,
     image_mean: f64,
-}
-
-/// The angle between two unit vectors, in f64 by `atan2(|a × b|, a · b)` (f32 `acos` of a
-/// dot product near 1 cannot resolve less than about 0.02°).
-fn angle_degrees(a: Vec3, b: Vec3) -> f32 {
-    let (a, b) = (a.as_dvec3(), b.as_dvec3());
-    a.cross(b).length().atan2(a.dot(b)).to_degrees() as f32
 }
 
 /// True when pixel `(x, y)` of the CPU's hit mask has an 8-neighbour of the other status.
@@ -397,7 +336,7 @@ fn sphere_gpu_equals_cpu() {
     };
     let v = volume(sphere_grid(64));
     let persp = perspective(Vec3::new(0.4, 0.9, 2.6), 96, 96);
-    let ortho = orthographic(Vec3::new(-1.4, 0.5, 2.2), 1.7, 80, 64);
+    let ortho = orthographic(Vec3::new(-1.4, 0.5, 2.2), Vec3::ZERO, 1.7, 80, 64);
     let base = RenderOptions::default();
     let cases = [
         ("sphere 64³ perspective", &persp, base),
@@ -474,7 +413,7 @@ fn thin_sheets_gpu_equals_cpu() {
     for (filter, thickness_voxels) in [(Filter::Trilinear, 0.8), (Filter::Tricubic, 1.1)] {
         let h = 2.0 / 63.0;
         let v = volume(grid_of(64, |p| p.dot(n).abs() - 0.5 * thickness_voxels * h));
-        let cam = orthographic(view * 2.5, 0.8, 64, 64);
+        let cam = orthographic(view * 2.5, Vec3::ZERO, 0.8, 64, 64);
         let opts = RenderOptions {
             filter,
             ..Default::default()
@@ -734,7 +673,7 @@ fn gpu_refuses_bad_input() {
         ..Default::default()
     };
     assert!(gpu.render(&v, &cam, &bad).is_err());
-    let ortho = orthographic(Vec3::Z * 3.0, 2.0, 8, 8);
+    let ortho = orthographic(Vec3::Z * 3.0, Vec3::ZERO, 2.0, 8, 8);
     let opts = RenderOptions::default();
     assert!(
         gpu.render_multiview(&v, &ortho, &opts, &MultiView::new(4, 0.1))

@@ -14,68 +14,12 @@ use isokit_render::{
 };
 use std::sync::atomic::AtomicU32;
 
-const R: f32 = 0.7;
-
-/// A grid of `n³` samples over `[-1, 1]³` holding `f`.
-fn grid_of(n: usize, f: impl Fn(Vec3) -> f32) -> Grid {
-    let h = 2.0 / (n - 1) as f32;
-    let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let p = g.position(i, j, k);
-                g.set(i, j, k, f(p));
-            }
-        }
-    }
-    g
-}
-
-fn sphere_grid(n: usize) -> Grid {
-    grid_of(n, |p| p.length() - R)
-}
-
-fn perspective(eye: Vec3, w: u32, h: u32) -> Camera {
-    Camera::look_at(
-        eye,
-        Vec3::ZERO,
-        Vec3::Y,
-        Projection::Perspective {
-            fov_y_degrees: 40.0,
-        },
-        w,
-        h,
-    )
-    .unwrap()
-}
-
-fn orthographic(eye: Vec3, target: Vec3, height: f32, w: u32, h: u32) -> Camera {
-    Camera::look_at(
-        eye,
-        target,
-        Vec3::Y,
-        Projection::Orthographic { height },
-        w,
-        h,
-    )
-    .unwrap()
-}
-
-fn volume(g: Grid) -> Volume {
-    Volume::from_grid(g, Layout::default()).unwrap()
-}
+mod common;
+use common::*;
 
 fn frame(v: &Volume, cam: &Camera, opts: &RenderOptions) -> isokit_render::Frame {
     let mut cache = BrickCache::for_volume(v);
     render(v, &mut cache, cam, opts).unwrap()
-}
-
-fn angle_degrees(a: Vec3, b: Vec3) -> f32 {
-    a.normalize()
-        .dot(b.normalize())
-        .clamp(-1.0, 1.0)
-        .acos()
-        .to_degrees()
 }
 
 /// The brick-pool filters equal the foundation's filters on the dense grid, bit for bit
@@ -234,14 +178,6 @@ fn ray_origin(cam: &Camera, p: Vec3) -> Vec3 {
 }
 
 /// Two spheres with empty space around and between them.
-fn two_spheres() -> Grid {
-    grid_of(64, |p| {
-        let a = (p - Vec3::new(-0.45, 0.1, 0.0)).length() - 0.35;
-        let b = (p - Vec3::new(0.5, -0.2, -0.3)).length() - 0.25;
-        a.min(b)
-    })
-}
-
 #[test]
 fn skipping_empty_space_changes_no_pixel() {
     let v = volume(two_spheres());

@@ -1,0 +1,78 @@
+//! Scenes and cameras shared by the CPU (`raycast.rs`) and GPU (`gpu.rs`) tests.
+// Each test binary uses a different subset.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use isokit_field::{Camera, Grid, Projection};
+use isokit_render::{Layout, Volume};
+
+/// Radius of [`sphere_grid`]'s sphere.
+pub const R: f32 = 0.7;
+
+/// A grid of `n³` samples over `[-1, 1]³` holding `f`.
+pub fn grid_of(n: usize, f: impl Fn(Vec3) -> f32) -> Grid {
+    let h = 2.0 / (n - 1) as f32;
+    let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = g.position(i, j, k);
+                g.set(i, j, k, f(p));
+            }
+        }
+    }
+    g
+}
+
+/// The sphere of radius [`R`] at the origin, `n³` samples.
+pub fn sphere_grid(n: usize) -> Grid {
+    grid_of(n, |p| p.length() - R)
+}
+
+/// Two spheres of different radii, 64³ samples.
+pub fn two_spheres() -> Grid {
+    grid_of(64, |p| {
+        let a = (p - Vec3::new(-0.45, 0.1, 0.0)).length() - 0.35;
+        let b = (p - Vec3::new(0.5, -0.2, -0.3)).length() - 0.25;
+        a.min(b)
+    })
+}
+
+/// A 40° perspective camera at `eye` looking at the origin.
+pub fn perspective(eye: Vec3, w: u32, h: u32) -> Camera {
+    Camera::look_at(
+        eye,
+        Vec3::ZERO,
+        Vec3::Y,
+        Projection::Perspective {
+            fov_y_degrees: 40.0,
+        },
+        w,
+        h,
+    )
+    .unwrap()
+}
+
+/// An orthographic camera at `eye` looking at `target`, `height` world units tall.
+pub fn orthographic(eye: Vec3, target: Vec3, height: f32, w: u32, h: u32) -> Camera {
+    Camera::look_at(
+        eye,
+        target,
+        Vec3::Y,
+        Projection::Orthographic { height },
+        w,
+        h,
+    )
+    .unwrap()
+}
+
+/// A dense volume with the default layout.
+pub fn volume(g: Grid) -> Volume {
+    Volume::from_grid(g, Layout::default()).unwrap()
+}
+
+/// The angle between two vectors in degrees (atan2 in f64: resolves well below 0.01°).
+pub fn angle_degrees(a: Vec3, b: Vec3) -> f32 {
+    let (a, b) = (a.as_dvec3(), b.as_dvec3());
+    a.cross(b).length().atan2(a.dot(b)).to_degrees() as f32
+}
