@@ -2,21 +2,11 @@
 
 use glam::{DVec3, Vec3};
 use isokit_field::Field;
+mod common;
+use common::all_weightings;
 use isokit_points::{
     NormalOptions, PointSdf, PointSdfOptions, PointsError, Weighting, estimate_normals,
 };
-
-fn all_weightings() -> [PointSdfOptions; 3] {
-    [
-        Weighting::PolyGauss,
-        Weighting::Shepard,
-        Weighting::Nie04 { neighbours: 18 },
-    ]
-    .map(|weighting| PointSdfOptions {
-        weighting,
-        ..PointSdfOptions::default()
-    })
-}
 
 fn sphere(n: usize) -> (Vec<Vec3>, Vec<Vec3>) {
     let cloud = isokit_io::generate::torus_cloud(1.0, 0.4, n, 3);

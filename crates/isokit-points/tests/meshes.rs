@@ -12,7 +12,7 @@ use isokit_field::{Aabb, Field};
 use isokit_io::TriMesh;
 use isokit_kdtree::QueryStats;
 use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
-use isokit_points::{NormalOptions, PointSdf, PointSdfOptions, Weighting, estimate_normals};
+use isokit_points::{NormalOptions, PointSdf, PointSdfOptions, estimate_normals};
 
 fn data(name: &str) -> TriMesh {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -265,15 +265,8 @@ fn noisy_clouds() {
         );
         assert!(flips * 100 < p.len(), "{file}: {flips} flips");
         for (which, normals) in [("exact", &n), ("estimated", &est.normals)] {
-            for weighting in [
-                Weighting::PolyGauss,
-                Weighting::Shepard,
-                Weighting::Nie04 { neighbours: 18 },
-            ] {
-                let opts = PointSdfOptions {
-                    weighting,
-                    ..PointSdfOptions::default()
-                };
+            for opts in common::all_weightings() {
+                let weighting = opts.weighting;
                 let r = measure(
                     &format!("{file} noisy, {which} normals, {}", weighting.name()),
                     &mesh,
@@ -333,15 +326,8 @@ fn non_uniform_clouds() {
     let (x0, x1) = (b.min.x as f64, b.max.x as f64);
     let density = move |p: DVec3| 0.05 + 0.95 * ((p.x - x0) / (x1 - x0)).clamp(0.0, 1.0);
     let (p, n) = Sampler::new(&mesh).cloud(20_000, 13, Some(&density));
-    for weighting in [
-        Weighting::PolyGauss,
-        Weighting::Shepard,
-        Weighting::Nie04 { neighbours: 18 },
-    ] {
-        let opts = PointSdfOptions {
-            weighting,
-            ..PointSdfOptions::default()
-        };
+    for opts in common::all_weightings() {
+        let weighting = opts.weighting;
         let r = measure(
             &format!("trefoil, density 20:1, {}", weighting.name()),
             &mesh,

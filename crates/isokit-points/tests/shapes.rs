@@ -205,15 +205,8 @@ fn variants_compared() {
     let shape = torus();
     let (p, n) = cloud(&shape, N, 5);
     let h = spacing(&p);
-    for weighting in [
-        Weighting::PolyGauss,
-        Weighting::Shepard,
-        Weighting::Nie04 { neighbours: 18 },
-    ] {
-        let opts = PointSdfOptions {
-            weighting,
-            ..PointSdfOptions::default()
-        };
+    for opts in common::all_weightings() {
+        let weighting = opts.weighting;
         let sdf = PointSdf::new(&p, &n, &opts).unwrap();
         let e = band_error(&sdf, &shape, h);
         let (bad, _) = spurious_crossings(&sdf, &shape, h, 32);

@@ -148,3 +148,17 @@ pub fn rms_max(pts: &[(DVec3, f64)], f: impl Fn(DVec3) -> f64) -> (f64, f64) {
     }
     ((s2 / pts.len().max(1) as f64).sqrt(), max)
 }
+
+/// Default options with each of the three weightings (partition of unity, Shepard, Nie04).
+pub fn all_weightings() -> [isokit_points::PointSdfOptions; 3] {
+    use isokit_points::{PointSdfOptions, Weighting};
+    [
+        Weighting::PolyGauss,
+        Weighting::Shepard,
+        Weighting::Nie04 { neighbours: 18 },
+    ]
+    .map(|weighting| PointSdfOptions {
+        weighting,
+        ..PointSdfOptions::default()
+    })
+}
