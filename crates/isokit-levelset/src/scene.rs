@@ -105,7 +105,7 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
         SceneFormat::Json => serde_json::from_str(text)
             .map_err(|e| SceneError::new(file, "", format!("invalid JSON: {e}")))?,
         SceneFormat::Toml => {
-            let table: toml::Table = toml::from_str(text).map_err(|e| {
+            let table: toml::Value = toml::from_str(text).map_err(|e| {
                 // The message and where, without the quoted source line (which may be long).
                 let at = e.span().map_or(String::new(), |r| {
                     let before = &text[..r.start.min(text.len())];
@@ -119,7 +119,7 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
                     format!("invalid TOML{at}: {}", e.message().trim()),
                 )
             })?;
-            if let Some(node) = non_finite(&toml::Value::Table(table.clone()), String::new()) {
+            if let Some(node) = non_finite(&table, String::new()) {
                 return Err(SceneError::new(
                     file,
                     &node,

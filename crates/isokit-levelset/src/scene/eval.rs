@@ -398,7 +398,8 @@ impl Compiled {
                     if b.lower_bound(p, sources) >= -acc {
                         continue;
                     }
-                    acc = csg::difference(acc, b.eval(p, cap, sources));
+                    // `lb < −acc ≤ cap`: the child's own test would pass, skip it.
+                    acc = csg::difference(acc, b.eval_unchecked(p, cap, sources));
                 }
                 acc
             }
