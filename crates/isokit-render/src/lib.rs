@@ -73,9 +73,11 @@ mod error;
 mod gbuffer;
 pub mod gpu;
 pub mod kernel;
+pub mod quadric;
 mod render;
 pub mod setup;
 pub mod shade;
+pub mod splat;
 mod volume;
 
 pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, NOT_RESIDENT};

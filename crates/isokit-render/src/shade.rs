@@ -334,9 +334,9 @@ pub fn view_curvature(s: &GSample, v: Vec3) -> f32 {
     s.k1 * c2 + s.k2 * (1.0 - c2)
 }
 
-fn tone(s: &GSample, n: Vec3, v: Vec3, sh: &Shading, lights: &[Light]) -> Vec3 {
-    let cool = Vec3::new(0.0, 0.0, 0.45) + 0.25 * sh.color;
-    let warm = Vec3::new(0.45, 0.4, 0.0) + 0.55 * sh.color;
+fn tone(s: &GSample, n: Vec3, v: Vec3, sh: &Shading, lights: &[Light], color: Vec3) -> Vec3 {
+    let cool = Vec3::new(0.0, 0.0, 0.45) + 0.25 * color;
+    let warm = Vec3::new(0.45, 0.4, 0.0) + 0.55 * color;
     let (l, lc) = lights
         .first()
         .map_or((Vec3::ZERO, Vec3::ONE), |l| light_at(l, s.position));
@@ -367,6 +367,19 @@ pub fn shade_pixel(
     sh: &Shading,
     lights: &[Light],
 ) -> [f32; 4] {
+    shade_pixel_color(s, v, footprint, sh, lights, sh.color)
+}
+
+/// [`shade_pixel`] with the base colour given per pixel instead of [`Shading::color`]
+/// (objects of their own colour, e.g. atoms).
+pub fn shade_pixel_color(
+    s: &GSample,
+    v: Vec3,
+    footprint: f32,
+    sh: &Shading,
+    lights: &[Light],
+    color: Vec3,
+) -> [f32; 4] {
     if !s.is_hit() {
         return sh.background;
     }
@@ -374,7 +387,7 @@ pub fn shade_pixel(
     let kappa = sh.curvature_scale;
     let rgb = match sh.mode {
         ShadingMode::Phong => {
-            let mut c = sh.ambient * sh.color;
+            let mut c = sh.ambient * color;
             for l in lights {
                 let (dir, lc) = light_at(l, s.position);
                 let diff = n.dot(dir).max(0.0);
@@ -384,11 +397,11 @@ pub fn shade_pixel(
                 } else {
                     0.0
                 };
-                c += lc * (sh.color * diff + Vec3::splat(spec));
+                c += lc * (color * diff + Vec3::splat(spec));
             }
             c
         }
-        ShadingMode::Tone => tone(s, n, v, sh, lights),
+        ShadingMode::Tone => tone(s, n, v, sh, lights, color),
         ShadingMode::Normal => 0.5 * n + Vec3::splat(0.5),
         ShadingMode::Curvature => curvature_color(s.k1, s.k2, kappa) * lambert(s, n, sh, lights),
         ShadingMode::Mean => diverging(0.5 * (s.k1 + s.k2) / kappa) * lambert(s, n, sh, lights),
@@ -399,7 +412,7 @@ pub fn shade_pixel(
         ShadingMode::K1 => diverging(s.k1 / kappa) * lambert(s, n, sh, lights),
         ShadingMode::K2 => diverging(s.k2 / kappa) * lambert(s, n, sh, lights),
         ShadingMode::Ridges => {
-            let base = tone(s, n, v, sh, lights);
+            let base = tone(s, n, v, sh, lights, color);
             let t = 0.5 * kappa;
             let ridge = if s.k1 > -s.k2 {
                 smoothstep(t, 2.0 * t, s.k1)
@@ -415,7 +428,7 @@ pub fn shade_pixel(
                 .lerp(Vec3::new(0.02, 0.1, 0.55), valley)
         }
         ShadingMode::Silhouette => {
-            let base = tone(s, n, v, sh, lights);
+            let base = tone(s, n, v, sh, lights, color);
             // KWTM03: a contour where |n·v| <= sqrt(T κv (2 − T κv)), T the thickness in
             // world units and κv the curvature along the view; none where κv <= 0.
             let tk = (sh.contour_pixels * footprint * view_curvature(s, v)).clamp(0.0, 1.0);
@@ -427,17 +440,17 @@ pub fn shade_pixel(
             }
         }
         ShadingMode::Accessibility => {
-            let base = tone(s, n, v, sh, lights);
+            let base = tone(s, n, v, sh, lights, color);
             base * (1.0 - 0.75 * smoothstep(0.0, kappa, -s.k1))
         }
         ShadingMode::Reflection => {
             let r = v - 2.0 * v.dot(n) * n;
-            environment(r) * sh.color.max(Vec3::splat(0.2)) / sh.color.max_element().max(0.2)
+            environment(r) * color.max(Vec3::splat(0.2)) / color.max_element().max(0.2)
         }
         ShadingMode::Texture => {
             let q = (s.position * (0.5 * kappa)).floor();
             let odd = (q.x + q.y + q.z).rem_euclid(2.0) >= 1.0;
-            let albedo = if odd { sh.color } else { sh.color * 0.35 };
+            let albedo = if odd { color } else { color * 0.35 };
             albedo * lambert(s, n, sh, lights)
         }
     };

@@ -1,0 +1,550 @@
+//! Quadric splatting (CPU twin) against exact references: screen boxes against dense f64
+//! ray casting, depths and normals against analytic ray–sphere, ray–cylinder and ray–cone
+//! intersections, intersecting spheres, curvatures, Sobel, shadows.
+
+use glam::{DMat3, DVec3, Vec3};
+use isokit_field::rng::SplitMix64;
+use isokit_field::{Camera, Projection};
+use isokit_render::quadric::{Quadric, QuadricKind, View};
+use isokit_render::splat::{
+    self, NO_OBJECT, OutlineOptions, ShadowOptions, SplatOptions, SplatScene, SplatShading,
+    camera_uniforms, shadow_sample, sobel4,
+};
+
+fn camera(eye: Vec3, target: Vec3, w: u32, h: u32, fov: f32) -> Camera {
+    Camera::look_at(eye, target, Vec3::Y, Projection::Perspective { fov_y_degrees: fov }, w, h)
+        .unwrap()
+}
+
+/// The f64 ray of continuous pixel coordinates `(x, y)` (as `Camera::ray`).
+fn ray64(v: &View, x: f64, y: f64) -> (DVec3, DVec3) {
+    let aspect = f64::from(v.width) / f64::from(v.height);
+    let sx = (2.0 * x / f64::from(v.width) - 1.0) * v.half_height * aspect;
+    let sy = (1.0 - 2.0 * y / f64::from(v.height)) * v.half_height;
+    if v.ortho {
+        (v.eye + sx * v.right + sy * v.up, v.forward)
+    } else {
+        (v.eye, (v.forward + sx * v.right + sy * v.up).normalize())
+    }
+}
+
+/// Independent f64 reference: the interval of the ray inside the clipped solid, by
+/// bisection-free sampling refined with the quadric's own sign (robust, slow): returns the
+/// entry parameter of the visible part (t where N ≥ near), if any.
+fn visible_entry64(q: &Quadric, v: &View, o: DVec3, d: DVec3) -> Option<f64> {
+    let t_near = if v.ortho { v.near } else { v.near / d.dot(v.forward) };
+    // Solve in parameter space exactly: x(t) = a + t b.
+    let ti = q.variance_matrix().inverse();
+    let a = ti * o.extend(1.0);
+    let b = ti * d.extend(0.0);
+    let dg = q.kind().diag();
+    let f = |x: glam::DVec4, y: glam::DVec4| {
+        dg[0] * x.x * y.x + dg[1] * x.y * y.y + dg[2] * x.z * y.z + dg[3] * x.w * y.w
+    };
+    let (qa, qb, qc) = (f(b, b), f(a, b), f(a, a));
+    let (zlo, zhi) = q.slab();
+    let inside = |t: f64| {
+        let x = a + b * t;
+        (qa * t + 2.0 * qb) * t + qc <= 0.0 && x.z >= zlo && x.z <= zhi
+    };
+    // Candidate boundaries: quadric roots, slab planes, t_near.
+    let mut cands = vec![t_near];
+    let disc = qb * qb - qa * qc;
+    if qa.abs() > 1e-300 && disc >= 0.0 {
+        cands.push((-qb - disc.sqrt()) / qa);
+        cands.push((-qb + disc.sqrt()) / qa);
+    } else if qa.abs() <= 1e-300 && qb != 0.0 {
+        cands.push(-qc / (2.0 * qb));
+    }
+    if b.z != 0.0 && zlo.is_finite() {
+        cands.push((zlo - a.z) / b.z);
+        cands.push((zhi - a.z) / b.z);
+    }
+    cands.retain(|t| t.is_finite() && *t >= t_near);
+    cands.sort_by(f64::total_cmp);
+    // The solid along the ray is an interval: the first candidate at which (or just after
+    // which) the ray is inside.
+    for (i, &t) in cands.iter().enumerate() {
+        let next = cands.get(i + 1).copied().unwrap_or(t + 1e3);
+        let mid = 0.5 * (t + next);
+        if inside(t) || inside(mid) {
+            return Some(t);
+        }
+    }
+    None
+}
+
+fn random_quadric(rng: &mut SplitMix64, centre: DVec3, size: f64) -> Quadric {
+    let mut r = || rng.next_f64();
+    let c = centre + DVec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * size;
+    let dir = DVec3::new(r() - 0.5, r() - 0.5, r() - 0.5).normalize_or(DVec3::X);
+    let len = size * (0.2 + 0.5 * r());
+    match (r() * 4.0) as u32 {
+        0 => Quadric::sphere(c, size * (0.1 + 0.3 * r())).unwrap(),
+        1 => {
+            let rot = DMat3::from_axis_angle(dir, r() * 6.0);
+            let radii = DVec3::new(0.1 + 0.3 * r(), 0.1 + 0.3 * r(), 0.1 + 0.3 * r()) * size;
+            Quadric::ellipsoid(c, radii, rot).unwrap()
+        }
+        2 => Quadric::cylinder(c - dir * len, c + dir * len, size * (0.05 + 0.2 * r())).unwrap(),
+        _ => {
+            let r0 = if r() < 0.5 { 0.0 } else { size * 0.1 * r() };
+            Quadric::cone(c - dir * len, r0, c + dir * len, size * (0.1 + 0.2 * r())).unwrap()
+        }
+    }
+}
+
+/// Checks one quadric's box against the exact coverage: dense samples over the box (grown by
+/// 2 pixels) and the image (grown by 4), limited to 60 pixels beyond the image, all lie in
+/// the box; and the solid reaches within one pixel of each side of the box.
+fn check_box(q: &Quadric, view: &View, label: &str) -> bool {
+    let b = q.screen_box(view);
+    let (w, h) = (f64::from(view.width), f64::from(view.height));
+    let lim = 60.0;
+    let mut win = [-4.0, -4.0, w + 4.0, h + 4.0];
+    if let Some(b) = b {
+        win = [
+            win[0].min(b[0] - 2.0).max(-lim),
+            win[1].min(b[1] - 2.0).max(-lim),
+            win[2].max(b[2] + 2.0).min(w + lim),
+            win[3].max(b[3] + 2.0).min(h + lim),
+        ];
+    }
+    let sub = 3.0;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let nx = ((win[2] - win[0]) * sub) as i64;
+    let ny = ((win[3] - win[1]) * sub) as i64;
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let (x, y) = (win[0] + i as f64 / sub, win[1] + j as f64 / sub);
+            let (o, d) = ray64(view, x, y);
+            if visible_entry64(q, view, o, d).is_some() {
+                lo = [lo[0].min(x), lo[1].min(y)];
+                hi = [hi[0].max(x), hi[1].max(y)];
+                let b = b.unwrap_or_else(|| panic!("{label}: covered at ({x}, {y}) but culled"));
+                assert!(
+                    x >= b[0] - 1e-3 && x <= b[2] + 1e-3 && y >= b[1] - 1e-3 && y <= b[3] + 1e-3,
+                    "{label}: covered sample ({x}, {y}) outside box {b:?}"
+                );
+            }
+        }
+    }
+    let Some(b) = b else {
+        return false;
+    };
+    if lo[0] > hi[0] {
+        // Nothing covered in the window: the box must be thinner than a sample step or lie
+        // outside the window.
+        let outside = b[2] < win[0] || b[0] > win[2] || b[3] < win[1] || b[1] > win[3];
+        let thin = b[2] - b[0] < 1.0 / sub || b[3] - b[1] < 1.0 / sub;
+        assert!(outside || thin, "{label}: box {b:?} but nothing covered in {win:?}");
+        return false;
+    }
+    // Tightness: one pixel inward from each side (the middle line when the box is thinner
+    // than two pixels), a fine scan across the box's whole extent must meet the solid.
+    for k in 0..4 {
+        let horizontal = k % 2 == 0; // sides 0 and 2 bound x
+        let (lo_s, hi_s) = if horizontal { (b[0], b[2]) } else { (b[1], b[3]) };
+        let line = if hi_s - lo_s < 2.0 {
+            0.5 * (lo_s + hi_s)
+        } else if k < 2 {
+            lo_s + 1.0
+        } else {
+            hi_s - 1.0
+        };
+        let (a0, a1) = if horizontal { (b[1], b[3]) } else { (b[0], b[2]) };
+        let (a0, a1) = (a0.max(-2000.0), a1.min(2000.0));
+        let steps = (((a1 - a0) * 64.0) as i64).clamp(64, 40_000);
+        let met = (0..=steps).any(|i| {
+            let a = a0 + (a1 - a0) * i as f64 / steps as f64;
+            let (x, y) = if horizontal { (line, a) } else { (a, line) };
+            let (o, d) = ray64(view, x, y);
+            visible_entry64(q, view, o, d).is_some()
+        });
+        assert!(met, "{label}: box {b:?} side {k}: nothing within one pixel of it");
+    }
+    true
+}
+
+#[test]
+fn boxes_hold_every_covered_pixel_and_are_tight() {
+    let mut rng = SplitMix64::new(7);
+    let mut seen = 0;
+    for case in 0..40 {
+        let q = random_quadric(&mut rng, DVec3::ZERO, 2.0);
+        let eye = Vec3::new(0.3, 0.8, 4.0 + 3.0 * rng.next_f64() as f32);
+        let cam = camera(eye, Vec3::ZERO, 40, 30, 50.0);
+        let u = camera_uniforms(&cam).unwrap();
+        let view = View::from_uniforms(&u, 0.05);
+        seen += usize::from(check_box(&q, &view, &format!("case {case} {:?}", q.kind())));
+    }
+    assert!(seen >= 30, "only {seen} quadrics were visible");
+}
+
+#[test]
+fn boxes_are_tight_across_the_near_plane_and_behind_the_eye() {
+    let mut rng = SplitMix64::new(11);
+    let mut crossing = 0;
+    for case in 0..40 {
+        // Quadrics around the eye: partly behind it, cut by the near plane.
+        let eye = Vec3::new(0.0, 0.0, 0.0);
+        let cam = camera(eye, Vec3::new(0.2, 0.1, -1.0), 32, 24, 60.0);
+        let u = camera_uniforms(&cam).unwrap();
+        let near = 0.3;
+        let view = View::from_uniforms(&u, near);
+        let q = random_quadric(&mut rng, DVec3::new(0.0, 0.0, -0.4), 1.6);
+        // Does the near plane cut the solid? (sample its bounds' corners' depth range)
+        let (lo, hi) = q.bounds();
+        let f = view.forward;
+        let depths = [lo.x, hi.x]
+            .iter()
+            .flat_map(|&x| [lo.y, hi.y].map(move |y| (x, y)))
+            .flat_map(|(x, y)| [lo.z, hi.z].map(move |z| DVec3::new(x, y, z)))
+            .map(|p| (p - view.eye).dot(f))
+            .collect::<Vec<_>>();
+        if depths.iter().any(|&d| d < near) && depths.iter().any(|&d| d > near) {
+            crossing += 1;
+        }
+        check_box(&q, &view, &format!("near case {case} {:?}", q.kind()));
+    }
+    assert!(crossing >= 20, "only {crossing} cases straddle the near plane");
+}
+
+#[test]
+fn orthographic_boxes_are_tight() {
+    let mut rng = SplitMix64::new(5);
+    for case in 0..15 {
+        let q = random_quadric(&mut rng, DVec3::ZERO, 2.0);
+        let cam = Camera::look_at(
+            Vec3::new(1.0, 2.0, 5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            Projection::Orthographic { height: 4.0 },
+            40,
+            30,
+        )
+        .unwrap();
+        let u = camera_uniforms(&cam).unwrap();
+        check_box(&q, &View::from_uniforms(&u, 0.0), &format!("ortho {case}"));
+    }
+}
+
+/// Analytic first hit of a ray with a sphere.
+fn ray_sphere(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
+    let oc = (o - c).as_dvec3();
+    let d = d.as_dvec3();
+    let b = oc.dot(d);
+    let perp = oc - b * d;
+    let disc = f64::from(r).powi(2) - perp.length_squared();
+    (disc >= 0.0).then(|| (-b - disc.sqrt()) as f32)
+}
+
+#[test]
+fn sphere_depths_normals_and_curvatures_are_exact() {
+    let c = Vec3::new(0.2, -0.1, 0.0);
+    let r = 0.8;
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(c.as_dvec3(), f64::from(r)).unwrap(), Vec3::ONE);
+    let cam = camera(Vec3::new(0.5, 0.8, 4.0), Vec3::ZERO, 64, 48, 40.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let mut hits = 0;
+    for py in 0..48 {
+        for px in 0..64 {
+            let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+            let g = frame.gbuffer.get(px, py);
+            match ray_sphere(ray.origin, ray.dir, c, r) {
+                Some(t) => {
+                    // Grazing pixels may flip within rounding.
+                    let perp = ((ray.origin - c) - (ray.origin - c).dot(ray.dir) * ray.dir).length();
+                    if (perp - r).abs() < 1e-4 {
+                        continue;
+                    }
+                    hits += 1;
+                    assert!(g.is_hit(), "pixel ({px}, {py}) missed");
+                    assert!((g.depth - t).abs() < 2e-5 * t, "depth {} vs {t}", g.depth);
+                    let n = (ray.origin + t * ray.dir - c) / r;
+                    assert!(g.normal.angle_between(n) < 2e-3, "normal {} vs {n}", g.normal);
+                    assert!((g.k1 - 1.0 / r).abs() < 1e-4 && (g.k2 - 1.0 / r).abs() < 1e-4);
+                    assert_eq!(frame.objects[(px + 64 * py) as usize], 0);
+                }
+                None => {
+                    assert!(!g.is_hit(), "pixel ({px}, {py}) hit outside the sphere");
+                    assert_eq!(frame.objects[(px + 64 * py) as usize], NO_OBJECT);
+                }
+            }
+        }
+    }
+    assert!(hits > 400, "{hits}");
+}
+
+#[test]
+fn a_far_sphere_keeps_its_silhouette() {
+    // 1000 radii away: the shifted quadratic keeps the discriminant accurate in f32.
+    let r = 1.0f32;
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(DVec3::ZERO, f64::from(r)).unwrap(), Vec3::ONE);
+    let cam = camera(Vec3::new(0.0, 0.0, 1000.0), Vec3::ZERO, 64, 64, 0.2);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let mut wrong = 0;
+    for py in 0..64 {
+        for px in 0..64 {
+            let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+            let exact = ray_sphere(ray.origin, ray.dir, Vec3::ZERO, r);
+            let perp = (ray.origin - ray.origin.dot(ray.dir) * ray.dir).length();
+            if (perp - r).abs() > 2e-3 && exact.is_some() != frame.gbuffer.get(px, py).is_hit() {
+                wrong += 1;
+            }
+        }
+    }
+    assert_eq!(wrong, 0);
+}
+
+#[test]
+fn cylinder_and_cone_depths_and_normals_are_exact() {
+    // Axis along x; the camera looks from +z so the side is seen.
+    let cyl = Quadric::cylinder(DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), 0.4).unwrap();
+    let cone = Quadric::cone(DVec3::new(-1.0, 0.0, 0.0), 0.0, DVec3::new(1.0, 0.0, 0.0), 0.5).unwrap();
+    for (q, name) in [(cyl, "cylinder"), (cone, "cone")] {
+        let mut scene = SplatScene::default();
+        scene.push(q, Vec3::ONE);
+        let cam = camera(Vec3::new(0.0, 0.3, 4.0), Vec3::ZERO, 80, 40, 40.0);
+        let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+        let mut checked = 0;
+        for py in 0..40 {
+            for px in 0..80 {
+                let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+                let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+                // Analytic: radius(x) = a + b x along the x axis, side only (|x| < 1).
+                let (ra, rb) = if name == "cylinder" { (0.4, 0.0) } else { (0.25, 0.25) };
+                // (oy + t dy)² + (oz + t dz)² = (ra + rb (ox + t dx))².
+                let qa = d.y * d.y + d.z * d.z - rb * rb * d.x * d.x;
+                let qb = o.y * d.y + o.z * d.z - rb * d.x * (ra + rb * o.x);
+                let qc = o.y * o.y + o.z * o.z - (ra + rb * o.x).powi(2);
+                let disc = qb * qb - qa * qc;
+                let g = frame.gbuffer.get(px, py);
+                if disc < 1e-6 {
+                    continue;
+                }
+                let t = (-qb - disc.sqrt()) / qa;
+                let p = o + t * d;
+                if p.x.abs() > 0.98 || (ra + rb * p.x) < 0.02 {
+                    continue;
+                }
+                assert!(g.is_hit(), "{name}: ({px}, {py}) missed");
+                assert!(
+                    (f64::from(g.depth) - t).abs() < 3e-5 * t,
+                    "{name}: depth {} vs {t}",
+                    g.depth
+                );
+                // Normal ∝ (−rb (ra + rb x), y, z).
+                let n = DVec3::new(-rb * (ra + rb * p.x), p.y, p.z).normalize().as_vec3();
+                assert!(g.normal.angle_between(n) < 2e-3, "{name}: normal {} vs {n}", g.normal);
+                if name == "cylinder" {
+                    assert!((g.k1 - 2.5).abs() < 1e-3 && g.k2.abs() < 1e-3, "k {} {}", g.k1, g.k2);
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 150, "{name}: {checked}");
+    }
+}
+
+#[test]
+fn cylinder_caps_are_hit_end_on() {
+    // Looking down the axis: the cap is a disc facing the eye, even for the centre ray
+    // that is parallel to the axis (no roots of the side's quadratic).
+    let mut scene = SplatScene::default();
+    scene.push(
+        Quadric::cylinder(DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, 1.0), 0.5).unwrap(),
+        Vec3::ONE,
+    );
+    let cam = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 33, 33, 30.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let g = frame.gbuffer.get(16, 16);
+    assert!(g.is_hit());
+    assert!((g.depth - 4.0).abs() < 1e-5, "{}", g.depth);
+    assert!((g.normal - Vec3::Z).length() < 1e-5);
+    assert_eq!(g.id, isokit_render::kernel::ID_CAP);
+}
+
+#[test]
+fn intersecting_spheres_meet_on_their_intersection_curve() {
+    let (c0, r0) = (Vec3::new(-0.4, 0.0, 0.0), 0.7);
+    let (c1, r1) = (Vec3::new(0.45, 0.1, 0.2), 0.6);
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(c0.as_dvec3(), f64::from(r0)).unwrap(), Vec3::X);
+    scene.push(Quadric::sphere(c1.as_dvec3(), f64::from(r1)).unwrap(), Vec3::Y);
+    let cam = camera(Vec3::new(0.3, 1.0, 4.0), Vec3::ZERO, 96, 64, 40.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let mut both = 0;
+    for py in 0..64 {
+        for px in 0..96 {
+            let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+            let t0 = ray_sphere(ray.origin, ray.dir, c0, r0);
+            let t1 = ray_sphere(ray.origin, ray.dir, c1, r1);
+            let obj = frame.objects[(px + 96 * py) as usize];
+            if let (Some(a), Some(b)) = (t0, t1) {
+                if (a - b).abs() > 1e-4 * a {
+                    both += 1;
+                    assert_eq!(obj, u32::from(b < a), "pixel ({px}, {py}): {a} vs {b}");
+                    assert!((frame.gbuffer.get(px, py).depth - a.min(b)).abs() < 1e-4);
+                }
+            }
+        }
+    }
+    assert!(both > 100, "{both}");
+}
+
+#[test]
+fn the_near_plane_cuts_a_solid_with_a_flat_cap() {
+    // The eye sits inside a big sphere: every pixel sees the near plane's cut.
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(DVec3::ZERO, 3.0).unwrap(), Vec3::ONE);
+    let cam = camera(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, 16, 16, 60.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions { near: Some(0.5) }).unwrap();
+    for p in frame.gbuffer.pixels() {
+        assert_eq!(p.id, isokit_render::kernel::ID_CAP);
+        assert!((p.position.z - 0.5).abs() < 1e-5, "{}", p.position);
+        assert!((p.normal - Vec3::Z).length() < 1e-6);
+    }
+    // A sphere wholly behind the eye is culled.
+    let mut behind = SplatScene::default();
+    behind.push(Quadric::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0).unwrap(), Vec3::ONE);
+    let frame = splat::splat(&behind, &cam, &SplatOptions::default()).unwrap();
+    assert_eq!(frame.stats.drawn, 0);
+    assert_eq!(frame.gbuffer.hit_count(), 0);
+}
+
+#[test]
+fn sobel_with_four_fetches_equals_the_full_masks() {
+    let (w, h) = (9u32, 7u32);
+    let mut rng = SplitMix64::new(3);
+    let img: Vec<[f32; 1]> = (0..w * h).map(|_| [rng.next_f64() as f32]).collect();
+    let at = |x: i64, y: i64| img[(x.clamp(0, 8) + 9 * y.clamp(0, 6)) as usize][0];
+    for y in 0..h as i64 {
+        for x in 0..w as i64 {
+            let gx = (at(x + 1, y - 1) + 2.0 * at(x + 1, y) + at(x + 1, y + 1))
+                - (at(x - 1, y - 1) + 2.0 * at(x - 1, y) + at(x - 1, y + 1));
+            let gy = (at(x - 1, y + 1) + 2.0 * at(x, y + 1) + at(x + 1, y + 1))
+                - (at(x - 1, y - 1) + 2.0 * at(x, y - 1) + at(x + 1, y - 1));
+            let (fx, fy) = sobel4(&img, w, h, x as u32, y as u32);
+            assert!((fx[0] - gx).abs() < 1e-5 && (fy[0] - gy).abs() < 1e-5, "({x}, {y})");
+        }
+    }
+}
+
+#[test]
+fn shadow_samples_fill_the_disc_outer_ring_first() {
+    for px in 0..4 {
+        for py in 0..4 {
+            for k in 0..64 {
+                let [x, y] = shadow_sample(k, px, py);
+                let r = (x * x + y * y).sqrt();
+                assert!(r <= 1.0 + 1e-6);
+                if k < 8 {
+                    assert!(r >= (7.0f32 / 8.0).sqrt() - 1e-6, "sample {k} r {r}");
+                }
+            }
+            // Jitter differs between pixels of the tile, repeats with period 4.
+            assert_eq!(shadow_sample(5, px, py), shadow_sample(5, px + 4, py + 8));
+        }
+    }
+    assert_ne!(shadow_sample(5, 0, 0), shadow_sample(5, 1, 0));
+}
+
+fn ground_and_ball() -> SplatScene {
+    let mut scene = SplatScene::default();
+    // A flat wide ellipsoid as the ground and a ball above it.
+    scene.push(
+        Quadric::ellipsoid(DVec3::new(0.0, -1.0, 0.0), DVec3::new(3.0, 0.05, 3.0), DMat3::IDENTITY)
+            .unwrap(),
+        Vec3::splat(0.8),
+    );
+    scene.push(Quadric::sphere(DVec3::new(0.0, 0.0, 0.0), 0.5).unwrap(), Vec3::new(0.8, 0.1, 0.1));
+    scene
+}
+
+#[test]
+fn a_ball_casts_a_soft_shadow_on_the_ground() {
+    let scene = ground_and_ball();
+    let cam = camera(Vec3::new(0.0, 2.0, 5.0), Vec3::new(0.0, -0.5, 0.0), 96, 72, 45.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let light = Vec3::new(0.0, 6.0, 0.0);
+    let shadows = ShadowOptions {
+        resolution: 512,
+        softness: 3.0,
+        light: Some(light),
+    };
+    let map = splat::ShadowMap::render(&scene, light, &shadows).unwrap();
+    // Ground points right below the ball are in shadow, far ones lit.
+    let below = Vec3::new(0.0, -0.95, 0.0);
+    let far = Vec3::new(2.0, -0.95, 0.0);
+    let (f_below, _) = splat::shadow_factor(&map.params, &map.depth, below, Vec3::Y, 0, 0);
+    let (f_far, n_far) = splat::shadow_factor(&map.params, &map.depth, far, Vec3::Y, 0, 0);
+    assert!(f_below < 0.01, "{f_below}");
+    assert!(f_far > 0.99 && n_far == 8, "{f_far} {n_far}");
+    // The ball's top is lit (no self-shadowing acne).
+    let (f_top, _) = splat::shadow_factor(&map.params, &map.depth, Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 0, 0);
+    assert!(f_top > 0.99, "{f_top}");
+    // Shading: some pixels need the full 64 samples (penumbra), most stop after 8.
+    let opts = SplatShading {
+        shadows: Some(shadows),
+        outlines: Some(OutlineOptions::default()),
+        ..Default::default()
+    };
+    let (img, stats) = splat::shade_splat(&frame, &scene, &opts).unwrap();
+    assert_eq!(img.pixels.len(), 96 * 72);
+    assert!(stats.penumbra_pixels > 0, "{stats:?}");
+    let hits = frame.gbuffer.hit_count() as u64;
+    assert!(stats.shadow_samples < 64 * hits / 2, "{stats:?} for {hits} hits");
+    // The shadowed ground is darker than the lit ground.
+    let lum = |x: u32, y: u32| {
+        let p = img.pixels[(x + 96 * y) as usize];
+        p[0] + p[1] + p[2]
+    };
+    let project = |p: Vec3| cam.project(p).unwrap().0;
+    let (a, b) = (project(Vec3::new(0.0, -0.95, 0.25)), project(Vec3::new(2.0, -0.95, 0.25)));
+    let (la, lb) = (lum(a.x as u32, a.y as u32), lum(b.x as u32, b.y as u32));
+    let ga = frame.gbuffer.get(a.x as u32, a.y as u32);
+    assert!(la < 0.7 * lb, "shadowed {la} lit {lb} at {a} {b}: {ga:?}");
+}
+
+#[test]
+fn outlines_trace_the_silhouette() {
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(DVec3::ZERO, 1.0).unwrap(), Vec3::ONE);
+    let cam = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 64, 64, 40.0);
+    let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let opts = SplatShading {
+        outlines: Some(OutlineOptions::default()),
+        ..Default::default()
+    };
+    let (img, _) = splat::shade_splat(&frame, &scene, &opts).unwrap();
+    let dark = |x: u32, y: u32| img.pixels[(x + 64 * y) as usize][0] < 0.1;
+    // The centre is not outlined, the rim along the middle row is.
+    assert!(!dark(32, 32));
+    let row: Vec<bool> = (0..64).map(|x| dark(x, 32)).collect();
+    let first = row.iter().position(|&d| d).unwrap();
+    let ray_hits = |x: u32| frame.gbuffer.get(x, 32).is_hit();
+    let edge = (0..64).find(|&x| ray_hits(x)).unwrap();
+    assert!((first as i64 - edge as i64).abs() <= 1, "outline at {first}, edge at {edge}");
+}
+
+#[test]
+fn scenes_are_checked() {
+    let mut scene = SplatScene::default();
+    scene.push(Quadric::sphere(DVec3::ZERO, 1.0).unwrap(), Vec3::ONE);
+    scene.colors.push(Vec3::ONE);
+    let cam = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 8, 8, 40.0);
+    assert!(splat::splat(&scene, &cam, &SplatOptions::default()).is_err());
+    scene.colors.pop();
+    assert!(splat::splat(&scene, &cam, &SplatOptions { near: Some(-1.0) }).is_err());
+    let empty = SplatScene::default();
+    let frame = splat::splat(&empty, &cam, &SplatOptions::default()).unwrap();
+    assert_eq!(frame.gbuffer.hit_count(), 0);
+    assert_eq!(
+        QuadricKind::Cone.diag(),
+        [1.0, 1.0, -1.0, 0.0],
+        "the cone's normalized form"
+    );
+}
