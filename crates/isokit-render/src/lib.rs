@@ -73,6 +73,7 @@ mod error;
 mod gbuffer;
 pub mod gpu;
 pub mod kernel;
+pub mod molecule;
 pub mod quadric;
 mod render;
 pub mod setup;

@@ -414,7 +414,7 @@ impl Default for OutlineOptions {
         Self {
             color: Vec3::splat(0.02),
             depth: [0.002, 0.008],
-            crease: [0.25, 0.5],
+            crease: [0.8, 1.4],
         }
     }
 }
