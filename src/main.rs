@@ -47,6 +47,9 @@ enum Command {
     /// Ray cast the isosurface of a scene or volume into a shaded image (and a G-buffer):
     /// empty-space skipping, brick cache, adaptive sampling, tricubic curvature.
     Render(Box<cmd::render::Args>),
+    /// Splat a molecule (PDB or mmCIF) as quadrics: ball-and-stick or space-filling, CPK
+    /// colours, soft shadows and outlines on request.
+    Molecule(Box<cmd::molecule::Args>),
     /// Render the bundled demo scene (a mesh blended with a sphere, curvature-shaded) to
     /// demo.png, printing each stage and its time.
     Demo(cmd::demo::Args),
@@ -79,6 +82,7 @@ fn main() -> ExitCode {
         Command::Scene(a) => cmd::scene::run(a),
         Command::Mesh(a) => cmd::mesh::run(a),
         Command::Render(a) => cmd::render::run(*a),
+        Command::Molecule(a) => cmd::molecule::run(*a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Bench(b) => cmd::bench::run(b),
     };

@@ -6,6 +6,7 @@ pub mod demo;
 pub mod info;
 pub mod mesh;
 pub mod mesh_args;
+pub mod molecule;
 pub mod octree;
 pub mod points;
 pub mod progress;

@@ -25,7 +25,7 @@
 //! assert_eq!(filled.len(), 3);
 //! ```
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use isokit_field::{Aabb, Camera, Projection};
 use isokit_io::Molecule;
 
@@ -49,7 +49,9 @@ impl std::str::FromStr for MoleculeStyle {
         match s.to_ascii_lowercase().as_str() {
             "balls" | "ball-and-stick" | "sticks" => Ok(Self::Balls),
             "spacefill" | "space-filling" | "cpk" => Ok(Self::Spacefill),
-            _ => Err(format!("unknown molecule style {s:?} (expected balls or spacefill)")),
+            _ => Err(format!(
+                "unknown molecule style {s:?} (expected balls or spacefill)"
+            )),
         }
     }
 }
@@ -83,10 +85,18 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
         return Err(RenderError::bad("molecule", &mol.name, "has no atoms"));
     }
     if !(opts.ball_scale.is_finite() && opts.ball_scale > 0.0 && opts.ball_scale <= 2.0) {
-        return Err(RenderError::bad("ball scale", opts.ball_scale, "must be in (0, 2]"));
+        return Err(RenderError::bad(
+            "ball scale",
+            opts.ball_scale,
+            "must be in (0, 2]",
+        ));
     }
     if !(opts.bond_radius.is_finite() && opts.bond_radius > 0.0 && opts.bond_radius <= 2.0) {
-        return Err(RenderError::bad("bond radius", opts.bond_radius, "must be in (0, 2] Å"));
+        return Err(RenderError::bad(
+            "bond radius",
+            opts.bond_radius,
+            "must be in (0, 2] Å",
+        ));
     }
     let sticks = opts.style == MoleculeStyle::Balls;
     let total = mol.atoms.len() + if sticks { 2 * mol.bonds.len() } else { 0 };
@@ -124,25 +134,43 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
             }
             let mid = 0.5 * (pa + pb);
             for (p, e) in [(pa, a.element), (pb, b.element)] {
-                scene.push(Quadric::cylinder(p, mid, rb)?, Vec3::from_array(e.cpk_color()));
+                scene.push(
+                    Quadric::cylinder(p, mid, rb)?,
+                    Vec3::from_array(e.cpk_color()),
+                );
             }
         }
     }
     Ok(scene)
 }
 
-/// A perspective camera (30° vertical field of view) framing a scene's bounds, looking
-/// along −z with y up (the file's own orientation).
+/// A perspective camera (30° vertical field of view) framing a scene, looking along −z with
+/// y up (the file's own orientation): the bounding sphere about the centre of the scene's box
+/// that holds every solid's box fills the view.
 pub fn framing_camera(scene: &SplatScene, width: u32, height: u32) -> Result<Camera, RenderError> {
     let (lo, hi) = scene
         .bounds()
         .ok_or_else(|| RenderError::bad("scene", "empty", "nothing to frame"))?;
-    let to = |v: DVec3| v.as_vec3();
-    let bounds = Aabb::from_corners(to(lo), to(hi));
+    let centre = 0.5 * (lo + hi);
+    let radius = scene
+        .quadrics
+        .iter()
+        .map(|q| {
+            let (a, b) = q.bounds();
+            (0.5 * (a + b) - centre).length() + 0.5 * (b - a).length()
+        })
+        .fold(0.0, f64::max)
+        .max(1e-6);
+    // `Camera::framing` fits the sphere through the box's corners: a cube of half-diagonal
+    // `radius`.
+    let half = Vec3::splat((radius / 3f64.sqrt()) as f32);
+    let bounds = Aabb::from_center_half(centre.as_vec3(), half);
     Ok(Camera::framing(
         bounds,
         Vec3::Z,
-        Projection::Perspective { fov_y_degrees: 30.0 },
+        Projection::Perspective {
+            fov_y_degrees: 30.0,
+        },
         width,
         height,
     )?)

@@ -169,7 +169,11 @@ impl Quadric {
             kind,
             t: t_mat,
             t_inv: t_mat.inverse(),
-            z_lo: if kind == QuadricKind::Cone { z_lo } else { -1.0 },
+            z_lo: if kind == QuadricKind::Cone {
+                z_lo
+            } else {
+                -1.0
+            },
         })
     }
 
@@ -244,7 +248,11 @@ impl Quadric {
     /// `λᵢ` of one sign). Errors for the other classes, and when a clip range is missing.
     pub fn from_conic(q: [[f64; 4]; 4], clip: Option<(DVec3, DVec3)>) -> Result<Self, RenderError> {
         if q.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(RenderError::bad("conic matrix", format!("{q:?}"), "must be finite"));
+            return Err(RenderError::bad(
+                "conic matrix",
+                format!("{q:?}"),
+                "must be finite",
+            ));
         }
         let a = nalgebra::Matrix3::from_fn(|i, j| q[i.min(j)][i.max(j)]);
         let b = DVec3::new(q[0][3], q[1][3], q[2][3]);
@@ -267,14 +275,14 @@ impl Quadric {
         // Centre: least-squares solution of A c = −b in the eigenbasis; b must lie in the
         // range of A (else a paraboloid).
         let mut c = DVec3::ZERO;
-        for i in 0..3 {
+        for (i, &l) in lam.iter().enumerate() {
             let bi = col(i).dot(b);
             if zero.contains(&i) {
                 if bi.abs() > tol * lmax.max(1.0) {
                     return unsupported("a paraboloid (not splatted)");
                 }
             } else {
-                c -= col(i) * (bi / lam[i]);
+                c -= col(i) * (bi / l);
             }
         }
         // Form: Σ λᵢ yᵢ² + k with k = j − cᵀ A c = j + b·c.
@@ -285,7 +293,9 @@ impl Quadric {
             (0, false) => {
                 // Ellipsoid: every λ has the sign opposite to k.
                 if lam.iter().any(|&l| l * k >= 0.0) {
-                    return unsupported("not an ellipsoid, cylinder or cone (a hyperboloid or empty)");
+                    return unsupported(
+                        "not an ellipsoid, cylinder or cone (a hyperboloid or empty)",
+                    );
                 }
                 let [u, v, t] = [0, 1, 2].map(|i| axis(i, lam[i], k));
                 Self::from_axes(QuadricKind::Ellipsoid, u, v, t, c, -1.0)
@@ -323,8 +333,8 @@ impl Quadric {
                     _ => return unsupported("a point, not a cone"),
                 };
                 let dir0 = col(single);
-                let Some((lo, hi)) = axis_range(clip, c, dir0)
-                    .filter(|(l, h)| h > l && (*l >= 0.0 || *h <= 0.0))
+                let Some((lo, hi)) =
+                    axis_range(clip, c, dir0).filter(|(l, h)| h > l && (*l >= 0.0 || *h <= 0.0))
                 else {
                     return Err(RenderError::bad(
                         "clip",
@@ -517,7 +527,7 @@ impl View {
 }
 
 /// What the per-pixel work of one quadric reads: `QuadricSetup` in `shaders/splat.wgsl`
-/// (`#[repr(C)]`, 160 bytes, vec4 rows).
+/// (`#[repr(C)]`, 144 bytes, vec4 rows).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct QuadricSetup {
@@ -617,7 +627,7 @@ pub fn intersect(s: &QuadricSetup, ortho_offset: Vec3, d: Vec3, t_near: f32) -> 
     ];
     // Move the origin to the point nearest to the parameter-space centre (t = shift).
     let bb = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
-    if !(bb > 0.0) {
+    if bb.is_nan() || bb <= 0.0 {
         return None;
     }
     let shift = -(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / bb;
@@ -678,7 +688,11 @@ pub fn intersect(s: &QuadricSetup, ortho_offset: Vec3, d: Vec3, t_near: f32) -> 
             let sign = if b[2] > 0.0 { -1.0 } else { 1.0 };
             (cap_normal(s, sign), Vec3::ZERO)
         } else {
-            let x = [a[0] + entry * b[0], a[1] + entry * b[1], a[2] + entry * b[2]];
+            let x = [
+                a[0] + entry * b[0],
+                a[1] + entry * b[1],
+                a[2] + entry * b[2],
+            ];
             let g = 2.0 * surface_gradient(s, x);
             (g, g)
         };
@@ -788,7 +802,8 @@ impl BoxAcc {
         }
         let q = p / p.w;
         let n = self.rows[2].dot(q);
-        if !(n >= self.near - self.tol) || q.z < self.slab.0 - 1e-9 || q.z > self.slab.1 + 1e-9 {
+        let visible = n >= self.near - self.tol;
+        if !visible || q.z < self.slab.0 - 1e-9 || q.z > self.slab.1 + 1e-9 {
             return;
         }
         let w = self.rows[3].dot(q);
@@ -872,7 +887,11 @@ impl Quadric {
                         let gn = g / g2.sqrt();
                         let e1 = gn.any_orthonormal_vector();
                         let e2 = gn.cross(e1);
-                        let curve = Curve([m.extend(1.0), (e1 * rho).extend(0.0), (e2 * rho).extend(0.0)]);
+                        let curve = Curve([
+                            m.extend(1.0),
+                            (e1 * rho).extend(0.0),
+                            (e2 * rho).extend(0.0),
+                        ]);
                         acc.add_curve(&curve, false);
                     }
                 }
@@ -959,12 +978,20 @@ fn roots64(a: f64, b: f64, c: f64) -> Vec<f64> {
         return Vec::new();
     }
     if a.abs() <= 1e-14 * scale {
-        return if b != 0.0 { vec![-c / (2.0 * b)] } else { Vec::new() };
+        return if b != 0.0 {
+            vec![-c / (2.0 * b)]
+        } else {
+            Vec::new()
+        };
     }
     let disc = b * b - a * c;
     if disc < 0.0 {
         // Tangent within rounding: one double root.
-        return if disc > -1e-12 * b * b { vec![-b / a] } else { Vec::new() };
+        return if disc > -1e-12 * b * b {
+            vec![-b / a]
+        } else {
+            Vec::new()
+        };
     }
     let q = -(b + b.signum() * disc.sqrt());
     if q == 0.0 {
@@ -981,10 +1008,16 @@ mod tests {
     fn classes_round_trip_through_the_conic_matrix() {
         let s = Quadric::sphere(DVec3::new(1.0, 2.0, 3.0), 0.5).unwrap();
         let q = s.conic();
-        let m = |q: DMat4| -> [[f64; 4]; 4] { std::array::from_fn(|i| std::array::from_fn(|j| q.col(j)[i])) };
+        let m = |q: DMat4| -> [[f64; 4]; 4] {
+            std::array::from_fn(|i| std::array::from_fn(|j| q.col(j)[i]))
+        };
         let back = Quadric::from_conic(m(q), None).unwrap();
         assert_eq!(back.kind(), QuadricKind::Ellipsoid);
-        for p in [DVec3::new(1.5, 2.0, 3.0), DVec3::new(1.0, 2.3, 3.1), DVec3::new(9.0, 0.0, 0.0)] {
+        for p in [
+            DVec3::new(1.5, 2.0, 3.0),
+            DVec3::new(1.0, 2.3, 3.1),
+            DVec3::new(9.0, 0.0, 0.0),
+        ] {
             let (a, b) = (s.eval(p), back.eval(p));
             assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{a} {b}");
         }

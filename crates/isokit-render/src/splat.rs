@@ -42,7 +42,7 @@ pub const NO_OBJECT: u32 = u32::MAX;
 pub const TILE: u32 = 16;
 
 /// Largest number of quadrics a scene may hold (the object index is a u32 and each set-up
-/// takes 160 bytes: 16 M quadrics are 2.5 GiB).
+/// takes 144 bytes: 16 M quadrics are 2.25 GiB).
 pub const MAX_QUADRICS: usize = 1 << 24;
 
 /// Quadric solids with a colour each.
@@ -73,7 +73,11 @@ impl SplatScene {
         if self.colors.len() != self.quadrics.len() {
             return Err(RenderError::bad(
                 "scene",
-                format!("{} colours for {} quadrics", self.colors.len(), self.quadrics.len()),
+                format!(
+                    "{} colours for {} quadrics",
+                    self.colors.len(),
+                    self.quadrics.len()
+                ),
                 "needs one colour per quadric",
             ));
         }
@@ -85,28 +89,29 @@ impl SplatScene {
             ));
         }
         if self.colors.iter().any(|c| !c.is_finite()) {
-            return Err(RenderError::bad("scene", "colour", "colours must be finite"));
+            return Err(RenderError::bad(
+                "scene",
+                "colour",
+                "colours must be finite",
+            ));
         }
         Ok(())
     }
     /// World bounds of all solids, `None` when empty.
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        self.quadrics.iter().map(Quadric::bounds).reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+        self.quadrics
+            .iter()
+            .map(Quadric::bounds)
+            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
     }
 }
 
 /// Options of the splat pass.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SplatOptions {
     /// Near plane, world distance along the view direction; `None`: 1e-4 of the distance
     /// from the eye to the scene's centre (perspective), 0 (orthographic).
     pub near: Option<f32>,
-}
-
-impl Default for SplatOptions {
-    fn default() -> Self {
-        Self { near: None }
-    }
 }
 
 /// Counts of a splat pass.
@@ -130,7 +135,7 @@ pub struct SplatStats {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SplatFrame {
     /// Per pixel: position, normal, `Z` (distance along the ray), curvatures, id
-    /// ([`ID_SURFACE`], [`ID_CAP`] for caps and near cuts, [`ID_MISS`]).
+    /// ([`ID_SURFACE`], [`ID_CAP`] for caps and near cuts, [`ID_MISS`](crate::kernel::ID_MISS)).
     pub gbuffer: GBuffer,
     /// Per pixel: the index of the quadric seen, or [`NO_OBJECT`].
     pub objects: Vec<u32>,
@@ -171,7 +176,11 @@ pub fn camera_uniforms(camera: &Camera) -> Result<Uniforms, RenderError> {
 }
 
 /// The view of `u` with the near plane of `opts` for `scene`.
-pub fn view_for(u: &Uniforms, scene: &SplatScene, opts: &SplatOptions) -> Result<View, RenderError> {
+pub fn view_for(
+    u: &Uniforms,
+    scene: &SplatScene,
+    opts: &SplatOptions,
+) -> Result<View, RenderError> {
     let near = match opts.near {
         Some(n) if n.is_finite() && (n > 0.0 || (u.ortho != 0 && n >= 0.0)) => f64::from(n),
         Some(n) => {
@@ -238,7 +247,13 @@ pub fn fragment(
 /// The G-buffer sample of a fragment that won its pixel: position on the ray, the normal
 /// (the near cut faces the viewer), and for the quadric surface the principal curvatures
 /// from the world gradient and the set-up's Hessian.
-pub fn resolve(s: &QuadricSetup, u: &Uniforms, px: u32, py: u32, hit: &crate::quadric::QuadricHit) -> GSample {
+pub fn resolve(
+    s: &QuadricSetup,
+    u: &Uniforms,
+    px: u32,
+    py: u32,
+    hit: &crate::quadric::QuadricHit,
+) -> GSample {
     let (o, d) = kernel::pixel_ray(u, px, py);
     let position = o + hit.t * d;
     let forward = Vec3::from_array(u.forward);
@@ -267,7 +282,11 @@ pub fn resolve(s: &QuadricSetup, u: &Uniforms, px: u32, py: u32, hit: &crate::qu
 }
 
 /// Splats a scene for a camera into a G-buffer (CPU twin, tiles in parallel).
-pub fn splat(scene: &SplatScene, camera: &Camera, opts: &SplatOptions) -> Result<SplatFrame, RenderError> {
+pub fn splat(
+    scene: &SplatScene,
+    camera: &Camera,
+    opts: &SplatOptions,
+) -> Result<SplatFrame, RenderError> {
     scene.check()?;
     let u = camera_uniforms(camera)?;
     let view = view_for(&u, scene, opts)?;
@@ -468,13 +487,54 @@ pub struct ShadowMap {
 impl ShadowMap {
     /// Renders the shadow map of `scene` for a spot light at `light` aimed at the scene's
     /// centre with a cone just containing the scene's bounding sphere.
-    pub fn render(scene: &SplatScene, light: Vec3, opts: &ShadowOptions) -> Result<Self, RenderError> {
+    pub fn render(
+        scene: &SplatScene,
+        light: Vec3,
+        opts: &ShadowOptions,
+    ) -> Result<Self, RenderError> {
+        let (u, view, mut map) = Self::prepare(scene, light, opts)?;
+        let frame = splat_view(scene, &u, view)?;
+        let fwd = Vec3::from_array(u.forward);
+        let res = u.width;
+        map.depth = frame
+            .gbuffer
+            .pixels()
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                if s.is_hit() {
+                    let (_, d) = kernel::pixel_ray(&u, i as u32 % res, i as u32 / res);
+                    s.depth * d.dot(fwd)
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
+        Ok(map)
+    }
+
+    /// Everything [`ShadowMap::render`] does but the splat (shared with the GPU twin): checks
+    /// the options, and returns the light's camera as uniforms, its view (near plane
+    /// included) and the map with `depth` still empty.
+    pub fn prepare(
+        scene: &SplatScene,
+        light: Vec3,
+        opts: &ShadowOptions,
+    ) -> Result<(Uniforms, View, Self), RenderError> {
         let res = opts.resolution;
         if !(16..=8192).contains(&res) {
-            return Err(RenderError::bad("shadow map resolution", res, "must be 16 to 8192"));
+            return Err(RenderError::bad(
+                "shadow map resolution",
+                res,
+                "must be 16 to 8192",
+            ));
         }
         if !(opts.softness.is_finite() && (0.0..=64.0).contains(&opts.softness)) {
-            return Err(RenderError::bad("shadow softness", opts.softness, "must be 0 to 64 texels"));
+            return Err(RenderError::bad(
+                "shadow softness",
+                opts.softness,
+                "must be 0 to 64 texels",
+            ));
         }
         let (lo, hi) = scene
             .bounds()
@@ -507,23 +567,8 @@ impl ShadowMap {
         )?;
         let u = camera_uniforms(&cam)?;
         let near = (dist - radius) * 0.5;
-        let frame = splat_view(scene, &u, View::from_uniforms(&u, f64::from(near)))?;
-        let fwd = Vec3::from_array(u.forward);
-        let depth = frame
-            .gbuffer
-            .pixels()
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                if s.is_hit() {
-                    let (_, d) = kernel::pixel_ray(&u, i as u32 % res, i as u32 / res);
-                    s.depth * d.dot(fwd)
-                } else {
-                    f32::INFINITY
-                }
-            })
-            .collect();
-        Ok(Self {
+        let view = View::from_uniforms(&u, f64::from(near));
+        let map = Self {
             params: ShadowParams {
                 eye: u.eye,
                 resolution: res,
@@ -534,14 +579,15 @@ impl ShadowMap {
                 forward: u.forward,
                 bias: 2e-3,
             },
-            depth,
+            depth: Vec::new(),
             light: Light {
                 direction: None,
                 position: Some(light),
                 color: Vec3::ONE,
                 intensity: 1.0,
             },
-        })
+        };
+        Ok((u, view, map))
     }
 }
 
@@ -572,12 +618,19 @@ pub fn shadow_sample(k: u32, px: u32, py: u32) -> [f32; 2] {
 /// `softness` texels by 64 jittered samples, stopped after the first 8 when they agree (all
 /// lit or all shadowed: not in a penumbra). Points outside the light's cone are lit.
 /// Returns the fraction and the number of samples taken.
-pub fn shadow_factor(sp: &ShadowParams, map: &[f32], p: Vec3, n: Vec3, px: u32, py: u32) -> (f32, u32) {
+pub fn shadow_factor(
+    sp: &ShadowParams,
+    map: &[f32],
+    p: Vec3,
+    n: Vec3,
+    px: u32,
+    py: u32,
+) -> (f32, u32) {
     let eye = Vec3::from_array(sp.eye);
     let fwd = Vec3::from_array(sp.forward);
     let d = p - eye;
     let depth = d.dot(fwd);
-    if !(depth > 0.0) {
+    if depth.is_nan() || depth <= 0.0 {
         return (1.0, 0);
     }
     let res = sp.resolution as f32;
@@ -586,7 +639,7 @@ pub fn shadow_factor(sp: &ShadowParams, map: &[f32], p: Vec3, n: Vec3, px: u32, 
     let q = p + n * (1.5 * texel);
     let dq = q - eye;
     let depth_q = dq.dot(fwd);
-    if !(depth_q > 0.0) {
+    if depth_q.is_nan() || depth_q <= 0.0 {
         return (1.0, 0);
     }
     let sx = dq.dot(Vec3::from_array(sp.right)) / (depth_q * sp.half_height);
@@ -683,7 +736,11 @@ pub fn outline_weight(
     let zmin = c.iter().map(|v| v[0]).fold(z, f32::min);
     let sil = (mean - z).abs() / zmin.max(1e-30);
     let (nx, ny) = sobel4(normals, width, height, x, y);
-    let crease = (0..3).map(|i| nx[i] * nx[i] + ny[i] * ny[i]).sum::<f32>().sqrt() / 4.0;
+    let crease = (0..3)
+        .map(|i| nx[i] * nx[i] + ny[i] * ny[i])
+        .sum::<f32>()
+        .sqrt()
+        / 4.0;
     ramp(sil, o.depth).max(ramp(crease, o.crease))
 }
 
@@ -707,7 +764,10 @@ pub fn default_spot(u: &Uniforms, scene: &SplatScene) -> Vec3 {
     let dir = l.direction.unwrap_or(Vec3::NEG_Y);
     let eye = Vec3::from_array(u.eye);
     let (c, r) = scene.bounds().map_or((Vec3::ZERO, 1.0), |(lo, hi)| {
-        ((0.5 * (lo + hi)).as_vec3(), (0.5 * (hi - lo).length()) as f32)
+        (
+            (0.5 * (lo + hi)).as_vec3(),
+            (0.5 * (hi - lo).length()) as f32,
+        )
     });
     c - dir * (eye - c).length().max(3.0 * r)
 }
@@ -760,7 +820,13 @@ pub fn shade_splat(
     let normals: Vec<[f32; 3]> = g
         .pixels()
         .iter()
-        .map(|p| if p.is_hit() { p.normal.to_array() } else { [0.0; 3] })
+        .map(|p| {
+            if p.is_hit() {
+                p.normal.to_array()
+            } else {
+                [0.0; 3]
+            }
+        })
         .collect();
     let pixel_angle = 2.0 * u.half_height / h as f32;
     let sh = &opts.shading;
@@ -772,7 +838,11 @@ pub fn shade_splat(
             let mut samples = 0;
             let mut c = if s.is_hit() {
                 let v = kernel::pixel_ray(u, px, py).1;
-                let footprint = if u.ortho != 0 { pixel_angle } else { pixel_angle * s.depth };
+                let footprint = if u.ortho != 0 {
+                    pixel_angle
+                } else {
+                    pixel_angle * s.depth
+                };
                 let obj = frame.objects[i as usize];
                 let color = scene.colors.get(obj as usize).copied().unwrap_or(sh.color);
                 let mut c = shade_pixel_color(s, v, footprint, sh, &lights, color);
@@ -780,8 +850,8 @@ pub fn shade_splat(
                     let (f, k) = shadow_factor(&m.params, &m.depth, s.position, s.normal, px, py);
                     samples = k;
                     let amb = sh.ambient * color;
-                    for ch in 0..3 {
-                        c[ch] = amb[ch] + f * (c[ch] - amb[ch]);
+                    for (ch, v) in c.iter_mut().take(3).enumerate() {
+                        *v = amb[ch] + f * (*v - amb[ch]);
                     }
                 }
                 c
@@ -790,8 +860,8 @@ pub fn shade_splat(
             };
             if let Some(o) = &opts.outlines {
                 let wgt = outline_weight(&depth, &normals, w, h, px, py, o);
-                for ch in 0..3 {
-                    c[ch] += wgt * (o.color[ch] - c[ch]);
+                for (ch, v) in c.iter_mut().take(3).enumerate() {
+                    *v += wgt * (o.color[ch] - *v);
                 }
                 c[3] = c[3].max(wgt);
             }
@@ -805,5 +875,12 @@ pub fn shade_splat(
         stats.penumbra_pixels += u64::from(k == 64);
         pixels.push(c);
     }
-    Ok((Image { width: w, height: h, pixels }, stats))
+    Ok((
+        Image {
+            width: w,
+            height: h,
+            pixels,
+        },
+        stats,
+    ))
 }

@@ -5,16 +5,27 @@
 //! committing it).
 
 use isokit_render::molecule::{MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene};
-use isokit_render::splat::{OutlineOptions, ShadowOptions, SplatOptions, SplatShading, shade_splat, splat};
+use isokit_render::splat::{
+    OutlineOptions, ShadowOptions, SplatOptions, SplatShading, shade_splat, splat,
+};
 use std::path::PathBuf;
 
 fn data(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/molecules").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/molecules")
+        .join(name)
 }
 
 fn render(style: MoleculeStyle, w: u32, h: u32) -> (isokit_render::Image, usize) {
     let mol = isokit_io::read_molecule(&data("1a8o.pdb.gz")).unwrap();
-    let scene = molecule_scene(&mol, &MoleculeOptions { style, ..Default::default() }).unwrap();
+    let scene = molecule_scene(
+        &mol,
+        &MoleculeOptions {
+            style,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let cam = framing_camera(&scene, w, h).unwrap();
     let frame = splat(&scene, &cam, &SplatOptions::default()).unwrap();
     let opts = SplatShading {
@@ -53,7 +64,10 @@ fn space_filling_with_shadows_and_outlines_matches_the_stored_reference() {
     if mean > 2e-3 || large > 40 {
         let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("1a8o_spacefill_actual.png");
         isokit_io::write_png(&out, w, h, &bytes).unwrap();
-        panic!("mean error {mean:.5}, {large} channels off by > 25%; actual image in {}", out.display());
+        panic!(
+            "mean error {mean:.5}, {large} channels off by > 25%; actual image in {}",
+            out.display()
+        );
     }
 }
 

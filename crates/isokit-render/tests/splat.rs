@@ -12,8 +12,15 @@ use isokit_render::splat::{
 };
 
 fn camera(eye: Vec3, target: Vec3, w: u32, h: u32, fov: f32) -> Camera {
-    Camera::look_at(eye, target, Vec3::Y, Projection::Perspective { fov_y_degrees: fov }, w, h)
-        .unwrap()
+    Camera::look_at(
+        eye,
+        target,
+        Vec3::Y,
+        Projection::Perspective { fov_y_degrees: fov },
+        w,
+        h,
+    )
+    .unwrap()
 }
 
 /// The f64 ray of continuous pixel coordinates `(x, y)` (as `Camera::ray`).
@@ -32,7 +39,11 @@ fn ray64(v: &View, x: f64, y: f64) -> (DVec3, DVec3) {
 /// bisection-free sampling refined with the quadric's own sign (robust, slow): returns the
 /// entry parameter of the visible part (t where N ≥ near), if any.
 fn visible_entry64(q: &Quadric, v: &View, o: DVec3, d: DVec3) -> Option<f64> {
-    let t_near = if v.ortho { v.near } else { v.near / d.dot(v.forward) };
+    let t_near = if v.ortho {
+        v.near
+    } else {
+        v.near / d.dot(v.forward)
+    };
     // Solve in parameter space exactly: x(t) = a + t b.
     let ti = q.variance_matrix().inverse();
     let a = ti * o.extend(1.0);
@@ -137,14 +148,21 @@ fn check_box(q: &Quadric, view: &View, label: &str) -> bool {
         // outside the window.
         let outside = b[2] < win[0] || b[0] > win[2] || b[3] < win[1] || b[1] > win[3];
         let thin = b[2] - b[0] < 1.0 / sub || b[3] - b[1] < 1.0 / sub;
-        assert!(outside || thin, "{label}: box {b:?} but nothing covered in {win:?}");
+        assert!(
+            outside || thin,
+            "{label}: box {b:?} but nothing covered in {win:?}"
+        );
         return false;
     }
     // Tightness: one pixel inward from each side (the middle line when the box is thinner
     // than two pixels), a fine scan across the box's whole extent must meet the solid.
     for k in 0..4 {
         let horizontal = k % 2 == 0; // sides 0 and 2 bound x
-        let (lo_s, hi_s) = if horizontal { (b[0], b[2]) } else { (b[1], b[3]) };
+        let (lo_s, hi_s) = if horizontal {
+            (b[0], b[2])
+        } else {
+            (b[1], b[3])
+        };
         let line = if hi_s - lo_s < 2.0 {
             0.5 * (lo_s + hi_s)
         } else if k < 2 {
@@ -152,7 +170,11 @@ fn check_box(q: &Quadric, view: &View, label: &str) -> bool {
         } else {
             hi_s - 1.0
         };
-        let (a0, a1) = if horizontal { (b[1], b[3]) } else { (b[0], b[2]) };
+        let (a0, a1) = if horizontal {
+            (b[1], b[3])
+        } else {
+            (b[0], b[2])
+        };
         let (a0, a1) = (a0.max(-2000.0), a1.min(2000.0));
         let steps = (((a1 - a0) * 64.0) as i64).clamp(64, 40_000);
         let met = (0..=steps).any(|i| {
@@ -161,7 +183,10 @@ fn check_box(q: &Quadric, view: &View, label: &str) -> bool {
             let (o, d) = ray64(view, x, y);
             visible_entry64(q, view, o, d).is_some()
         });
-        assert!(met, "{label}: box {b:?} side {k}: nothing within one pixel of it");
+        assert!(
+            met,
+            "{label}: box {b:?} side {k}: nothing within one pixel of it"
+        );
     }
     true
 }
@@ -207,7 +232,10 @@ fn boxes_are_tight_across_the_near_plane_and_behind_the_eye() {
         }
         check_box(&q, &view, &format!("near case {case} {:?}", q.kind()));
     }
-    assert!(crossing >= 20, "only {crossing} cases straddle the near plane");
+    assert!(
+        crossing >= 20,
+        "only {crossing} cases straddle the near plane"
+    );
 }
 
 #[test]
@@ -244,7 +272,10 @@ fn sphere_depths_normals_and_curvatures_are_exact() {
     let c = Vec3::new(0.2, -0.1, 0.0);
     let r = 0.8;
     let mut scene = SplatScene::default();
-    scene.push(Quadric::sphere(c.as_dvec3(), f64::from(r)).unwrap(), Vec3::ONE);
+    scene.push(
+        Quadric::sphere(c.as_dvec3(), f64::from(r)).unwrap(),
+        Vec3::ONE,
+    );
     let cam = camera(Vec3::new(0.5, 0.8, 4.0), Vec3::ZERO, 64, 48, 40.0);
     let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
     let mut hits = 0;
@@ -255,7 +286,8 @@ fn sphere_depths_normals_and_curvatures_are_exact() {
             match ray_sphere(ray.origin, ray.dir, c, r) {
                 Some(t) => {
                     // Grazing pixels may flip within rounding.
-                    let perp = ((ray.origin - c) - (ray.origin - c).dot(ray.dir) * ray.dir).length();
+                    let perp =
+                        ((ray.origin - c) - (ray.origin - c).dot(ray.dir) * ray.dir).length();
                     if (perp - r).abs() < 1e-4 {
                         continue;
                     }
@@ -263,7 +295,11 @@ fn sphere_depths_normals_and_curvatures_are_exact() {
                     assert!(g.is_hit(), "pixel ({px}, {py}) missed");
                     assert!((g.depth - t).abs() < 2e-5 * t, "depth {} vs {t}", g.depth);
                     let n = (ray.origin + t * ray.dir - c) / r;
-                    assert!(g.normal.angle_between(n) < 2e-3, "normal {} vs {n}", g.normal);
+                    assert!(
+                        g.normal.angle_between(n) < 2e-3,
+                        "normal {} vs {n}",
+                        g.normal
+                    );
                     assert!((g.k1 - 1.0 / r).abs() < 1e-4 && (g.k2 - 1.0 / r).abs() < 1e-4);
                     assert_eq!(frame.objects[(px + 64 * py) as usize], 0);
                 }
@@ -282,7 +318,10 @@ fn a_far_sphere_keeps_its_silhouette() {
     // 1000 radii away: the shifted quadratic keeps the discriminant accurate in f32.
     let r = 1.0f32;
     let mut scene = SplatScene::default();
-    scene.push(Quadric::sphere(DVec3::ZERO, f64::from(r)).unwrap(), Vec3::ONE);
+    scene.push(
+        Quadric::sphere(DVec3::ZERO, f64::from(r)).unwrap(),
+        Vec3::ONE,
+    );
     let cam = camera(Vec3::new(0.0, 0.0, 1000.0), Vec3::ZERO, 64, 64, 0.2);
     let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
     let mut wrong = 0;
@@ -302,8 +341,15 @@ fn a_far_sphere_keeps_its_silhouette() {
 #[test]
 fn cylinder_and_cone_depths_and_normals_are_exact() {
     // Axis along x; the camera looks from +z so the side is seen.
-    let cyl = Quadric::cylinder(DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), 0.4).unwrap();
-    let cone = Quadric::cone(DVec3::new(-1.0, 0.0, 0.0), 0.0, DVec3::new(1.0, 0.0, 0.0), 0.5).unwrap();
+    let cyl =
+        Quadric::cylinder(DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), 0.4).unwrap();
+    let cone = Quadric::cone(
+        DVec3::new(-1.0, 0.0, 0.0),
+        0.0,
+        DVec3::new(1.0, 0.0, 0.0),
+        0.5,
+    )
+    .unwrap();
     for (q, name) in [(cyl, "cylinder"), (cone, "cone")] {
         let mut scene = SplatScene::default();
         scene.push(q, Vec3::ONE);
@@ -315,7 +361,11 @@ fn cylinder_and_cone_depths_and_normals_are_exact() {
                 let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
                 let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
                 // Analytic: radius(x) = a + b x along the x axis, side only (|x| < 1).
-                let (ra, rb) = if name == "cylinder" { (0.4, 0.0) } else { (0.25, 0.25) };
+                let (ra, rb) = if name == "cylinder" {
+                    (0.4, 0.0)
+                } else {
+                    (0.25, 0.25)
+                };
                 // (oy + t dy)² + (oz + t dz)² = (ra + rb (ox + t dx))².
                 let qa = d.y * d.y + d.z * d.z - rb * rb * d.x * d.x;
                 let qb = o.y * d.y + o.z * d.z - rb * d.x * (ra + rb * o.x);
@@ -337,10 +387,21 @@ fn cylinder_and_cone_depths_and_normals_are_exact() {
                     g.depth
                 );
                 // Normal ∝ (−rb (ra + rb x), y, z).
-                let n = DVec3::new(-rb * (ra + rb * p.x), p.y, p.z).normalize().as_vec3();
-                assert!(g.normal.angle_between(n) < 2e-3, "{name}: normal {} vs {n}", g.normal);
+                let n = DVec3::new(-rb * (ra + rb * p.x), p.y, p.z)
+                    .normalize()
+                    .as_vec3();
+                assert!(
+                    g.normal.angle_between(n) < 2e-3,
+                    "{name}: normal {} vs {n}",
+                    g.normal
+                );
                 if name == "cylinder" {
-                    assert!((g.k1 - 2.5).abs() < 1e-3 && g.k2.abs() < 1e-3, "k {} {}", g.k1, g.k2);
+                    assert!(
+                        (g.k1 - 2.5).abs() < 1e-3 && g.k2.abs() < 1e-3,
+                        "k {} {}",
+                        g.k1,
+                        g.k2
+                    );
                 }
                 checked += 1;
             }
@@ -372,8 +433,14 @@ fn intersecting_spheres_meet_on_their_intersection_curve() {
     let (c0, r0) = (Vec3::new(-0.4, 0.0, 0.0), 0.7);
     let (c1, r1) = (Vec3::new(0.45, 0.1, 0.2), 0.6);
     let mut scene = SplatScene::default();
-    scene.push(Quadric::sphere(c0.as_dvec3(), f64::from(r0)).unwrap(), Vec3::X);
-    scene.push(Quadric::sphere(c1.as_dvec3(), f64::from(r1)).unwrap(), Vec3::Y);
+    scene.push(
+        Quadric::sphere(c0.as_dvec3(), f64::from(r0)).unwrap(),
+        Vec3::X,
+    );
+    scene.push(
+        Quadric::sphere(c1.as_dvec3(), f64::from(r1)).unwrap(),
+        Vec3::Y,
+    );
     let cam = camera(Vec3::new(0.3, 1.0, 4.0), Vec3::ZERO, 96, 64, 40.0);
     let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
     let mut both = 0;
@@ -409,7 +476,10 @@ fn the_near_plane_cuts_a_solid_with_a_flat_cap() {
     }
     // A sphere wholly behind the eye is culled.
     let mut behind = SplatScene::default();
-    behind.push(Quadric::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0).unwrap(), Vec3::ONE);
+    behind.push(
+        Quadric::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0).unwrap(),
+        Vec3::ONE,
+    );
     let frame = splat::splat(&behind, &cam, &SplatOptions::default()).unwrap();
     assert_eq!(frame.stats.drawn, 0);
     assert_eq!(frame.gbuffer.hit_count(), 0);
@@ -428,7 +498,10 @@ fn sobel_with_four_fetches_equals_the_full_masks() {
             let gy = (at(x - 1, y + 1) + 2.0 * at(x, y + 1) + at(x + 1, y + 1))
                 - (at(x - 1, y - 1) + 2.0 * at(x, y - 1) + at(x + 1, y - 1));
             let (fx, fy) = sobel4(&img, w, h, x as u32, y as u32);
-            assert!((fx[0] - gx).abs() < 1e-5 && (fy[0] - gy).abs() < 1e-5, "({x}, {y})");
+            assert!(
+                (fx[0] - gx).abs() < 1e-5 && (fy[0] - gy).abs() < 1e-5,
+                "({x}, {y})"
+            );
         }
     }
 }
@@ -456,18 +529,31 @@ fn ground_and_ball() -> SplatScene {
     let mut scene = SplatScene::default();
     // A flat wide ellipsoid as the ground and a ball above it.
     scene.push(
-        Quadric::ellipsoid(DVec3::new(0.0, -1.0, 0.0), DVec3::new(3.0, 0.05, 3.0), DMat3::IDENTITY)
-            .unwrap(),
+        Quadric::ellipsoid(
+            DVec3::new(0.0, -1.0, 0.0),
+            DVec3::new(3.0, 0.05, 3.0),
+            DMat3::IDENTITY,
+        )
+        .unwrap(),
         Vec3::splat(0.8),
     );
-    scene.push(Quadric::sphere(DVec3::new(0.0, 0.0, 0.0), 0.5).unwrap(), Vec3::new(0.8, 0.1, 0.1));
+    scene.push(
+        Quadric::sphere(DVec3::new(0.0, 0.0, 0.0), 0.5).unwrap(),
+        Vec3::new(0.8, 0.1, 0.1),
+    );
     scene
 }
 
 #[test]
 fn a_ball_casts_a_soft_shadow_on_the_ground() {
     let scene = ground_and_ball();
-    let cam = camera(Vec3::new(0.0, 2.0, 5.0), Vec3::new(0.0, -0.5, 0.0), 96, 72, 45.0);
+    let cam = camera(
+        Vec3::new(0.0, 2.0, 5.0),
+        Vec3::new(0.0, -0.5, 0.0),
+        96,
+        72,
+        45.0,
+    );
     let frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
     let light = Vec3::new(0.0, 6.0, 0.0);
     let shadows = ShadowOptions {
@@ -484,7 +570,14 @@ fn a_ball_casts_a_soft_shadow_on_the_ground() {
     assert!(f_below < 0.01, "{f_below}");
     assert!(f_far > 0.99 && n_far == 8, "{f_far} {n_far}");
     // The ball's top is lit (no self-shadowing acne).
-    let (f_top, _) = splat::shadow_factor(&map.params, &map.depth, Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 0, 0);
+    let (f_top, _) = splat::shadow_factor(
+        &map.params,
+        &map.depth,
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        0,
+        0,
+    );
     assert!(f_top > 0.99, "{f_top}");
     // Shading: some pixels need the full 64 samples (penumbra), most stop after 8.
     let opts = SplatShading {
@@ -496,14 +589,20 @@ fn a_ball_casts_a_soft_shadow_on_the_ground() {
     assert_eq!(img.pixels.len(), 96 * 72);
     assert!(stats.penumbra_pixels > 0, "{stats:?}");
     let hits = frame.gbuffer.hit_count() as u64;
-    assert!(stats.shadow_samples < 64 * hits / 2, "{stats:?} for {hits} hits");
+    assert!(
+        stats.shadow_samples < 64 * hits / 2,
+        "{stats:?} for {hits} hits"
+    );
     // The shadowed ground is darker than the lit ground.
     let lum = |x: u32, y: u32| {
         let p = img.pixels[(x + 96 * y) as usize];
         p[0] + p[1] + p[2]
     };
     let project = |p: Vec3| cam.project(p).unwrap().0;
-    let (a, b) = (project(Vec3::new(0.0, -0.95, 0.25)), project(Vec3::new(2.0, -0.95, 0.25)));
+    let (a, b) = (
+        project(Vec3::new(0.0, -0.95, 0.25)),
+        project(Vec3::new(2.0, -0.95, 0.25)),
+    );
     let (la, lb) = (lum(a.x as u32, a.y as u32), lum(b.x as u32, b.y as u32));
     let ga = frame.gbuffer.get(a.x as u32, a.y as u32);
     assert!(la < 0.7 * lb, "shadowed {la} lit {lb} at {a} {b}: {ga:?}");
@@ -527,7 +626,10 @@ fn outlines_trace_the_silhouette() {
     let first = row.iter().position(|&d| d).unwrap();
     let ray_hits = |x: u32| frame.gbuffer.get(x, 32).is_hit();
     let edge = (0..64).find(|&x| ray_hits(x)).unwrap();
-    assert!((first as i64 - edge as i64).abs() <= 1, "outline at {first}, edge at {edge}");
+    assert!(
+        (first as i64 - edge as i64).abs() <= 1,
+        "outline at {first}, edge at {edge}"
+    );
 }
 
 #[test]

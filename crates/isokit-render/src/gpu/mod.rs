@@ -44,6 +44,7 @@
 //! [`curvature_with`]: isokit_field::curvature::curvature_with
 
 mod shade;
+pub mod splat;
 mod trace;
 
 use crate::kernel::{
@@ -236,6 +237,8 @@ pub struct GpuRenderer {
     cache_bytes: usize,
     max_rays: usize,
     resident: Option<Resident>,
+    /// The splatter's pipelines, compiled on first use.
+    splat: std::sync::OnceLock<splat::SplatPipelines>,
 }
 
 impl GpuRenderer {
@@ -254,12 +257,23 @@ impl GpuRenderer {
             cache_bytes: DEFAULT_CACHE_BYTES,
             max_rays: DEFAULT_MAX_RAYS_PER_DISPATCH,
             resident: None,
+            splat: std::sync::OnceLock::new(),
         })
     }
 
-    /// Opens the default device ([`GpuOptions::default`]) and compiles the kernels.
+    /// Opens the default device ([`GpuOptions::default`], with
+    /// [`wgpu::Features::FLOAT32_FILTERABLE`] where the adapter offers it, for the splat
+    /// shading's bilinear fetches) and compiles the kernels.
     pub fn open() -> Result<Self, RenderError> {
-        Self::new(Gpu::new(&GpuOptions::default())?)
+        let filterable = GpuOptions {
+            features: wgpu::Features::FLOAT32_FILTERABLE,
+            ..GpuOptions::default()
+        };
+        let gpu = match Gpu::new(&filterable) {
+            Err(GpuError::MissingFeatures { .. }) => Gpu::new(&GpuOptions::default())?,
+            other => other?,
+        };
+        Self::new(gpu)
     }
 
     /// The device.

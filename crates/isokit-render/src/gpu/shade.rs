@@ -11,37 +11,37 @@ use isokit_gpu::wgpu;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub(crate) struct ShadeParams {
-    color: [f32; 3],
-    mode: u32,
-    background: [f32; 4],
-    ambient: f32,
-    specular: f32,
-    shininess: f32,
-    curvature_scale: f32,
-    contour_pixels: f32,
-    lights: u32,
-    pixel_angle: f32,
-    pixel_base: u32,
-    count: u32,
-    stride: u32,
-    pad: [u32; 2],
+    pub(crate) color: [f32; 3],
+    pub(crate) mode: u32,
+    pub(crate) background: [f32; 4],
+    pub(crate) ambient: f32,
+    pub(crate) specular: f32,
+    pub(crate) shininess: f32,
+    pub(crate) curvature_scale: f32,
+    pub(crate) contour_pixels: f32,
+    pub(crate) lights: u32,
+    pub(crate) pixel_angle: f32,
+    pub(crate) pixel_base: u32,
+    pub(crate) count: u32,
+    pub(crate) stride: u32,
+    pub(crate) pad: [u32; 2],
 }
 
 /// `Light` in `shade.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub(crate) struct GpuLight {
-    dir: [f32; 3],
-    point: u32,
-    color: [f32; 3],
-    pad: f32,
+    pub(crate) dir: [f32; 3],
+    pub(crate) point: u32,
+    pub(crate) color: [f32; 3],
+    pub(crate) pad: f32,
 }
 
 impl GpuLight {
     /// What `light_at` in `shade.rs` computes that does not depend on the pixel, computed
     /// here the same way: a directional light's direction toward the light and every
     /// light's colour times intensity.
-    fn new(l: &Light) -> Self {
+    pub(crate) fn new(l: &Light) -> Self {
         let (dir, point) = match (l.direction, l.position) {
             (Some(d), _) => (-d.normalize_or_zero(), 0),
             (None, Some(q)) => (q, 1),
