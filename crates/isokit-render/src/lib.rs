@@ -87,8 +87,8 @@ pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
 pub use render::{
-    Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats, estimate_gradient_scale,
-    render, render_multiview, render_view, uniforms,
+    Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats, camera_uniforms,
+    estimate_gradient_scale, render, render_multiview, render_view, uniforms,
 };
 pub use shade::{Image, Light, Shading, ShadingMode, shade};
 pub use volume::{Layout, Volume, VolumeData};

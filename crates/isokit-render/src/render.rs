@@ -183,13 +183,9 @@ pub fn estimate_gradient_scale(volume: &Volume, iso: f32) -> f32 {
     if m.is_finite() && *m > 0.0 { *m } else { 1.0 }
 }
 
-/// The uniforms of one rendering of `volume` by `camera` with `opts`.
-pub fn uniforms(
-    volume: &Volume,
-    camera: &Camera,
-    opts: &RenderOptions,
-) -> Result<Uniforms, RenderError> {
-    opts.check()?;
+/// The uniforms of a camera alone (no volume): the frame, the image and a single view; what
+/// ray generation and shading read (the quadric splatter uses these).
+pub fn camera_uniforms(camera: &Camera) -> Result<Uniforms, RenderError> {
     let (width, height) = check_image_size(camera.width().into(), camera.height().into())?;
     let forward = camera.forward();
     // As `Camera::look_at` builds its frame.
@@ -199,8 +195,6 @@ pub fn uniforms(
         Projection::Perspective { fov_y_degrees } => (0, (0.5 * fov_y_degrees.to_radians()).tan()),
         Projection::Orthographic { height } => (1, 0.5 * height),
     };
-    let layout = volume.layout();
-    let u32s = |a: [usize; 3]| a.map(|v| v as u32);
     Ok(Uniforms {
         eye: camera.eye().to_array(),
         ortho,
@@ -210,6 +204,26 @@ pub fn uniforms(
         aspect: camera.aspect(),
         forward: forward.to_array(),
         width,
+        height,
+        views: 1,
+        view: 0,
+        subpixels: 1,
+        window_distance: (camera.target() - camera.eye()).length(),
+        lens_pitch: 1.0,
+        ..bytemuck::Zeroable::zeroed()
+    })
+}
+
+/// The uniforms of one rendering of `volume` by `camera` with `opts`.
+pub fn uniforms(
+    volume: &Volume,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<Uniforms, RenderError> {
+    opts.check()?;
+    let layout = volume.layout();
+    let u32s = |a: [usize; 3]| a.map(|v| v as u32);
+    Ok(Uniforms {
         origin: volume.origin().to_array(),
         spacing: volume.spacing(),
         dims: u32s(volume.dims()),
@@ -235,15 +249,7 @@ pub fn uniforms(
         shading_filter: opts.shading_filter.code(),
         skip_empty: u32::from(opts.skip_empty),
         caps: u32::from(opts.caps),
-        height,
-        views: 1,
-        view: 0,
-        subpixels: 1,
-        view_separation: 0.0,
-        window_distance: (camera.target() - camera.eye()).length(),
-        lens_pitch: 1.0,
-        lens_slant: 0.0,
-        lens_offset: 0.0,
+        ..camera_uniforms(camera)?
     })
 }
 

@@ -33,7 +33,7 @@ use std::time::Instant;
 use crate::kernel::{self, GSample, ID_CAP, ID_SURFACE, Uniforms};
 use crate::quadric::{HitKind, Quadric, QuadricSetup, View, intersect, setup_hessian};
 use crate::shade::{Image, Light, Shading, default_light, shade_pixel_color};
-use crate::{GBuffer, RenderError, check_image_size};
+use crate::{GBuffer, RenderError};
 
 /// Object index of a pixel that no quadric covers.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -147,33 +147,7 @@ pub struct SplatFrame {
     pub stats: SplatStats,
 }
 
-/// Ray-caster uniforms of a camera alone (no volume): what shading and ray generation read.
-pub fn camera_uniforms(camera: &Camera) -> Result<Uniforms, RenderError> {
-    let (width, height) = check_image_size(camera.width().into(), camera.height().into())?;
-    let forward = camera.forward();
-    let right = forward.cross(camera.up()).normalize_or_zero();
-    let up = right.cross(forward);
-    let (ortho, half_height) = match camera.projection() {
-        Projection::Perspective { fov_y_degrees } => (0, (0.5 * fov_y_degrees.to_radians()).tan()),
-        Projection::Orthographic { height } => (1, 0.5 * height),
-    };
-    Ok(Uniforms {
-        eye: camera.eye().to_array(),
-        ortho,
-        right: right.to_array(),
-        half_height,
-        up: up.to_array(),
-        aspect: camera.aspect(),
-        forward: forward.to_array(),
-        width,
-        height,
-        views: 1,
-        subpixels: 1,
-        lens_pitch: 1.0,
-        window_distance: (camera.target() - camera.eye()).length(),
-        ..bytemuck::Zeroable::zeroed()
-    })
-}
+pub use crate::render::camera_uniforms;
 
 /// The view of `u` with the near plane of `opts` for `scene`.
 pub fn view_for(
