@@ -368,6 +368,37 @@ pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatF
     })
 }
 
+impl SplatFrame {
+    /// Merges a G-buffer rendered for the same camera by another renderer (the isosurface
+    /// ray caster, [`crate::render`]) into this frame by depth: each pixel keeps the nearer of
+    /// the two hits, as one depth buffer would (both store `Z`, the distance from the eye
+    /// along the same pixel ray). Pixels taken from `other` get [`NO_OBJECT`] (shaded in
+    /// [`Shading::color`]). Returns how many pixels came from `other`; errors when the sizes
+    /// differ.
+    pub fn merge_nearest(&mut self, other: &GBuffer) -> Result<usize, RenderError> {
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        if other.width() != w || other.height() != h {
+            return Err(RenderError::bad(
+                "G-buffer",
+                format!("{}x{}", other.width(), other.height()),
+                "must match the splatted frame's size",
+            ));
+        }
+        let mut pixels = self.gbuffer.pixels().to_vec();
+        let mut taken = 0;
+        for (i, (p, q)) in pixels.iter_mut().zip(other.pixels()).enumerate() {
+            if q.is_hit() && (!p.is_hit() || q.depth < p.depth) {
+                *p = *q;
+                self.objects[i] = NO_OBJECT;
+                taken += 1;
+            }
+        }
+        let samples = self.gbuffer.samples().to_vec();
+        self.gbuffer = GBuffer::new(w, h, pixels, samples);
+        Ok(taken)
+    }
+}
+
 /// Shadow-map and soft-shadow parameters (002 Sec. 7.3.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadowOptions {

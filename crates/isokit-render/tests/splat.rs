@@ -462,6 +462,81 @@ fn intersecting_spheres_meet_on_their_intersection_curve() {
     assert!(both > 100, "{both}");
 }
 
+/// A splatted sphere and a ray-cast isosurface (a sphere sampled on a 64³ grid) share one
+/// depth test: each pixel shows the nearer surface, and the two meet on their analytic
+/// intersection curve.
+#[test]
+fn quadrics_and_ray_cast_isosurfaces_share_the_depth_buffer() {
+    use isokit_field::Grid;
+    use isokit_render::{BrickCache, Layout, RenderOptions, Volume, render};
+    let (ca, ra) = (Vec3::new(-0.3, 0.0, 0.0), 0.55f32);
+    let (cb, rb) = (Vec3::new(0.3, 0.05, 0.1), 0.5f32);
+    let n = 64;
+    let h = 2.0 / (n - 1) as f32;
+    let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = g.position(i, j, k);
+                g.set(i, j, k, (p - ca).length() - ra);
+            }
+        }
+    }
+    let volume = Volume::from_grid(g, Layout::default()).unwrap();
+    let cam = camera(Vec3::new(0.4, 1.2, 3.5), Vec3::ZERO, 96, 72, 40.0);
+    let cast = render(
+        &volume,
+        &mut BrickCache::for_volume(&volume),
+        &cam,
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    let mut scene = SplatScene::default();
+    scene.push(
+        Quadric::sphere(cb.as_dvec3(), f64::from(rb)).unwrap(),
+        Vec3::X,
+    );
+    let mut frame = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let taken = frame.merge_nearest(&cast.gbuffer).unwrap();
+    assert!(taken > 100, "{taken}");
+    let mut compared = 0;
+    for py in 0..72 {
+        for px in 0..96 {
+            let ray = cam.ray(px as f32 + 0.5, py as f32 + 0.5);
+            let (ta, tb) = (
+                ray_sphere(ray.origin, ray.dir, ca, ra),
+                ray_sphere(ray.origin, ray.dir, cb, rb),
+            );
+            let (Some(ta), Some(tb)) = (ta, tb) else {
+                continue;
+            };
+            // Away from the intersection curve (a few voxels of depth difference) the
+            // nearer surface must win, and the depth must be the analytic one.
+            if (ta - tb).abs() < 3.0 * h {
+                continue;
+            }
+            compared += 1;
+            let g = frame.gbuffer.get(px, py);
+            let obj = frame.objects[(px + 96 * py) as usize];
+            if ta < tb {
+                assert_eq!(obj, NO_OBJECT, "({px}, {py}): the isosurface is nearer");
+                assert!((g.depth - ta).abs() < 0.05 * h, "{} vs {ta}", g.depth);
+            } else {
+                assert_eq!(obj, 0, "({px}, {py}): the quadric is nearer");
+                assert!((g.depth - tb).abs() < 1e-5 * tb);
+            }
+        }
+    }
+    assert!(compared > 100, "{compared}");
+    let mut small = splat::splat(
+        &scene,
+        &camera(Vec3::Z * 3.0, Vec3::ZERO, 8, 8, 40.0),
+        &SplatOptions::default(),
+    )
+    .unwrap();
+    assert!(small.merge_nearest(&cast.gbuffer).is_err());
+}
+
 #[test]
 fn the_near_plane_cuts_a_solid_with_a_flat_cap() {
     // The eye sits inside a big sphere: every pixel sees the near plane's cut.
