@@ -2,7 +2,9 @@
 // One invocation per output pixel; for a multi-view G-buffer (3 subpixels per pixel) each
 // channel comes from its own subpixel's sample, seen from that subpixel's view.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_*, F32_MAX, MODE_* (the
-// shading modes in the order of ShadingMode::ALL); then raycast_common.wgsl.
+// shading modes in the order of ShadingMode::ALL), FLOW_CONTRAST; then raycast_common.wgsl.
+// The `flow` mode's LIC image comes from the flow pass (flow.wgsl) in `flow`, one value per
+// output pixel of the whole image (a 4-byte placeholder in the other modes).
 // CPU twin: crates/isokit-render/src/shade.rs (shade_pixel and its helpers, shade).
 
 // Rust: gpu::shade::ShadeParams (80 bytes).
@@ -38,6 +40,7 @@ struct Light {
 @group(0) @binding(2) var<storage, read> gbuf: array<GPixel>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read_write> image: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> flow: array<f32>;
 
 struct LightAt {
     dir: vec3<f32>,
@@ -246,6 +249,11 @@ fn shade_pixel(s: GPixel, v: vec3<f32>, footprint: f32) -> vec4<f32> {
             }
             rgb = albedo * lambert(s, n);
         }
+        // The per-pixel part of `flow`: the plain shading the LIC modulates (the entry point
+        // `shade` does the rest).
+        case MODE_FLOW: {
+            rgb = tone(s, n, v);
+        }
         default: {
             rgb = vec3<f32>(0.0);
         }
@@ -262,6 +270,15 @@ fn color_of(s: GPixel, px: u32, py: u32, sub: u32) -> vec4<f32> {
     return shade_pixel(s, v, footprint);
 }
 
+// shade.rs: flow_modulate. c where lic < 0 (no flow).
+fn flow_modulate(c: vec4<f32>, lic: f32) -> vec4<f32> {
+    if (lic < 0.0) {
+        return c;
+    }
+    let m = 0.5 + clamp(0.5 + FLOW_CONTRAST * (lic - 0.5), 0.0, 1.0);
+    return vec4<f32>(c.x * m, c.y * m, c.z * m, c.w);
+}
+
 @compute @workgroup_size(WORKGROUP)
 fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     let k = gid.x + gid.y * S.stride;
@@ -272,7 +289,11 @@ fn shade(@builtin(global_invocation_id) gid: vec3<u32>) {
     let px = i % U.width;
     let py = i / U.width;
     if (U.subpixels <= 1u) {
-        image[k] = color_of(gbuf[k], px, py, 0u);
+        var c = color_of(gbuf[k], px, py, 0u);
+        if (S.mode == MODE_FLOW) {
+            c = flow_modulate(c, flow[i]);
+        }
+        image[k] = c;
         return;
     }
     var out = vec4<f32>(0.0, 0.0, 0.0, 1.0);

@@ -13,9 +13,43 @@
 //! | `accessibility` | tone shading darkened where both curvatures are strongly negative (approximate accessibility, Mil94) |
 //! | `reflection` | reflection of a procedural environment (sky, ground, horizontal stripes: reflection lines) |
 //! | `texture` | a solid texture (3D checkerboard of period 2/κ, world coordinates), diffusely lit |
+//! | `flow` | curvature-aligned flow: tone shading modulated by a dense noise texture smeared along the direction of maximum principal curvature, in image space ([`flow_image`]) |
 //!
 //! Curvature maps are scaled by [`Shading::curvature_scale`] κ: a curvature of κ (radius
 //! 1/κ) saturates the map. [`default_curvature_scale`] picks 20 / (volume diagonal).
+//!
+//! ## Curvature-aligned flow (002 Sec. 6.4, Fig. 6.12)
+//! The one mode that is not per pixel: the steady state, for one frame, of image-based flow
+//! advection (van Wijk 2003; Laramee et al. 2003), i.e. a line integral convolution (LIC)
+//! of white noise along the principal direction of `k1` seen on the screen.
+//! 1. **Field** ([`flow_field`], [`flow_direction`]): each pixel's `dir1` is projected onto
+//!    the image plane (orthographic: `(dir1·right, −dir1·up)`; perspective: the derivative
+//!    of the projection of the hit point moving along `dir1`) and normalized, in pixel
+//!    coordinates (x right, y down). The field is undefined (the pixel gets no flow) where
+//!    the ray missed, where the surface is umbilic ([`flow_umbilic`]: `|k1 − k2|` below
+//!    `0.05·κ + 0.01·(|k1| + |k2|)`, so `dir1` is rounding noise; caps, of zero curvature,
+//!    too) and where `dir1` points nearly along the view (projected length below
+//!    [`FLOW_MIN_PROJECTED`]).
+//! 2. **Noise** ([`flow_noise`]): a deterministic white noise, an integer hash of the pixel
+//!    coordinates quantized to 16 bits (fixed to the screen).
+//! 3. **Streamlines** ([`flow_lic`]): from the pixel's centre, [`FLOW_STEPS`] Euler steps of
+//!    one pixel forward and as many backward; each step reads the field of the pixel it
+//!    lands in (nearest-pixel sampling, `floor` of the position) and stops at the image's
+//!    border and at a pixel whose flow key ([`FlowPixel::key`]: the id, or none) differs
+//!    from the start's: misses, other objects and umbilic pixels are never read. Principal
+//!    directions have no sign, so each step's direction is flipped when it points against
+//!    the previous one; where the field is not orientable (around umbilics) seams remain,
+//!    as 002 notes. The LIC value is the box-filtered mean of the noise over the pixels
+//!    visited (the start included, at most `2·FLOW_STEPS + 1`).
+//! 4. **Colour** ([`flow_modulate`]): the tone shading times
+//!    `0.5 + clamp(0.5 + FLOW_CONTRAST·(lic − 0.5), 0, 1)`; pixels without flow keep the
+//!    plain tone shading.
+//!
+//! [`shade_pixel`] alone gives the plain tone shading in this mode (which is also what the
+//! splat shading, per pixel, shows for it). Multi-view G-buffers are refused: their
+//! subpixels belong to different views, so there is no single image to advect in.
+//! The GPU twin projects the field on the host with [`flow_field`] (the G-buffer is on
+//! the host anyway), so both twins trace the same streamlines from bit-identical input.
 
 use crate::kernel::{self, GSample, Uniforms};
 use crate::{GBuffer, RenderError};
@@ -54,11 +88,17 @@ pub enum ShadingMode {
     Reflection,
     /// Solid 3D checkerboard texture.
     Texture,
+    /// Curvature-aligned flow: tone shading modulated by a line integral convolution of
+    /// white noise along the screen projection of the principal direction of `k1` (see the
+    /// module docs); the direction's sign ambiguity is resolved step by step, seams remain
+    /// where the field is not orientable; umbilic pixels keep the plain tone shading.
+    /// Needs the whole G-buffer ([`shade()`]), not one pixel.
+    Flow,
 }
 
 impl ShadingMode {
     /// Every mode with its name, as `FromStr` reads it.
-    pub const ALL: [(&'static str, ShadingMode); 13] = [
+    pub const ALL: [(&'static str, ShadingMode); 14] = [
         ("phong", Self::Phong),
         ("tone", Self::Tone),
         ("normal", Self::Normal),
@@ -72,6 +112,7 @@ impl ShadingMode {
         ("accessibility", Self::Accessibility),
         ("reflection", Self::Reflection),
         ("texture", Self::Texture),
+        ("flow", Self::Flow),
     ];
 
     /// The mode's name.
@@ -453,13 +494,199 @@ pub fn shade_pixel_color(
             let albedo = if odd { color } else { color * 0.35 };
             albedo * lambert(s, n, sh, lights)
         }
+        // The per-pixel part of `flow`: the plain shading the LIC modulates.
+        ShadingMode::Flow => tone(s, n, v, sh, lights, color),
     };
     [rgb.x, rgb.y, rgb.z, 1.0]
 }
 
+/// Streamline steps of one pixel each way of the `flow` mode (the LIC's half length L).
+pub const FLOW_STEPS: u32 = 12;
+
+/// Contrast gain of the `flow` mode's LIC value around its mean 0.5 (a mean of `2L + 1`
+/// uniform samples has a standard deviation of about 0.058; the gain brings it to 0.29).
+pub const FLOW_CONTRAST: f32 = 5.0;
+
+/// Shortest projected length of the unit `dir1` (per unit of depth for perspective) for
+/// which the `flow` mode's screen direction is defined.
+pub const FLOW_MIN_PROJECTED: f32 = 1e-2;
+
+/// One pixel of the `flow` mode's screen-space direction field ([`flow_field`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlowPixel {
+    /// Unit direction in pixel coordinates (x right, y down), sign arbitrary; zero where
+    /// `key` is [`kernel::ID_MISS`].
+    pub dir: [f32; 2],
+    /// The sample's id where the field is defined, [`kernel::ID_MISS`] where not (a miss, an
+    /// umbilic, `dir1` along the view). Streamlines stay on pixels of their start's key.
+    pub key: u32,
+}
+
+/// True when the principal directions of `s` are undefined for the `flow` mode: `|k1 − k2|`
+/// at most `0.05·κ + 0.01·(|k1| + |k2|)` (κ the curvature scale), or not finite.
+pub fn flow_umbilic(s: &GSample, kappa: f32) -> bool {
+    let d = (s.k1 - s.k2).abs();
+    !(d.is_finite() && d > 0.05 * kappa + 0.01 * (s.k1.abs() + s.k2.abs()))
+}
+
+/// The screen direction of `s.dir1` (a tangent at `s.position`) for the single-view camera
+/// of `u`, unit, in pixel coordinates (x right, y down): orthographic
+/// `(dir1·right, −dir1·up)`; perspective, with `q = position − eye`, `z = q·forward`,
+/// `(sx, sy) = (q·right, q·up) / z` the point's image-plane coordinates and `t = dir1`,
+/// `(t·right − sx·(t·forward), −(t·up − sy·(t·forward)))` (the derivative of the
+/// projection times `z`). `None` where it is shorter than [`FLOW_MIN_PROJECTED`] (or not
+/// finite, or the point is not in front of the eye).
+pub fn flow_direction(u: &Uniforms, s: &GSample) -> Option<[f32; 2]> {
+    let (r, up, f) = (
+        Vec3::from_array(u.right),
+        Vec3::from_array(u.up),
+        Vec3::from_array(u.forward),
+    );
+    let t = s.dir1;
+    let (dx, dy) = if u.ortho != 0 {
+        (t.dot(r), -t.dot(up))
+    } else {
+        let q = s.position - Vec3::from_array(u.eye);
+        let z = q.dot(f);
+        if !(z.is_finite() && z > 0.0) {
+            return None;
+        }
+        let (sx, sy) = (q.dot(r) / z, q.dot(up) / z);
+        let tf = t.dot(f);
+        (t.dot(r) - sx * tf, -(t.dot(up) - sy * tf))
+    };
+    let len = (dx * dx + dy * dy).sqrt();
+    if !(len.is_finite() && len >= FLOW_MIN_PROJECTED) {
+        return None;
+    }
+    Some([dx / len, dy / len])
+}
+
+/// The `flow` mode's direction field of a single-view G-buffer (see the module docs), in
+/// parallel. The GPU twin uploads this field.
+pub fn flow_field(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Vec<FlowPixel> {
+    gbuffer
+        .pixels()
+        .par_iter()
+        .map(|s| {
+            if !s.is_hit() || flow_umbilic(s, sh.curvature_scale) {
+                return FlowPixel::default();
+            }
+            match flow_direction(u, s) {
+                Some(dir) => FlowPixel { dir, key: s.id },
+                None => FlowPixel::default(),
+            }
+        })
+        .collect()
+}
+
+/// The integer hash of the `flow` mode's noise (the `lowbias32` finalizer of a mix of the
+/// coordinates); `flow_hash` in `shaders/flow.wgsl`.
+pub fn flow_hash(x: u32, y: u32) -> u32 {
+    let mut h = x.wrapping_mul(0x8da6_b343) ^ y.wrapping_mul(0xd816_3841);
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x7feb_352d);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x846c_a68b);
+    h ^= h >> 16;
+    h
+}
+
+/// The white noise of pixel `(x, y)` in `[0, 1)`: the hash's top 16 bits over 2¹⁶ (so that
+/// sums of up to 2⁸ of them are exact in f32, on the CPU and the GPU alike).
+pub fn flow_noise(x: u32, y: u32) -> f32 {
+    (flow_hash(x, y) >> 16) as f32 * (1.0 / 65536.0)
+}
+
+/// The LIC value of pixel `(x, y)` of a `width`-wide direction field (see the module docs):
+/// the mean noise over the pixels visited by the streamline through the pixel, `FLOW_STEPS`
+/// steps each way; −1 where the pixel has no flow. `flow_lic` in `shaders/flow.wgsl`.
+pub fn flow_lic(field: &[FlowPixel], width: u32, x: u32, y: u32) -> f32 {
+    let height = (field.len() / width.max(1) as usize) as u32;
+    let start = field[(x + y * width) as usize];
+    if start.key == kernel::ID_MISS {
+        return -1.0;
+    }
+    let mut sum = flow_noise(x, y);
+    let mut n = 1u32;
+    for sign in [1.0f32, -1.0] {
+        let (mut px, mut py) = (x as f32 + 0.5, y as f32 + 0.5);
+        let (mut dx, mut dy) = (sign * start.dir[0], sign * start.dir[1]);
+        for _ in 0..FLOW_STEPS {
+            px += dx;
+            py += dy;
+            let (fx, fy) = (px.floor(), py.floor());
+            if fx < 0.0 || fy < 0.0 || fx >= width as f32 || fy >= height as f32 {
+                break;
+            }
+            let (ix, iy) = (fx as u32, fy as u32);
+            let f = field[(ix + iy * width) as usize];
+            if f.key != start.key {
+                break;
+            }
+            sum += flow_noise(ix, iy);
+            n += 1;
+            // Principal directions have no sign: keep the one that continues the line.
+            let (mut ex, mut ey) = (f.dir[0], f.dir[1]);
+            if ex * dx + ey * dy < 0.0 {
+                ex = -ex;
+                ey = -ey;
+            }
+            dx = ex;
+            dy = ey;
+        }
+    }
+    sum / n as f32
+}
+
+/// Multi-view G-buffers have no single image to advect in.
+pub(crate) fn check_flow(u: &Uniforms) -> Result<(), RenderError> {
+    if u.subpixels > 1 {
+        return Err(RenderError::bad(
+            "shading mode",
+            "flow",
+            "needs a single-view G-buffer: the subpixels of a multi-view one belong to different views",
+        ));
+    }
+    Ok(())
+}
+
+/// The LIC image of the `flow` mode ([`flow_lic`] of every pixel of [`flow_field`], in
+/// parallel), row-major; −1 where a pixel has no flow. Refuses multi-view G-buffers.
+pub fn flow_image(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Vec<f32>, RenderError> {
+    sh.check()?;
+    check_flow(u)?;
+    if gbuffer.width() != u.width || gbuffer.height() != u.height {
+        return Err(RenderError::bad(
+            "G-buffer",
+            format!("{}x{}", gbuffer.width(), gbuffer.height()),
+            "does not match the uniforms it is shaded with",
+        ));
+    }
+    let field = flow_field(gbuffer, u, sh);
+    let w = u.width;
+    Ok((0..w * u.height)
+        .into_par_iter()
+        .map(|i| flow_lic(&field, w, i % w, i / w))
+        .collect())
+}
+
+/// The `flow` mode's colour: `c` (the tone shading) times
+/// `0.5 + clamp(0.5 + FLOW_CONTRAST·(lic − 0.5), 0, 1)`; `c` itself where `lic < 0` (no
+/// flow). `flow_modulate` in `shaders/shade.wgsl`.
+pub fn flow_modulate(c: [f32; 4], lic: f32) -> [f32; 4] {
+    if lic < 0.0 {
+        return c;
+    }
+    let m = 0.5 + (0.5 + FLOW_CONTRAST * (lic - 0.5)).clamp(0.0, 1.0);
+    [c[0] * m, c[1] * m, c[2] * m, c[3]]
+}
+
 /// Shades a G-buffer traced with uniforms `u` (the camera) into an image, in parallel. For
 /// a multi-view G-buffer ([`crate::render_multiview`], 3 subpixels per pixel) each channel
-/// of a pixel comes from its own subpixel's sample, seen from that subpixel's view.
+/// of a pixel comes from its own subpixel's sample, seen from that subpixel's view. The
+/// `flow` mode computes the LIC image of the whole G-buffer first ([`flow_image`]) and
+/// refuses multi-view G-buffers.
 pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, RenderError> {
     sh.check()?;
     let subs = u.subpixels.max(1);
@@ -474,6 +701,11 @@ pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, Ren
         vec![default_light(u)]
     } else {
         sh.lights.clone()
+    };
+    let lic = if sh.mode == ShadingMode::Flow {
+        Some(flow_image(gbuffer, u, sh)?)
+    } else {
+        None
     };
     let pixel_angle = 2.0 * u.half_height / u.height as f32;
     let color = |s: &GSample, px: u32, py: u32, sub: u32| {
@@ -493,7 +725,11 @@ pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, Ren
             .enumerate()
             .map(|(i, s)| {
                 let (px, py) = px_of(i);
-                color(s, px, py, 0)
+                let c = color(s, px, py, 0);
+                match &lic {
+                    Some(l) => flow_modulate(c, l[i]),
+                    None => c,
+                }
             })
             .collect()
     } else {

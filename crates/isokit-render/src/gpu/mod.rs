@@ -1,5 +1,6 @@
 //! The GPU twin of the ray caster and of deferred shading (wgpu compute, WGSL in
-//! `shaders/raycast_common.wgsl`, `shaders/raycast.wgsl` and `shaders/shade.wgsl`).
+//! `shaders/raycast_common.wgsl`, `shaders/raycast.wgsl`, `shaders/shade.wgsl` and, for
+//! the `flow` mode's LIC pass, `shaders/flow.wgsl`).
 //!
 //! [`GpuRenderer`] renders the same [`GBuffer`] as [`crate::render`] and shades it as
 //! [`crate::shade()`] does: the kernels mirror [`crate::kernel`] and
@@ -72,6 +73,7 @@ pub const DEFAULT_MAX_RAYS_PER_DISPATCH: usize = 1 << 20;
 const RAYCAST_COMMON: &str = include_str!("../../../../shaders/raycast_common.wgsl");
 const RAYCAST: &str = include_str!("../../../../shaders/raycast.wgsl");
 const SHADE: &str = include_str!("../../../../shaders/shade.wgsl");
+const FLOW: &str = include_str!("../../../../shaders/flow.wgsl");
 
 /// Runs `f` (buffer allocations, bind groups) under out-of-memory and validation error
 /// scopes, so that what wgpu reports comes back as an error instead of reaching its default
@@ -136,7 +138,19 @@ pub fn shade_shader() -> ShaderSource {
             mode_code(mode),
         );
     }
-    src.piece(RAYCAST_COMMON).piece(SHADE)
+    src.constant_f32("FLOW_CONTRAST", crate::shade::FLOW_CONTRAST)
+        .piece(RAYCAST_COMMON)
+        .piece(SHADE)
+}
+
+/// The `flow` shading mode's LIC kernel, assembled: `WORKGROUP`, `ID_MISS`, `FLOW_STEPS`
+/// from Rust, `flow.wgsl` (entry point `flow`).
+pub fn flow_shader() -> ShaderSource {
+    ShaderSource::new("flow")
+        .constant_u32("WORKGROUP", WORKGROUP)
+        .constant_u32("ID_MISS", ID_MISS)
+        .constant_u32("FLOW_STEPS", crate::shade::FLOW_STEPS)
+        .piece(FLOW)
 }
 
 /// The code of a shading mode in the kernel: its index in [`ShadingMode::ALL`].
@@ -232,6 +246,8 @@ pub struct GpuRenderer {
     gpu: Gpu,
     trace: wgpu::ComputePipeline,
     shade: wgpu::ComputePipeline,
+    /// The `flow` mode's LIC pass.
+    flow: wgpu::ComputePipeline,
     /// Brick slots asked for (the pool is bounded by the device's limits, too).
     cache_bricks: Option<usize>,
     cache_bytes: usize,
@@ -249,10 +265,13 @@ impl GpuRenderer {
         let trace = gpu.compute_pipeline(t.label(), t.text(), "trace")?;
         let s = shade_shader();
         let shade = gpu.compute_pipeline(s.label(), s.text(), "shade")?;
+        let f = flow_shader();
+        let flow = gpu.compute_pipeline(f.label(), f.text(), "flow")?;
         Ok(Self {
             gpu,
             trace,
             shade,
+            flow,
             cache_bricks: None,
             cache_bytes: DEFAULT_CACHE_BYTES,
             max_rays: DEFAULT_MAX_RAYS_PER_DISPATCH,
@@ -520,6 +539,7 @@ mod tests {
     fn every_shader_validates_with_naga() {
         raycast_shader().validate().unwrap();
         shade_shader().validate().unwrap();
+        flow_shader().validate().unwrap();
     }
 
     #[test]
@@ -538,6 +558,10 @@ mod tests {
             Some(size_of::<shade::ShadeParams>() as u32)
         );
         assert_eq!(size(&s, "Light"), Some(size_of::<shade::GpuLight>() as u32));
+        assert_eq!(
+            size(&flow_shader(), "FlowParams"),
+            Some(size_of::<shade::FlowParams>() as u32)
+        );
     }
 
     #[test]
@@ -545,6 +569,7 @@ mod tests {
         let src = shade_shader();
         assert!(src.text().contains("const MODE_PHONG: u32 = 0u;"));
         assert!(src.text().contains("const MODE_TEXTURE: u32 = 12u;"));
+        assert!(src.text().contains("const MODE_FLOW: u32 = 13u;"));
         // Every mode has a case in the kernel.
         for (name, _) in ShadingMode::ALL {
             let case = format!("case MODE_{}:", name.to_ascii_uppercase());

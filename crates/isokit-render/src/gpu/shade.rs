@@ -1,9 +1,15 @@
 //! The host side of GPU deferred shading (the twin of [`crate::shade()`]).
+//!
+//! The `flow` mode adds a pass before the chunked shading: the host projects the
+//! direction field ([`crate::shade::flow_field`], the CPU twin's own function, so both
+//! twins start from the same bits), uploads it whole (8 bytes of direction and 4 of key
+//! per pixel; refused when it exceeds the largest storage binding), and `flow.wgsl`
+//! writes the LIC value of every pixel into a buffer the shading pass reads.
 
 use super::{GpuPixel, GpuRenderer, WORKGROUP, check_fits, mode_code, scoped};
 use crate::kernel::Uniforms;
-use crate::shade::default_light;
-use crate::{GBuffer, Image, Light, RenderError, Shading};
+use crate::shade::{check_flow, default_light, flow_field};
+use crate::{GBuffer, Image, Light, RenderError, Shading, ShadingMode};
 use bytemuck::{Pod, Zeroable};
 use isokit_gpu::wgpu;
 
@@ -25,6 +31,56 @@ pub(crate) struct ShadeParams {
     pub(crate) count: u32,
     pub(crate) stride: u32,
     pub(crate) pad: [u32; 2],
+}
+
+/// `FlowParams` in `flow.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct FlowParams {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) count: u32,
+    pub(crate) stride: u32,
+}
+
+/// Runs the `flow` mode's LIC pass over the whole (single-view) G-buffer; returns the
+/// buffer of one f32 per pixel that the shading pass binds.
+fn flow_pass(
+    r: &GpuRenderer,
+    gbuffer: &GBuffer,
+    u: &Uniforms,
+    sh: &Shading,
+) -> Result<wgpu::Buffer, RenderError> {
+    check_flow(u)?;
+    let gpu = &r.gpu;
+    let total = u.width as usize * u.height as usize;
+    check_fits(gpu, "the flow direction field", 8 * total as u64)?;
+    let field = flow_field(gbuffer, u, sh);
+    let dirs: Vec<[f32; 2]> = field.iter().map(|f| f.dir).collect();
+    let keys: Vec<u32> = field.iter().map(|f| f.key).collect();
+    drop(field);
+    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
+    let groups = total.div_ceil(WORKGROUP as usize);
+    let gx = groups.min(max);
+    let gy = groups.div_ceil(gx);
+    let params = FlowParams {
+        width: u.width,
+        height: u.height,
+        count: total as u32,
+        stride: gx as u32 * WORKGROUP,
+    };
+    let storage = wgpu::BufferUsages::STORAGE;
+    // The parameters and the field are only read through the bind group.
+    let (_pbuf, _dbuf, _kbuf, lic, bind) = scoped(gpu, "allocating the flow buffers", || {
+        let pbuf = gpu.upload("flow params", &[params], wgpu::BufferUsages::UNIFORM);
+        let dbuf = gpu.upload("flow directions", &dirs, storage);
+        let kbuf = gpu.upload("flow keys", &keys, storage);
+        let lic = gpu.buffer("flow lic", 4 * total as u64, storage);
+        let bind = gpu.bind_buffers("flow", &r.flow, &[&pbuf, &dbuf, &kbuf, &lic]);
+        (pbuf, dbuf, kbuf, lic, bind)
+    })?;
+    gpu.dispatch("flow", &r.flow, &bind, [gx as u32, gy as u32, 1])?;
+    Ok(lic)
 }
 
 /// `Light` in `shade.wgsl`.
@@ -90,6 +146,14 @@ pub(crate) fn shade(
         "the lights",
         std::mem::size_of_val(lights.as_slice()) as u64,
     )?;
+    // The LIC image of the `flow` mode, else a placeholder for its binding.
+    let flow = if sh.mode == ShadingMode::Flow {
+        flow_pass(r, gbuffer, u, sh)?
+    } else {
+        scoped(gpu, "allocating the shading buffers", || {
+            gpu.buffer("shade flow placeholder", 4, storage)
+        })?
+    };
     // The uniforms and lights are only read through the bind group.
     let (_ubuf, pbuf, gbuf, _lbuf, image, bind) =
         scoped(gpu, "allocating the shading buffers", || {
@@ -102,7 +166,11 @@ pub(crate) fn shade(
             let gbuf = gpu.buffer("shade g-buffer", chunk as u64 * per_pixel, storage);
             let lbuf = gpu.upload("shade lights", &lights, storage);
             let image = gpu.buffer("shade image", 16 * chunk as u64, storage);
-            let bind = gpu.bind_buffers("shade", &r.shade, &[&ubuf, &pbuf, &gbuf, &lbuf, &image]);
+            let bind = gpu.bind_buffers(
+                "shade",
+                &r.shade,
+                &[&ubuf, &pbuf, &gbuf, &lbuf, &image, &flow],
+            );
             (ubuf, pbuf, gbuf, lbuf, image, bind)
         })?;
     let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
