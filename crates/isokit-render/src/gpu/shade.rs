@@ -33,6 +33,36 @@ pub(crate) struct ShadeParams {
     pub(crate) pad: [u32; 2],
 }
 
+impl ShadeParams {
+    /// The parameters of one dispatch of a shading pass: `sh` with `lights` lights for the
+    /// camera `u`, pixels `base..base + len`, `stride` invocations per row of workgroups.
+    pub(crate) fn new(
+        sh: &Shading,
+        lights: usize,
+        u: &Uniforms,
+        base: usize,
+        len: usize,
+        stride: u32,
+    ) -> Self {
+        Self {
+            color: sh.color.to_array(),
+            mode: mode_code(sh.mode),
+            background: sh.background,
+            ambient: sh.ambient,
+            specular: sh.specular,
+            shininess: sh.shininess,
+            curvature_scale: sh.curvature_scale,
+            contour_pixels: sh.contour_pixels,
+            lights: lights as u32,
+            pixel_angle: 2.0 * u.half_height / u.height as f32,
+            pixel_base: base as u32,
+            count: len as u32,
+            stride,
+            pad: [0; 2],
+        }
+    }
+}
+
 /// `FlowParams` in `flow.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -186,22 +216,7 @@ pub(crate) fn shade(
         let groups = len.div_ceil(WORKGROUP as usize);
         let gx = groups.min(max);
         let gy = groups.div_ceil(gx);
-        let params = ShadeParams {
-            color: sh.color.to_array(),
-            mode: mode_code(sh.mode),
-            background: sh.background,
-            ambient: sh.ambient,
-            specular: sh.specular,
-            shininess: sh.shininess,
-            curvature_scale: sh.curvature_scale,
-            contour_pixels: sh.contour_pixels,
-            lights: lights.len() as u32,
-            pixel_angle: 2.0 * u.half_height / u.height as f32,
-            pixel_base: base as u32,
-            count: len as u32,
-            stride: gx as u32 * WORKGROUP,
-            pad: [0; 2],
-        };
+        let params = ShadeParams::new(sh, lights.len(), u, base, len, gx as u32 * WORKGROUP);
         gpu.write(&pbuf, 0, bytemuck::bytes_of(&params));
         gpu.dispatch("shade", &r.shade, &bind, [gx as u32, gy as u32, 1])?;
         let out: Vec<[f32; 4]> = gpu.read_buffer(&image, 0, len)?;

@@ -1130,22 +1130,7 @@ impl GpuRenderer {
             let gx = groups.min(max);
             let gy = groups.div_ceil(gx);
             let params = SplatShadeParams {
-                shade: ShadeParams {
-                    color: sh.color.to_array(),
-                    mode: mode_code(sh.mode),
-                    background: sh.background,
-                    ambient: sh.ambient,
-                    specular: sh.specular,
-                    shininess: sh.shininess,
-                    curvature_scale: sh.curvature_scale,
-                    contour_pixels: sh.contour_pixels,
-                    lights: lights.len() as u32,
-                    pixel_angle: 2.0 * u.half_height / h as f32,
-                    pixel_base: base as u32,
-                    count: len as u32,
-                    stride: gx as u32 * WORKGROUP,
-                    pad: [0; 2],
-                },
+                shade: ShadeParams::new(sh, lights.len(), u, base, len, gx as u32 * WORKGROUP),
                 shadow: shadow.as_ref().map(|s| s.map.params).unwrap_or_default(),
                 outline_color: outline_opts.color.to_array(),
                 outlines: u32::from(opts.outlines.is_some()),
