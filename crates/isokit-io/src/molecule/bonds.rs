@@ -13,6 +13,12 @@ pub const MAX_HH_BOND_DISTANCE: f32 = 0.8;
 /// as thousands of atoms packed 0.5 Å apart, which would otherwise produce a number of
 /// bonds quadratic in the atom count). No real molecule comes near it.
 pub const MAX_INFERRED_BONDS_PER_ATOM: usize = 16;
+/// Each atom is compared with at most this many atoms of each neighbouring cell (its own
+/// included). A cell of the grid (edge: the longest possible bond, about 3.5 Å) holds a
+/// handful of atoms in any real structure; the cap only binds for pathological input
+/// (thousands of atoms piled at one point), where it keeps inference linear instead of
+/// quadratic, at the price of bonds among the pile not being inferred.
+pub const MAX_CANDIDATES_PER_CELL: usize = 256;
 /// Tolerances outside `-MAX_TOLERANCE..=MAX_TOLERANCE` (Å) are clamped to it.
 pub const MAX_TOLERANCE: f32 = 1.0;
 
@@ -212,7 +218,7 @@ pub(crate) fn infer(
     for &(s, e) in &runs {
         let here = &order[s..e];
         for (a, &(_, i)) in here.iter().enumerate() {
-            for &(_, j) in &here[a + 1..] {
+            for &(_, j) in here[a + 1..].iter().take(MAX_CANDIDATES_PER_CELL) {
                 consider(i, j, &mut degree, &mut bonds);
             }
         }
@@ -230,7 +236,7 @@ pub(crate) fn infer(
                 continue;
             };
             for &(_, i) in here {
-                for &(_, j) in &order[ns..ne] {
+                for &(_, j) in order[ns..ne].iter().take(MAX_CANDIDATES_PER_CELL) {
                     consider(i, j, &mut degree, &mut bonds);
                 }
             }

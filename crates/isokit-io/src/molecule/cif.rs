@@ -378,13 +378,26 @@ impl Rows<'_> {
         let element = match get(self.cols.type_symbol).map(Element::from_symbol) {
             Some(e) if e != Element::Unknown => e,
             _ => {
-                // No usable type_symbol: place the name as PDB would and infer.
-                let padded = if name.len() >= 4 {
-                    name.to_string()
-                } else {
-                    format!(" {name}")
-                };
-                element_from_atom_name(&padded, residue, hetero)
+                // No usable type_symbol: place the name as PDB would and infer. mmCIF
+                // names carry no column alignment, so in ligands (HETATM) a name starting
+                // with a two-letter metal, halogen or selenium (`FE` in HEM, `SE` in MSE,
+                // `CL1`) is taken as that element; elsewhere the PDB rule applies.
+                let two = name.get(..2).map(str::to_ascii_uppercase);
+                const TWO: [&str; 15] = [
+                    "FE", "ZN", "MG", "MN", "CU", "CO", "NI", "CL", "BR", "SE", "NA", "CD", "HG",
+                    "PT", "AU",
+                ];
+                match two {
+                    Some(t) if hetero && TWO.contains(&t.as_str()) => Element::from_symbol(&t),
+                    _ => {
+                        let padded = if name.len() >= 4 {
+                            name.to_string()
+                        } else {
+                            format!(" {name}")
+                        };
+                        element_from_atom_name(&padded, residue, hetero)
+                    }
+                }
             }
         };
         let serial = get(self.cols.id)

@@ -814,6 +814,14 @@ fn molecule_mmcif_single_atom_and_missing_type_symbol() {
     assert_eq!(m.atoms[0].element, Element::C);
     assert_eq!(m.atoms[1].element, Element::H);
     assert_eq!(m.atoms[1].serial, 2);
+    // Ligand atoms named after two-letter elements: iron in a haem, selenium in MSE,
+    // chlorine; a ligand's CA stays carbon.
+    let het = "data_\nloop_\n_atom_site.group_PDB\n_atom_site.label_atom_id\n_atom_site.label_comp_id\n\
+               _atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n\
+               HETATM FE HEM 0 0 0\nHETATM SE MSE 3 0 0\nHETATM CL1 LIG 6 0 0\nHETATM CA MSE 9 0 0\n";
+    let m = cif(het).unwrap();
+    let e: Vec<Element> = m.atoms.iter().map(|a| a.element).collect();
+    assert_eq!(e, [Element::Fe, Element::Se, Element::Cl, Element::C]);
 }
 
 #[test]
@@ -1073,4 +1081,23 @@ fn molecule_bundled_multimodel_keeps_the_first() {
         (m.atoms[0].name.as_str(), m.atoms[0].residue_seq),
         ("N", 17)
     );
+}
+
+#[test]
+fn molecule_a_pile_of_coincident_atoms_does_not_make_inference_quadratic() {
+    // 200,000 atoms at one point (a broken file) next to a water molecule: without the cap
+    // on candidates per cell this tests 2e10 pairs; with it, about 5e7.
+    let mut m = Molecule::default();
+    for _ in 0..200_000 {
+        m.atoms
+            .push(Atom::new(Element::C, Vec3::new(50.0, 50.0, 50.0)));
+    }
+    m.atoms.push(Atom::new(Element::O, Vec3::ZERO));
+    m.atoms
+        .push(Atom::new(Element::H, Vec3::new(0.757, 0.586, 0.0)));
+    m.atoms
+        .push(Atom::new(Element::H, Vec3::new(-0.757, 0.586, 0.0)));
+    m.infer_bonds(DEFAULT_BOND_TOLERANCE);
+    // Coincident atoms never bond; the water's two O–H bonds are found.
+    assert_eq!(m.bonds, vec![[200_000, 200_001], [200_000, 200_002]]);
 }
