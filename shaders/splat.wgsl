@@ -252,8 +252,10 @@ fn vs_splat(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) ->
     // Corners (x0, y0) (x1, y0) (x0, y1), (x0, y1) (x1, y0) (x1, y1).
     let right = vi == 1u || vi == 4u || vi == 5u;
     let bottom = vi == 2u || vi == 3u || vi == 5u;
-    let x = select(b.x, b.z, right);
-    let y = select(b.y, b.w, bottom);
+    // One pixel beyond the box, so that the rasterizer's sub-pixel precision can never drop
+    // a covered pixel; `in_box` then keeps exactly the CPU's pixels (splat.rs: pixel_range).
+    let x = select(b.x - 1.0, b.z + 1.0, right);
+    let y = select(b.y - 1.0, b.w + 1.0, bottom);
     let ndc = vec2<f32>(2.0 * x / f32(U.width) - 1.0, 1.0 - 2.0 * y / f32(U.height));
     return VOut(vec4<f32>(ndc, 0.0, 1.0), ii);
 }
@@ -268,11 +270,23 @@ struct GOut {
     @builtin(frag_depth) depth: f32,
 }
 
+// splat.rs: pixel_range — the pixels whose centres lie in the box, the same f32 operations.
+fn in_box(b: vec4<f32>, px: u32, py: u32) -> bool {
+    let size = vec2<f32>(f32(U.width), f32(U.height));
+    let lo = clamp(ceil(b.xy - 0.5), vec2<f32>(0.0), size);
+    let hi = clamp(floor(b.zw - 0.5) + 1.0, vec2<f32>(0.0), size);
+    let p = vec2<f32>(f32(px), f32(py));
+    return all(p >= lo) && all(p < hi);
+}
+
 @fragment
 fn fs_gbuffer(in: VOut) -> GOut {
     let px = u32(in.pos.x);
     let py = u32(in.pos.y);
     let s = setups[in.quadric];
+    if (!in_box(s.bbox, px, py)) {
+        discard;
+    }
     let ray = subpixel_ray(px, py, 0u);
     let hit = fragment(s, ray);
     if (!hit.ok) {
@@ -313,6 +327,9 @@ struct ShadowOut {
 fn fs_shadow(in: VOut) -> ShadowOut {
     let px = u32(in.pos.x);
     let py = u32(in.pos.y);
+    if (!in_box(setups[in.quadric].bbox, px, py)) {
+        discard;
+    }
     let ray = subpixel_ray(px, py, 0u);
     let hit = fragment(setups[in.quadric], ray);
     if (!hit.ok) {

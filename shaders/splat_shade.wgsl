@@ -35,7 +35,7 @@ struct SplatShadeParams {
     shadows: u32,              // 1: soft shadows from `shadow_map`
     colors: u32,               // number of object colours
     shadow_stride: u32,        // f32 per row of `shadow_map` (rows padded to 256 bytes)
-    width: u32,                // image width (the outline images' width)
+    pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> U: Uniforms;

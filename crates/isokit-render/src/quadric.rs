@@ -149,12 +149,12 @@ impl Quadric {
         let lmin = lens.iter().cloned().fold(f64::INFINITY, f64::min);
         let det = DMat3::from_cols(u, v, t).determinant();
         if !(lmin > 0.0 && lmax / lmin <= MAX_AXIS_RATIO)
-            || det.abs() <= 1e-9 * lens[0] * lens[1] * lens[2]
+            || det.abs() <= lens[0] * lens[1] * lens[2] / MAX_AXIS_RATIO
         {
             return Err(RenderError::bad(
                 "quadric",
                 format!("axes {u} {v} {t}"),
-                "axes must be nonzero, independent, and within a ratio of 1e6 in length",
+                "axes must be nonzero, within a ratio of 1e6 in length, and not nearly dependent (|det| above 1e-6 of the product of their lengths)",
             ));
         }
         if kind == QuadricKind::Cone && !(0.0..1.0).contains(&z_lo) {
@@ -225,8 +225,11 @@ impl Quadric {
         } else {
             (p1, r1, p0, r0)
         };
-        if (ra - rb).abs() <= 1e-12 * rb {
-            return Self::cylinder(a, b, rb);
+        // A frustum whose apex lies beyond the axis-ratio limit is a cylinder to f32
+        // precision: the mean radius, not a refusal.
+        let len = (b - a).length();
+        if (rb - ra) * MAX_AXIS_RATIO <= 2.0 * len.max(rb) || (ra - rb).abs() <= 1e-12 * rb {
+            return Self::cylinder(a, b, 0.5 * (ra + rb));
         }
         let (u, v, axis) = frame(a, b)?;
         let z_lo = ra / rb;
@@ -257,12 +260,19 @@ impl Quadric {
         let a = nalgebra::Matrix3::from_fn(|i, j| q[i.min(j)][i.max(j)]);
         let b = DVec3::new(q[0][3], q[1][3], q[2][3]);
         let j = q[3][3];
-        let scale = a.abs().max().max(b.abs().max_element()).max(j.abs());
-        if scale == 0.0 {
-            return Err(RenderError::bad("conic matrix", "0", "must not be zero"));
+        // Scale by the quadratic part alone: the linear and constant terms grow with the
+        // distance of the centre from the origin and must not decide what counts as zero.
+        let scale = a.abs().max();
+        if scale == 0.0 || !scale.is_finite() {
+            return Err(RenderError::bad(
+                "conic matrix",
+                format!("{q:?}"),
+                "has no quadratic part (a plane), or it overflows",
+            ));
         }
         let eig = nalgebra::SymmetricEigen::new(a / scale);
         let (b, j) = (b / scale, j / scale);
+        // Eigenvalues below this (relative to the largest, 1 after scaling) count as zero.
         let tol = 1e-9;
         let lam: [f64; 3] = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
         let col = |i: usize| {
@@ -270,26 +280,28 @@ impl Quadric {
             DVec3::new(c[0], c[1], c[2])
         };
         let unsupported = |why| Err(RenderError::bad("conic matrix", format!("{q:?}"), why));
-        let zero: Vec<usize> = (0..3).filter(|&i| lam[i].abs() <= tol).collect();
         let lmax = lam.iter().map(|l| l.abs()).fold(0.0, f64::max);
+        let zero: Vec<usize> = (0..3).filter(|&i| lam[i].abs() <= tol * lmax).collect();
         // Centre: least-squares solution of A c = −b in the eigenbasis; b must lie in the
         // range of A (else a paraboloid).
         let mut c = DVec3::ZERO;
         for (i, &l) in lam.iter().enumerate() {
             let bi = col(i).dot(b);
             if zero.contains(&i) {
-                if bi.abs() > tol * lmax.max(1.0) {
+                if bi.abs() > tol * (b.length() + lmax) {
                     return unsupported("a paraboloid (not splatted)");
                 }
             } else {
                 c -= col(i) * (bi / l);
             }
         }
-        // Form: Σ λᵢ yᵢ² + k with k = j − cᵀ A c = j + b·c.
+        // Form: Σ λᵢ yᵢ² + k with k = j − cᵀ A c = j + b·c; k is zero (a cone) relative to
+        // the terms that cancel in it.
         let k = j + b.dot(c);
+        let k_zero = k.abs() <= 1e-13 * (j.abs() + b.dot(c).abs());
         let nonzero: Vec<usize> = (0..3).filter(|i| !zero.contains(i)).collect();
         let axis = |i: usize, l: f64, k: f64| col(i) * (k / l).abs().sqrt();
-        match (zero.len(), k.abs() <= tol * lmax) {
+        match (zero.len(), k_zero) {
             (0, false) => {
                 // Ellipsoid: every λ has the sign opposite to k.
                 if lam.iter().any(|&l| l * k >= 0.0) {
@@ -1042,6 +1054,25 @@ mod tests {
         assert!(Quadric::from_conic(m(cyl.conic()), None).is_err());
         h[3][3] = f64::NAN;
         assert!(Quadric::from_conic(h, None).is_err());
+        // Far from the origin and at extreme scales the classes are still recognized.
+        for (c, r) in [(1e5, 1.0), (0.0, 1e-5), (0.0, 1e5), (3e3, 2e-2)] {
+            let s = Quadric::sphere(DVec3::new(c, -0.5 * c, 0.0), r).unwrap();
+            let back = Quadric::from_conic(m(s.conic()), None).unwrap();
+            assert_eq!(
+                back.kind(),
+                QuadricKind::Ellipsoid,
+                "centre {c}, radius {r}"
+            );
+            let p = DVec3::new(c + r, -0.5 * c, 0.0);
+            assert!(back.eval(p).abs() < 1e-4, "{}", back.eval(p));
+        }
+        let far =
+            Quadric::cylinder(DVec3::new(1e4, 0.0, 0.0), DVec3::new(1e4, 0.0, 5.0), 0.5).unwrap();
+        let ends = Some((DVec3::new(1e4, 0.0, 0.0), DVec3::new(1e4, 0.0, 5.0)));
+        assert_eq!(
+            Quadric::from_conic(m(far.conic()), ends).unwrap().kind(),
+            QuadricKind::Cylinder
+        );
     }
 
     #[test]
@@ -1053,9 +1084,23 @@ mod tests {
         assert!(
             Quadric::ellipsoid(DVec3::ZERO, DVec3::new(1.0, 1.0, 1e-9), DMat3::IDENTITY).is_err()
         );
-        // Equal radii make a cylinder.
+        // Equal radii make a cylinder, and so do radii too close for an apex within reach.
         let c = Quadric::cone(DVec3::ZERO, 1.0, DVec3::X, 1.0).unwrap();
         assert_eq!(c.kind(), QuadricKind::Cylinder);
+        let c = Quadric::cone(DVec3::ZERO, 1.0, DVec3::X, 1.000_001).unwrap();
+        assert_eq!(c.kind(), QuadricKind::Cylinder);
+        let c = Quadric::cone(DVec3::ZERO, 1.0, DVec3::X, 1.1).unwrap();
+        assert_eq!(c.kind(), QuadricKind::Cone);
+        // Nearly dependent axes are refused.
+        let sheared = Quadric::from_axes(
+            QuadricKind::Ellipsoid,
+            DVec3::X,
+            DVec3::new(1.0, 1e-8, 0.0),
+            DVec3::Z,
+            DVec3::ZERO,
+            -1.0,
+        );
+        assert!(sheared.is_err());
     }
 
     #[test]

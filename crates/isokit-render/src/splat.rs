@@ -112,7 +112,15 @@ pub struct SplatOptions {
     /// Near plane, world distance along the view direction; `None`: 1e-4 of the distance
     /// from the eye to the scene's centre (perspective), 0 (orthographic).
     pub near: Option<f32>,
+    /// CPU twin: evaluate every fragment, as the GPU does, instead of skipping the
+    /// quadrics that lie behind a tile's already covered pixels (occlusion culling: the
+    /// same image, fewer fragments evaluated; for comparisons and statistics).
+    pub exhaustive: bool,
 }
+
+/// Largest number of (tile, quadric) pairs the CPU twin bins (4 GiB of indices): a scene
+/// whose boxes cover more is refused with an error rather than exhausting memory.
+pub const MAX_BIN_ENTRIES: u64 = 1 << 30;
 
 /// Counts of a splat pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -121,9 +129,12 @@ pub struct SplatStats {
     pub quadrics: usize,
     /// Quadrics with a box on screen (not culled).
     pub drawn: usize,
-    /// Fragments: pixel centres inside boxes, each running the intersection.
+    /// Fragments: pixel centres inside boxes (what a rasterizer would shade).
     pub fragments: u64,
-    /// Fragments whose ray hit their quadric.
+    /// Fragments whose intersection was evaluated: all of them on the GPU and with
+    /// [`SplatOptions::exhaustive`], fewer on the CPU with occlusion culling.
+    pub evaluated: u64,
+    /// Evaluated fragments whose ray hit their quadric.
     pub hits: u64,
     /// Wall time of set-up, seconds.
     pub setup_seconds: f64,
@@ -264,24 +275,84 @@ pub fn splat(
     scene.check()?;
     let u = camera_uniforms(camera)?;
     let view = view_for(&u, scene, opts)?;
-    splat_view(scene, &u, view)
+    splat_view_with(scene, &u, view, opts.exhaustive)
 }
 
-/// [`splat`] for given uniforms and view.
+/// [`splat`] for given uniforms and view, with occlusion culling.
 pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatFrame, RenderError> {
+    splat_view_with(scene, u, view, false)
+}
+
+/// A lower bound of the distance along any ray from the eye to a quadric: the smallest
+/// depth along the view direction of its world box's corners (a ray's distance is at least
+/// its point's depth), shrunk by a relative 1e-5 against f32 rounding.
+fn nearest_bound(q: &Quadric, view: &View) -> f32 {
+    let (lo, hi) = q.bounds();
+    let mut n = f64::INFINITY;
+    for c in 0..8 {
+        let p = DVec3::new(
+            if c & 1 == 0 { lo.x } else { hi.x },
+            if c & 2 == 0 { lo.y } else { hi.y },
+            if c & 4 == 0 { lo.z } else { hi.z },
+        );
+        n = n.min((p - view.eye).dot(view.forward));
+    }
+    let n = n.max(0.0);
+    (n * (1.0 - 1e-5)) as f32
+}
+
+/// [`splat_view`], culling or not. With culling each tile takes its quadrics in order of
+/// [`nearest_bound`] and stops once every pixel of the tile is covered by a hit nearer
+/// than the next quadric can be; ties in depth go to the lower quadric index either way.
+pub fn splat_view_with(
+    scene: &SplatScene,
+    u: &Uniforms,
+    view: View,
+    exhaustive: bool,
+) -> Result<SplatFrame, RenderError> {
     scene.check()?;
     let t0 = Instant::now();
     let set = setups(scene, &view);
+    let near_t: Vec<f32> = if exhaustive {
+        Vec::new()
+    } else {
+        set.par_iter()
+            .map(|s| nearest_bound(&scene.quadrics[s.object as usize], &view))
+            .collect()
+    };
     let setup_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let (w, h) = (u.width, u.height);
     let near = view.near as f32;
     let (tx, ty) = (w.div_ceil(TILE), h.div_ceil(TILE));
-    // Bin set-up indices into tiles (scene order is kept within each tile).
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tx * ty) as usize];
-    for (k, s) in set.iter().enumerate() {
-        let r = pixel_range(s, w, h);
+    let tiles_of = |r: [u32; 4]| -> u64 {
         if r[0] >= r[2] || r[1] >= r[3] {
+            0
+        } else {
+            u64::from((r[2] - 1) / TILE - r[0] / TILE + 1)
+                * u64::from((r[3] - 1) / TILE - r[1] / TILE + 1)
+        }
+    };
+    let ranges: Vec<[u32; 4]> = set.iter().map(|s| pixel_range(s, w, h)).collect();
+    let entries: u64 = ranges.iter().map(|r| tiles_of(*r)).sum();
+    if entries > MAX_BIN_ENTRIES {
+        return Err(RenderError::bad(
+            "scene",
+            format!(
+                "{} quadrics whose boxes cover {entries} (tile, quadric) pairs",
+                set.len()
+            ),
+            "exceeds the CPU splatter's 2^30 binning limit; render a smaller image or fewer overlapping quadrics",
+        ));
+    }
+    let fragments: u64 = ranges
+        .iter()
+        .map(|r| u64::from(r[2].saturating_sub(r[0])) * u64::from(r[3].saturating_sub(r[1])))
+        .sum();
+    // Bin set-up indices into tiles (scene order within each tile).
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tx * ty) as usize];
+    for (k, r) in ranges.iter().enumerate() {
+        if tiles_of(*r) == 0 {
             continue;
         }
         for by in r[1] / TILE..=(r[3] - 1) / TILE {
@@ -292,30 +363,52 @@ pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatF
     }
     struct TileOut {
         samples: Vec<(u32, GSample, u32)>,
-        fragments: u64,
+        evaluated: u64,
         hits: u64,
     }
     let tiles: Vec<TileOut> = bins
-        .par_iter()
+        .into_par_iter()
         .enumerate()
-        .map(|(ti, list)| {
+        .map(|(ti, mut list)| {
             let (bx, by) = (ti as u32 % tx, ti as u32 / tx);
             let (x0, y0) = (bx * TILE, by * TILE);
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
             let tw = (x1 - x0) as usize;
             let mut best_t = vec![f32::INFINITY; tw * (y1 - y0) as usize];
             let mut best_k = vec![u32::MAX; best_t.len()];
-            let (mut fragments, mut hits) = (0u64, 0u64);
-            for &k in list {
+            let (mut evaluated, mut hits) = (0u64, 0u64);
+            if !exhaustive {
+                list.sort_unstable_by(|a, b| {
+                    near_t[*a as usize]
+                        .total_cmp(&near_t[*b as usize])
+                        .then(a.cmp(b))
+                });
+            }
+            // Pixels of the tile still uncovered, and an upper bound of the covered depths
+            // (refreshed every few quadrics once all are covered).
+            let mut uncovered = best_t.len();
+            let mut far = f32::INFINITY;
+            for (n, &k) in list.iter().enumerate() {
+                if !exhaustive && uncovered == 0 {
+                    if far == f32::INFINITY || n % 16 == 0 {
+                        far = best_t.iter().copied().fold(0.0, f32::max);
+                    }
+                    if near_t[k as usize] > far {
+                        break;
+                    }
+                }
                 let s = &set[k as usize];
-                let r = pixel_range(s, w, h);
+                let r = ranges[k as usize];
                 for py in r[1].max(y0)..r[3].min(y1) {
                     for px in r[0].max(x0)..r[2].min(x1) {
-                        fragments += 1;
+                        evaluated += 1;
                         if let Some(hit) = fragment(s, u, near, px, py) {
                             hits += 1;
                             let i = (px - x0) as usize + tw * (py - y0) as usize;
-                            if hit.t < best_t[i] {
+                            if hit.t < best_t[i] || (hit.t == best_t[i] && k < best_k[i]) {
+                                if best_k[i] == u32::MAX {
+                                    uncovered -= 1;
+                                }
                                 best_t[i] = hit.t;
                                 best_k[i] = k;
                             }
@@ -336,7 +429,7 @@ pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatF
             }
             TileOut {
                 samples,
-                fragments,
+                evaluated,
                 hits,
             }
         })
@@ -347,11 +440,12 @@ pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatF
     let mut stats = SplatStats {
         quadrics: scene.len(),
         drawn: set.len(),
+        fragments,
         setup_seconds,
         ..Default::default()
     };
     for t in tiles {
-        stats.fragments += t.fragments;
+        stats.evaluated += t.evaluated;
         stats.hits += t.hits;
         for (i, s, o) in t.samples {
             pixels[i as usize] = s;
@@ -369,6 +463,29 @@ pub fn splat_view(scene: &SplatScene, u: &Uniforms, view: View) -> Result<SplatF
 }
 
 impl SplatFrame {
+    /// Checks that the parts agree: the G-buffer is the uniforms' size (one sample per
+    /// pixel) and there is one object index per pixel. Frames made by [`splat`] always do;
+    /// frames assembled by hand may not.
+    pub fn check(&self) -> Result<(), RenderError> {
+        let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
+        if w != self.uniforms.width
+            || h != self.uniforms.height
+            || self.objects.len() != w as usize * h as usize
+        {
+            return Err(RenderError::bad(
+                "splat frame",
+                format!(
+                    "{w}x{h} G-buffer, {} objects, {}x{} uniforms",
+                    self.objects.len(),
+                    self.uniforms.width,
+                    self.uniforms.height
+                ),
+                "G-buffer, object indices and uniforms must agree in size",
+            ));
+        }
+        Ok(())
+    }
+
     /// Merges a G-buffer rendered for the same camera by another renderer (the isosurface
     /// ray caster, [`crate::render`]) into this frame by depth: each pixel keeps the nearer of
     /// the two hits, as one depth buffer would (both store `Z`, the distance from the eye
@@ -376,6 +493,7 @@ impl SplatFrame {
     /// [`Shading::color`]). Returns how many pixels came from `other`; errors when the sizes
     /// differ.
     pub fn merge_nearest(&mut self, other: &GBuffer) -> Result<usize, RenderError> {
+        self.check()?;
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
         if other.width() != w || other.height() != h {
             return Err(RenderError::bad(
@@ -658,7 +776,8 @@ pub fn shadow_factor(
             return 1;
         }
         let i = x as usize + sp.resolution as usize * y as usize;
-        u32::from(map[i] >= limit)
+        // A map shorter than resolution² (not made by `ShadowMap`) lights what it lacks.
+        u32::from(map.get(i).is_none_or(|d| *d >= limit))
     };
     let mut count = 0;
     for k in 0..8 {
@@ -797,6 +916,7 @@ pub fn shade_splat(
 ) -> Result<(Image, ShadeStats), RenderError> {
     opts.shading.check()?;
     scene.check()?;
+    frame.check()?;
     let u = &frame.uniforms;
     let mut stats = ShadeStats::default();
     let t0 = Instant::now();

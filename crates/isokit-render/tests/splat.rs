@@ -543,7 +543,15 @@ fn the_near_plane_cuts_a_solid_with_a_flat_cap() {
     let mut scene = SplatScene::default();
     scene.push(Quadric::sphere(DVec3::ZERO, 3.0).unwrap(), Vec3::ONE);
     let cam = camera(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, 16, 16, 60.0);
-    let frame = splat::splat(&scene, &cam, &SplatOptions { near: Some(0.5) }).unwrap();
+    let frame = splat::splat(
+        &scene,
+        &cam,
+        &SplatOptions {
+            near: Some(0.5),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     for p in frame.gbuffer.pixels() {
         assert_eq!(p.id, isokit_render::kernel::ID_CAP);
         assert!((p.position.z - 0.5).abs() < 1e-5, "{}", p.position);
@@ -715,13 +723,76 @@ fn scenes_are_checked() {
     let cam = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 8, 8, 40.0);
     assert!(splat::splat(&scene, &cam, &SplatOptions::default()).is_err());
     scene.colors.pop();
-    assert!(splat::splat(&scene, &cam, &SplatOptions { near: Some(-1.0) }).is_err());
+    assert!(
+        splat::splat(
+            &scene,
+            &cam,
+            &SplatOptions {
+                near: Some(-1.0),
+                ..Default::default()
+            }
+        )
+        .is_err()
+    );
     let empty = SplatScene::default();
     let frame = splat::splat(&empty, &cam, &SplatOptions::default()).unwrap();
     assert_eq!(frame.gbuffer.hit_count(), 0);
+    // A frame assembled by hand with parts that disagree is refused, not indexed past.
+    let mut broken = frame.clone();
+    broken.objects.pop();
+    assert!(splat::shade_splat(&broken, &scene, &SplatShading::default()).is_err());
+    assert!(broken.merge_nearest(&frame.gbuffer).is_err());
     assert_eq!(
         QuadricKind::Cone.diag(),
         [1.0, 1.0, -1.0, 0.0],
         "the cone's normalized form"
     );
+}
+
+#[test]
+fn occlusion_culling_changes_no_pixel() {
+    // Dense overlapping spheres, with exact duplicates (ties go to the lower index), and a
+    // few cylinders: culling must give the exhaustive G-buffer bit for bit.
+    let mut rng = SplitMix64::new(21);
+    let mut scene = SplatScene::default();
+    for i in 0..600 {
+        let q = random_quadric(&mut rng, DVec3::ZERO, 1.5);
+        scene.push(q, Vec3::splat(i as f32 / 600.0));
+        if i % 50 == 0 {
+            scene.push(q, Vec3::X);
+        }
+    }
+    let cam = camera(Vec3::new(0.5, 1.0, 4.0), Vec3::ZERO, 96, 80, 45.0);
+    let culled = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap();
+    let all = splat::splat(
+        &scene,
+        &cam,
+        &SplatOptions {
+            exhaustive: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(culled.gbuffer, all.gbuffer);
+    assert_eq!(culled.objects, all.objects);
+    assert_eq!(culled.stats.fragments, all.stats.fragments);
+    assert_eq!(all.stats.evaluated, all.stats.fragments);
+    assert!(
+        culled.stats.evaluated * 2 < all.stats.evaluated,
+        "{:?} vs {:?}",
+        culled.stats,
+        all.stats
+    );
+}
+
+#[test]
+fn too_many_overlapping_boxes_are_refused_before_binning() {
+    // 20,000 spheres filling a 4096² image: 1.3e9 (tile, quadric) pairs.
+    let mut scene = SplatScene::default();
+    for _ in 0..20_000 {
+        scene.push(Quadric::sphere(DVec3::ZERO, 1.0).unwrap(), Vec3::ONE);
+    }
+    let cam = camera(Vec3::new(0.0, 0.0, 1.5), Vec3::ZERO, 4096, 4096, 60.0);
+    let e = splat::splat(&scene, &cam, &SplatOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("binning limit"), "{e}");
 }

@@ -819,6 +819,7 @@ impl GpuRenderer {
                 quadrics: scene.len(),
                 drawn: set.len(),
                 fragments,
+                evaluated: fragments,
                 hits: u64::from(hits),
                 setup_seconds,
                 splat_seconds: t1.elapsed().as_secs_f64(),
@@ -947,6 +948,7 @@ impl GpuRenderer {
         let sh = &opts.shading;
         sh.check()?;
         scene.check()?;
+        frame.check()?;
         let u = &frame.uniforms;
         let (w, h) = (u.width, u.height);
         let g = &frame.gbuffer;
