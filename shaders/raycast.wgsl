@@ -4,7 +4,7 @@
 // resident, where it asks for the brick, saves where to resume and appends itself to the
 // next pass's list.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
-// FILTER_TRILINEAR, FILTER_TRICUBIC, REFINE_BISECTION, REFINE_SECANT, NOT_RESIDENT,
+// ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT,
 // RANGE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl.
 // CPU twin: crates/isokit-render/src/kernel.rs, function by function in the same order.
 
@@ -49,7 +49,7 @@ fn residual(f: f32) -> f32 {
 }
 
 fn block_active(r: vec2<f32>) -> bool {
-    if (U.skip_empty == 0u) {
+    if ((U.flags & FLAG_SKIP_EMPTY) == 0u) {
         return true;
     }
     let eps = RANGE_MARGIN * max(abs(r.x), abs(r.y));
@@ -139,7 +139,18 @@ fn locate(slot: u32, cell: vec3<i32>, p: vec3<f32>) -> Located {
     let c = clamp(vec3<i32>(floor(q)), lo, hi - vec3<i32>(1));
     let first = cell / i32(U.brick / U.block) * i32(U.brick) - vec3<i32>(1);
     let side = U.brick_side;
-    return Located(slot * side * side * side, c - first, q - vec3<f32>(c), q);
+    return Located(slot * channels() * side * side * side, c - first, q - vec3<f32>(c), q);
+}
+
+// Fields per brick slot: 1, or 2 when a second field is combined (kernel.rs: channels).
+fn channels() -> u32 {
+    return select(2u, 1u, U.combine == COMBINE_NONE);
+}
+
+// The same point in channel B of its slot (kernel.rs: channel_b).
+fn channel_b(l: Located) -> Located {
+    let side = U.brick_side;
+    return Located(l.base + side * side * side, l.cell, l.frac, l.p);
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -309,10 +320,59 @@ struct SegmentRay {
     slot: u32,
 }
 
+// Combines the residuals of the two fields (kernel.rs: combine); ties go to A.
+fn combine(a: f32, b: f32) -> f32 {
+    switch (U.combine) {
+        case COMBINE_UNION: {
+            return select(a, b, b < a);
+        }
+        case COMBINE_INTERSECTION: {
+            return select(a, b, b > a);
+        }
+        case COMBINE_DIFFERENCE: {
+            return select(a, -b, -b > a);
+        }
+        case COMBINE_MORPH: {
+            return (1.0 - U.morph_t) * a + U.morph_t * b;
+        }
+        default: {
+            return a;
+        }
+    }
+}
+
+// True when B attains the combination: the object map (kernel.rs: owner_is_b).
+fn owner_is_b(a: f32, b: f32) -> bool {
+    switch (U.combine) {
+        case COMBINE_UNION: {
+            return b < a;
+        }
+        case COMBINE_INTERSECTION: {
+            return b > a;
+        }
+        case COMBINE_DIFFERENCE: {
+            return -b > a;
+        }
+        default: {
+            return false;
+        }
+    }
+}
+
+// The residual of the (combined) field (kernel.rs: combined_residual).
+fn combined_residual(filter_code: u32, l: Located) -> f32 {
+    let a = residual(value_at(filter_code, l));
+    if (U.combine == COMBINE_NONE) {
+        return a;
+    }
+    let b = residual(value_at(filter_code, channel_b(l)));
+    return combine(a, b);
+}
+
 fn residual_at(ray: SegmentRay, t: f32) -> f32 {
     samples += 1u;
     let l = locate(ray.slot, ray.cell, ray.o + t * ray.d);
-    return residual(value_at(U.search_filter, l));
+    return combined_residual(U.search_filter, l);
 }
 
 const SEG_EMPTY: u32 = 0u;
@@ -392,7 +452,7 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
     var last = 0;
     for (var s = 0u; s < U.refine_steps; s++) {
         var tm: f32;
-        if (U.refine_method == REFINE_BISECTION) {
+        if ((U.flags & FLAG_SECANT) == 0u) {
             tm = 0.5 * (ta + tb);
         } else {
             tm = secant(ta, wa, tb, wb);
@@ -487,18 +547,51 @@ fn miss_pixel() -> GPixel {
     return GPixel(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, 0.0, 0.0, ID_MISS, 0u, vec3<f32>(0.0), 0.0);
 }
 
+struct Owned {
+    g: vec3<f32>,
+    h: mat3x3<f32>,
+    id: u32,
+}
+
+// Gradient, Hessian and id of the operand owning a hit (kernel.rs: owner_gradient_hessian).
+fn owner_gradient_hessian(l: Located) -> Owned {
+    if (U.combine == COMBINE_NONE) {
+        let gh = gradient_hessian_at(U.shading_filter, l);
+        return Owned(gh.g, gh.h, ID_SURFACE);
+    }
+    let lb = channel_b(l);
+    if (U.combine == COMBINE_MORPH) {
+        let ga = gradient_hessian_at(U.shading_filter, l);
+        let gb = gradient_hessian_at(U.shading_filter, lb);
+        let wa = 1.0 - U.morph_t;
+        let wb = U.morph_t;
+        return Owned(wa * ga.g + wb * gb.g, ga.h * wa + gb.h * wb, ID_SURFACE);
+    }
+    let a = residual(value_at(U.search_filter, l));
+    let b = residual(value_at(U.search_filter, lb));
+    if (!owner_is_b(a, b)) {
+        let gh = gradient_hessian_at(U.shading_filter, l);
+        return Owned(gh.g, gh.h, ID_SURFACE);
+    }
+    let gh = gradient_hessian_at(U.shading_filter, lb);
+    if (U.combine == COMBINE_DIFFERENCE) {
+        return Owned(-gh.g, gh.h * -1.0, ID_SURFACE_B);
+    }
+    return Owned(gh.g, gh.h, ID_SURFACE_B);
+}
+
 // The G-buffer sample at ray parameter t (kernel.rs: surface_sample).
 fn surface_sample(ray: SegmentRay, t: f32) -> GPixel {
     let l = locate(ray.slot, ray.cell, ray.o + t * ray.d);
-    let gh = gradient_hessian_at(U.shading_filter, l);
+    let gh = owner_gradient_hessian(l);
     let inv = 1.0 / U.spacing;
     let position = U.origin + U.spacing * l.p;
     let depth = t * U.spacing;
     let c = curvature(gh.g * inv, gh.h * (inv * inv));
     if (c.ok) {
-        return GPixel(position, depth, c.normal, 1.0, c.k1, c.k2, ID_SURFACE, 0u, c.dir1, 0.0);
+        return GPixel(position, depth, c.normal, 1.0, c.k1, c.k2, gh.id, 0u, c.dir1, 0.0);
     }
-    return GPixel(position, depth, -ray.d, 1.0, 0.0, 0.0, ID_SURFACE, 0u, any_orthonormal(ray.d), 0.0);
+    return GPixel(position, depth, -ray.d, 1.0, 0.0, 0.0, gh.id, 0u, any_orthonormal(ray.d), 0.0);
 }
 
 fn cap_sample(o: vec3<f32>, d: vec3<f32>, t: f32, axis: u32) -> GPixel {
@@ -563,7 +656,7 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
             }
             atomicStore(&counters[P.used + brick], 1u);
             let ray = SegmentRay(o, d, cell, slot);
-            let caps = first_block && U.caps != 0u;
+            let caps = first_block && (U.flags & FLAG_CAPS) != 0u;
             var seg = Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
             if (t1 > t_in || caps) {
                 seg = march_segment(ray, t_in, max(t1, t_in), caps);
@@ -575,7 +668,7 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
                 let t = refine(ray, seg.ta, seg.ra, seg.tb, seg.rb);
                 return finished(surface_sample(ray, t));
             }
-        } else if (first_block && U.caps != 0u && residual(range.x) < 0.0 && residual(range.y) < 0.0) {
+        } else if (first_block && (U.flags & FLAG_CAPS) != 0u && residual(range.x) < 0.0 && residual(range.y) < 0.0) {
             return finished(cap_sample(o, d, t_in, bx.axis));
         }
         first_block = false;

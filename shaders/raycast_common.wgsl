@@ -1,6 +1,7 @@
 // Isosurface ray caster: what the trace and shade kernels share. The uniforms, the G-buffer
 // pixel, the rays of pixels and subpixels (multi-view), and float helpers.
-// Prepended by Rust (isokit_render::gpu): the constants ID_*, FILTER_*, REFINE_*, F32_MAX.
+// Prepended by Rust (isokit_render::gpu): the constants ID_*, FILTER_*, FLAG_*, COMBINE_*,
+// F32_MAX.
 // Each kernel declares `U` (var<uniform> Uniforms) at group 0, binding 0.
 // CPU twin: crates/isokit-render/src/kernel.rs (Uniforms, subpixel_ray, view_index),
 // written to be read side by side with this file.
@@ -29,11 +30,11 @@ struct Uniforms {
     fine: u32,
     delta: f32,
     refine_steps: u32,
-    refine_method: u32,
+    flags: u32, // FLAG_SKIP_EMPTY | FLAG_CAPS | FLAG_SECANT
     search_filter: u32, // Rust: filter (a reserved word in WGSL)
     shading_filter: u32,
-    skip_empty: u32,
-    caps: u32,
+    combine: u32, // COMBINE_*: how channel B combines with A
+    morph_t: f32,
     height: u32,
     views: u32,
     view: i32,

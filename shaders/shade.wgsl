@@ -222,7 +222,7 @@ fn shade_pixel(s: GPixel, v: vec3<f32>, footprint: f32) -> vec4<f32> {
             let base = tone(s, n, v);
             let tk = clamp(S.contour_pixels * footprint * view_curvature(s, v), 0.0, 1.0);
             let edge = sqrt(tk * (2.0 - tk));
-            if (s.id == ID_SURFACE && abs(dot(n, v)) <= edge) {
+            if ((s.id == ID_SURFACE || s.id == ID_SURFACE_B) && abs(dot(n, v)) <= edge) {
                 rgb = vec3<f32>(0.02);
             } else {
                 rgb = base;

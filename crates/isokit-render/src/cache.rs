@@ -22,8 +22,11 @@ pub struct CacheStats {
 
 /// A brick cache: the CPU twin of the GPU's brick cache texture and reference texture.
 ///
-/// - `pool`: `capacity` slots of [`crate::Layout::brick_samples`] f32 each, x fastest
-///   within a slot (slot `s` starts at `s · brick_samples`); grown as slots are first used.
+/// - `pool`: `capacity` slots of [`Volume::slot_samples`] f32 each (slot `s` starts at
+///   `s · slot_samples`): the brick's [`crate::Layout::brick_samples`] samples x fastest,
+///   and for a volume with a second field ([`Volume::with_operand`]) that field's samples
+///   of the brick after them (channel B at `s · slot_samples + brick_samples`); grown as
+///   slots are first used.
 /// - `reference`: one `u32` per brick of the volume (x fastest): its slot, or
 ///   [`NOT_RESIDENT`].
 ///
@@ -67,7 +70,7 @@ impl BrickCache {
             requested: capacity,
             capacity: capacity.min(volume.brick_count()),
             volume_id: volume.id(),
-            brick_samples: volume.layout().brick_samples(),
+            brick_samples: volume.slot_samples(),
             pool: Vec::new(),
             slot_brick: Vec::new(),
             last_used: Vec::new(),
@@ -89,13 +92,13 @@ impl BrickCache {
 
     /// A cache holding up to `bytes` of samples (at least one brick).
     pub fn with_bytes(volume: &Volume, bytes: usize) -> Result<Self, RenderError> {
-        let per = volume.layout().brick_samples() * size_of::<f32>();
+        let per = volume.slot_samples() * size_of::<f32>();
         Self::new(volume, (bytes / per).max(1))
     }
 
     /// A cache for `volume` within [`DEFAULT_CACHE_BYTES`].
     pub fn for_volume(volume: &Volume) -> Self {
-        let per = volume.layout().brick_samples() * size_of::<f32>();
+        let per = volume.slot_samples() * size_of::<f32>();
         let n = (DEFAULT_CACHE_BYTES / per).max(1);
         Self::new(volume, n).unwrap_or_else(|_| unreachable!("capacity is at least 1"))
     }
@@ -139,7 +142,7 @@ impl BrickCache {
             return;
         }
         self.volume_id = volume.id();
-        self.brick_samples = volume.layout().brick_samples();
+        self.brick_samples = volume.slot_samples();
         self.pool.clear();
         self.slot_brick.clear();
         self.last_used.clear();

@@ -46,15 +46,40 @@ pub const ID_MISS: u32 = 0;
 pub const ID_SURFACE: u32 = 1;
 /// [`GSample::id`] of a pixel whose ray entered the volume inside the solid (a cap).
 pub const ID_CAP: u32 = 2;
+/// [`GSample::id`] of a pixel whose ray hit the isosurface of a combined volume
+/// ([`crate::Volume::with_operand`]) where the second operand B owns the surface (the object
+/// map of 002 Sec. 6.4.3); [`ID_SURFACE`] there means the first operand A (and a morph). A
+/// surface hit either way: shading treats both alike, the G-buffer's `A` channel is 1.
+pub const ID_SURFACE_B: u32 = 3;
+
+/// True for the ids of isosurface hits: [`ID_SURFACE`] and [`ID_SURFACE_B`].
+#[inline]
+pub fn is_surface_id(id: u32) -> bool {
+    id == ID_SURFACE || id == ID_SURFACE_B
+}
+
+/// [`Uniforms::combine`]: a single field.
+pub const COMBINE_NONE: u32 = 0;
+/// [`Uniforms::combine`]: union `min(a', b')` of the residuals.
+pub const COMBINE_UNION: u32 = 1;
+/// [`Uniforms::combine`]: intersection `max(a', b')`.
+pub const COMBINE_INTERSECTION: u32 = 2;
+/// [`Uniforms::combine`]: difference `max(a', −b')`.
+pub const COMBINE_DIFFERENCE: u32 = 3;
+/// [`Uniforms::combine`]: morph `(1 − t)·a' + t·b'`, `t` = [`Uniforms::morph_t`].
+pub const COMBINE_MORPH: u32 = 4;
+
+/// [`Uniforms::flags`] bit: skip blocks whose range excludes ρ.
+pub const FLAG_SKIP_EMPTY: u32 = 1;
+/// [`Uniforms::flags`] bit: report caps where a ray enters the volume inside the solid.
+pub const FLAG_CAPS: u32 = 2;
+/// [`Uniforms::flags`] bit: refine by the secant method (Illinois); bisection without it.
+pub const FLAG_SECANT: u32 = 4;
 
 /// [`Uniforms::filter`] value of the trilinear filter.
 pub const FILTER_TRILINEAR: u32 = 0;
 /// [`Uniforms::filter`] value of the tricubic B-spline filter (8-fetch scheme).
 pub const FILTER_TRICUBIC: u32 = 1;
-/// [`Uniforms::refine_method`] value of bisection.
-pub const REFINE_BISECTION: u32 = 0;
-/// [`Uniforms::refine_method`] value of the secant method with the Illinois modification.
-pub const REFINE_SECANT: u32 = 1;
 
 /// Relative margin added to block ranges before they are compared with the isovalue, so
 /// that rounding in the reconstruction (a few ulps of the samples' magnitude) can never
@@ -65,6 +90,8 @@ pub const RANGE_MARGIN: f32 = 16.0 * f32::EPSILON;
 ///
 /// `#[repr(C)]`, 16-byte rows (a `[f32; 3]` then a scalar, matching WGSL's
 /// `vec3<f32>` + `f32` packing), 208 bytes; `Uniforms` in `shaders/raycast_common.wgsl`.
+/// The on/off switches share one word ([`Uniforms::flags`]) so that the combination of two
+/// fields ([`Uniforms::combine`], [`Uniforms::morph_t`]) fits the same 208 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Uniforms {
@@ -112,16 +139,20 @@ pub struct Uniforms {
     pub delta: f32,
     /// Refinement steps after a crossing is found.
     pub refine_steps: u32,
-    /// [`REFINE_BISECTION`] or [`REFINE_SECANT`].
-    pub refine_method: u32,
+    /// Switches: [`FLAG_SKIP_EMPTY`] (skip blocks whose range excludes ρ; off, every block
+    /// is sampled), [`FLAG_CAPS`] (report caps where a ray enters the volume inside the
+    /// solid), [`FLAG_SECANT`] (refine by the secant method; off, bisection).
+    pub flags: u32,
     /// Filter of the intersection search: [`FILTER_TRILINEAR`] or [`FILTER_TRICUBIC`].
     pub filter: u32,
     /// Filter of gradient and Hessian at the hit.
     pub shading_filter: u32,
-    /// 1 to skip blocks whose range excludes ρ, 0 to sample every block.
-    pub skip_empty: u32,
-    /// 1 to report caps where a ray enters the volume inside the solid.
-    pub caps: u32,
+    /// How a second field combines with the first per sample: [`COMBINE_NONE`] (a single
+    /// field, one channel per brick slot), [`COMBINE_UNION`], [`COMBINE_INTERSECTION`],
+    /// [`COMBINE_DIFFERENCE`], [`COMBINE_MORPH`] (two channels per slot).
+    pub combine: u32,
+    /// The morph parameter `t` of [`COMBINE_MORPH`].
+    pub morph_t: f32,
     /// Image height in pixels.
     pub height: u32,
     /// Views of a multi-view display (001); 1 for an ordinary camera.
@@ -186,7 +217,8 @@ pub struct GSample {
     pub k2: f32,
     /// Unit principal direction of `k1` (that of `k2` is `normal × dir1`).
     pub dir1: Vec3,
-    /// [`ID_MISS`], [`ID_SURFACE`] or [`ID_CAP`].
+    /// [`ID_MISS`], [`ID_SURFACE`], [`ID_SURFACE_B`] (the second operand of a combined
+    /// volume owns the hit) or [`ID_CAP`].
     pub id: u32,
 }
 
@@ -274,7 +306,7 @@ pub fn residual(u: &Uniforms, f: f32) -> f32 {
 /// else when ρ lies in the range widened by [`RANGE_MARGIN`].
 #[inline]
 pub fn block_active(u: &Uniforms, range: [f32; 2]) -> bool {
-    if u.skip_empty == 0 {
+    if u.flags & FLAG_SKIP_EMPTY == 0 {
         return true;
     }
     let eps = RANGE_MARGIN * range[0].abs().max(range[1].abs());
@@ -372,10 +404,26 @@ pub fn locate(u: &Uniforms, slot: u32, cell: IVec3, p: Vec3) -> Located {
     let first = cell / (u.brick / u.block) as i32 * u.brick as i32 - IVec3::ONE;
     let side = u.brick_side as usize;
     Located {
-        base: slot as usize * side * side * side,
+        base: slot as usize * channels(u) * side * side * side,
         cell: c - first,
         frac: q - c.as_vec3(),
         p: q,
+    }
+}
+
+/// Fields per brick slot: 1, or 2 when a second field is combined (channel B follows A).
+#[inline]
+pub fn channels(u: &Uniforms) -> usize {
+    if u.combine == COMBINE_NONE { 1 } else { 2 }
+}
+
+/// The same point in channel B of its slot (the second field).
+#[inline]
+pub fn channel_b(u: &Uniforms, l: &Located) -> Located {
+    let side = u.brick_side as usize;
+    Located {
+        base: l.base + side * side * side,
+        ..*l
     }
 }
 
@@ -559,7 +607,96 @@ impl SegmentRay {
     fn residual_at(&self, u: &Uniforms, pool: &[f32], t: f32, samples: &mut u32) -> f32 {
         *samples += 1;
         let l = locate(u, self.slot, self.cell, self.o + t * self.d);
-        residual(u, value_at(u, pool, u.filter, &l))
+        combined_residual(u, pool, u.filter, &l)
+    }
+}
+
+/// Combines the residuals `a' = s(a − ρ)` and `b'` of the two fields (see
+/// [`crate::Combine`]): union `min`, intersection `max`, difference `max(a', −b')`, morph
+/// `(1 − t)·a' + t·b'`. Ties go to A; the comparisons are written out (`b' < a'`) as in
+/// the WGSL twin, so a NaN in B yields A's residual, a NaN in A a NaN.
+#[inline]
+pub fn combine(u: &Uniforms, a: f32, b: f32) -> f32 {
+    match u.combine {
+        COMBINE_UNION => {
+            if b < a {
+                b
+            } else {
+                a
+            }
+        }
+        COMBINE_INTERSECTION => {
+            if b > a {
+                b
+            } else {
+                a
+            }
+        }
+        COMBINE_DIFFERENCE => {
+            if -b > a {
+                -b
+            } else {
+                a
+            }
+        }
+        COMBINE_MORPH => (1.0 - u.morph_t) * a + u.morph_t * b,
+        _ => a,
+    }
+}
+
+/// True when B attains the combination of `a'` and `b'` ([`combine`]): the object map.
+/// Never for a single field or a morph.
+#[inline]
+pub fn owner_is_b(u: &Uniforms, a: f32, b: f32) -> bool {
+    match u.combine {
+        COMBINE_UNION => b < a,
+        COMBINE_INTERSECTION => b > a,
+        COMBINE_DIFFERENCE => -b > a,
+        _ => false,
+    }
+}
+
+/// The residual of the (combined) field at a located point: `s(f − ρ)` of the single
+/// field, or [`combine`] of both fields' residuals (each reconstructed with `filter`). The
+/// combined field's value is `ρ + s·residual`; the ray caster only needs the residual.
+#[inline]
+pub fn combined_residual(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> f32 {
+    let a = residual(u, value_at(u, pool, filter, l));
+    if u.combine == COMBINE_NONE {
+        return a;
+    }
+    let b = residual(u, value_at(u, pool, filter, &channel_b(u, l)));
+    combine(u, a, b)
+}
+
+/// Gradient and Hessian of the (combined) field at a hit, in grid units, and the id of the
+/// operand that owns it: the single field's ([`ID_SURFACE`]); for union, intersection and
+/// difference those of the operand attaining the combination at the point (by the search
+/// filter's values), B's negated for a difference (its complement), with
+/// [`ID_SURFACE_B`] when B owns it; for a morph `(1 − t)·A + t·B` of both ([`ID_SURFACE`]).
+pub fn owner_gradient_hessian(u: &Uniforms, pool: &[f32], l: &Located) -> (Vec3, Mat3, u32) {
+    if u.combine == COMBINE_NONE {
+        let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, l);
+        return (g, h, ID_SURFACE);
+    }
+    let lb = channel_b(u, l);
+    if u.combine == COMBINE_MORPH {
+        let (ga, ha) = gradient_hessian_at(u, pool, u.shading_filter, l);
+        let (gb, hb) = gradient_hessian_at(u, pool, u.shading_filter, &lb);
+        let (wa, wb) = (1.0 - u.morph_t, u.morph_t);
+        return (wa * ga + wb * gb, ha * wa + hb * wb, ID_SURFACE);
+    }
+    let a = residual(u, value_at(u, pool, u.filter, l));
+    let b = residual(u, value_at(u, pool, u.filter, &lb));
+    if !owner_is_b(u, a, b) {
+        let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, l);
+        return (g, h, ID_SURFACE);
+    }
+    let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, &lb);
+    if u.combine == COMBINE_DIFFERENCE {
+        (-g, -h, ID_SURFACE_B)
+    } else {
+        (g, h, ID_SURFACE_B)
     }
 }
 
@@ -670,7 +807,7 @@ pub fn refine(
     let (mut wa, mut wb) = (ra, rb);
     let mut last = 0i32;
     for _ in 0..u.refine_steps {
-        let tm = if u.refine_method == REFINE_BISECTION {
+        let tm = if u.flags & FLAG_SECANT == 0 {
             0.5 * (ta + tb)
         } else {
             secant(ta, wa, tb, wb)
@@ -696,10 +833,11 @@ pub fn refine(
 /// The G-buffer sample at ray parameter `t` in a resident block: position, depth, and from
 /// the shading filter's gradient and Hessian (converted to world units) the outward normal,
 /// principal curvatures and direction. Flat gradients give the normal `−d` and zero
-/// curvature.
+/// curvature. With two fields, the owner's derivatives and id
+/// ([`owner_gradient_hessian`]).
 pub fn surface_sample(u: &Uniforms, pool: &[f32], ray: &SegmentRay, t: f32) -> GSample {
     let l = locate(u, ray.slot, ray.cell, ray.o + t * ray.d);
-    let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, &l);
+    let (g, h, id) = owner_gradient_hessian(u, pool, &l);
     let inv = 1.0 / u.spacing;
     let inside = if u.inside_sign > 0.0 {
         Inside::Below
@@ -716,14 +854,14 @@ pub fn surface_sample(u: &Uniforms, pool: &[f32], ray: &SegmentRay, t: f32) -> G
             k1: c.k1,
             k2: c.k2,
             dir1: c.dir1,
-            id: ID_SURFACE,
+            id,
         },
         None => GSample {
             position,
             depth,
             normal: -ray.d,
             dir1: ray.d.any_orthonormal_vector(),
-            id: ID_SURFACE,
+            id,
             ..GSample::default()
         },
     }
@@ -807,7 +945,7 @@ pub fn trace_pixel(
             }
             data.used[brick].store(1, Ordering::Relaxed);
             let ray = SegmentRay { o, d, cell, slot };
-            let caps = first && u.caps != 0;
+            let caps = first && u.flags & FLAG_CAPS != 0;
             // A segment of zero length (the ray crosses a block edge or corner) holds no
             // crossing; only the cap test needs its sample.
             let seg = if t1 > t_in || caps {
@@ -831,7 +969,10 @@ pub fn trace_pixel(
                     };
                 }
             }
-        } else if first && u.caps != 0 && residual(u, range[0]) < 0.0 && residual(u, range[1]) < 0.0
+        } else if first
+            && u.flags & FLAG_CAPS != 0
+            && residual(u, range[0]) < 0.0
+            && residual(u, range[1]) < 0.0
         {
             // A skipped block entirely inside: its first sample would be inside too.
             return PixelResult::Done {

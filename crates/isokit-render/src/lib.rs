@@ -66,6 +66,12 @@
 //!   downsamples low-detail bricks instead; that changes the surface and needs hanging
 //!   samples matched, whereas passes keep the image exact and cost time only.
 //! - **Caps**: a ray that enters the volume inside the solid hits the box there.
+//! - **CSG and morphing** (Sec. 6.4.3, [`Volume::with_operand`]): both fields share each
+//!   brick slot and are combined per sample with the corrected operators of ERRATA 1
+//!   (union `min`, intersection `max`, difference `max(a, −b)`); block ranges for skipping
+//!   come from interval arithmetic on both operands' ranges, and the object map (`id`
+//!   [`kernel::ID_SURFACE_B`] where B owns the hit) takes the normal and curvatures from
+//!   the owner's own derivatives, which keeps CSG edges sharp.
 #![warn(missing_docs)]
 
 mod cache;
@@ -91,4 +97,4 @@ pub use render::{
     estimate_gradient_scale, render, render_multiview, render_view, uniforms,
 };
 pub use shade::{Image, Light, Shading, ShadingMode, shade};
-pub use volume::{Layout, Volume, VolumeData};
+pub use volume::{Combine, Layout, Volume, VolumeData};

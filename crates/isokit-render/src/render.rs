@@ -2,8 +2,8 @@
 //! image (rayon over pixels) that call [`crate::kernel::trace_pixel`].
 
 use crate::kernel::{
-    self, FILTER_TRICUBIC, FILTER_TRILINEAR, GSample, ID_CAP, ID_SURFACE, PixelResult,
-    REFINE_BISECTION, REFINE_SECANT, Resume, TraceData, Uniforms,
+    self, COMBINE_NONE, FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_SECANT, FLAG_SKIP_EMPTY,
+    GSample, ID_CAP, PixelResult, Resume, TraceData, Uniforms,
 };
 use crate::{BrickCache, GBuffer, RenderError, Volume, check_image_size};
 use glam::IVec3;
@@ -241,14 +241,16 @@ pub fn uniforms(
         fine: opts.fine,
         delta: opts.delta_for(volume),
         refine_steps: opts.refine_steps,
-        refine_method: match opts.refine {
-            RefineMethod::Bisection => REFINE_BISECTION,
-            RefineMethod::Secant => REFINE_SECANT,
-        },
+        flags: if opts.skip_empty { FLAG_SKIP_EMPTY } else { 0 }
+            | if opts.caps { FLAG_CAPS } else { 0 }
+            | match opts.refine {
+                RefineMethod::Bisection => 0,
+                RefineMethod::Secant => FLAG_SECANT,
+            },
         filter: opts.filter.code(),
         shading_filter: opts.shading_filter.code(),
-        skip_empty: u32::from(opts.skip_empty),
-        caps: u32::from(opts.caps),
+        combine: volume.combine().map_or(COMBINE_NONE, |c| c.code()),
+        morph_t: volume.combine().map_or(0.0, |c| c.morph_t()),
         ..camera_uniforms(camera)?
     })
 }
@@ -395,7 +397,7 @@ pub struct RenderStats {
     pub height: u32,
     /// Rays traced: one per pixel, or per subpixel for a multi-view display.
     pub rays: u64,
-    /// Rays that hit the isosurface.
+    /// Rays that hit the isosurface (either operand of a combined volume).
     pub hits: u64,
     /// Rays that hit a cap (the volume's box inside the solid).
     pub caps: u64,
@@ -475,6 +477,7 @@ pub(crate) struct Prefetch {
 /// Steps 1–2 of [`render`] (see there).
 pub(crate) fn prefetch(
     volume: &Volume,
+    ranges: &[[f32; 2]],
     cache: &mut BrickCache,
     camera: &Camera,
     u: &Uniforms,
@@ -484,7 +487,7 @@ pub(crate) fn prefetch(
     let [bx, by, _] = volume.block_dims();
     let mut brick_active = vec![false; n_bricks];
     let mut blocks_active = 0;
-    for (n, &r) in volume.block_ranges().iter().enumerate() {
+    for (n, &r) in ranges.iter().enumerate() {
         if kernel::block_active(u, r) {
             blocks_active += 1;
             let c = IVec3::new(
@@ -572,7 +575,10 @@ pub(crate) fn frame_stats(
         width: u.width,
         height: u.height,
         rays: pixels.len() as u64,
-        hits: pixels.iter().filter(|p| p.id == ID_SURFACE).count() as u64,
+        hits: pixels
+            .iter()
+            .filter(|p| kernel::is_surface_id(p.id))
+            .count() as u64,
         caps: pixels.iter().filter(|p| p.id == ID_CAP).count() as u64,
         samples: samples.iter().map(|&s| u64::from(s)).sum(),
         blocks_active: pre.blocks_active,
@@ -599,7 +605,8 @@ fn trace_frame(
     let before = cache.stats();
     let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
     let n_bricks = volume.brick_count();
-    let pre = prefetch(volume, cache, camera, &u);
+    let ranges = volume.trace_ranges(u.iso, u.inside_sign);
+    let pre = prefetch(volume, &ranges, cache, camera, &u);
 
     // 3–4. Passes.
     let mut pixels = vec![GSample::default(); w * h];
@@ -613,7 +620,7 @@ fn trace_frame(
         let data = TraceData {
             pool: cache.pool(),
             reference: cache.reference(),
-            block_range: volume.block_ranges(),
+            block_range: &ranges,
             requests: &requests,
             used: &used,
         };

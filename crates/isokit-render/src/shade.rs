@@ -474,7 +474,7 @@ pub fn shade_pixel_color(
             // world units and κv the curvature along the view; none where κv <= 0.
             let tk = (sh.contour_pixels * footprint * view_curvature(s, v)).clamp(0.0, 1.0);
             let edge = (tk * (2.0 - tk)).sqrt();
-            if s.id == kernel::ID_SURFACE && n.dot(v).abs() <= edge {
+            if kernel::is_surface_id(s.id) && n.dot(v).abs() <= edge {
                 Vec3::splat(0.02)
             } else {
                 base

@@ -6,6 +6,7 @@ use crate::RenderError;
 use glam::{IVec3, Vec3};
 use isokit_field::{Aabb, BrickGrid, Grid};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Block and brick sizes in cells (002 Sec. 6.2): blocks of `block³` cells carry min/max for
@@ -118,6 +119,152 @@ impl VolumeData {
     }
 }
 
+impl From<Grid> for VolumeData {
+    fn from(g: Grid) -> Self {
+        Self::Dense(g)
+    }
+}
+
+impl From<BrickGrid> for VolumeData {
+    fn from(b: BrickGrid) -> Self {
+        Self::Band(b)
+    }
+}
+
+impl From<Volume> for VolumeData {
+    fn from(v: Volume) -> Self {
+        v.data
+    }
+}
+
+/// How a volume's second field B is combined with its first field A, per sample, during ray
+/// casting (002 Sec. 6.4.3, with the operators of ERRATA 1).
+///
+/// With the isovalue ρ and the inside sign s (+1 when the inside lies below ρ, −1 above),
+/// both fields become residuals `a' = s(a − ρ)`, `b' = s(b − ρ)` (negative inside) and are
+/// combined into `c`; the combined field is `ρ + s·c`. Min and max of two signed distance
+/// fields are exact outside the union and inside the intersection, and only bounds
+/// elsewhere (which is all the ray caster needs: the zero set is exact).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Combine {
+    /// A ∪ B: `min(a', b')`.
+    Union,
+    /// A ∩ B: `max(a', b')` (002's printed `min` is the union: ERRATA 1).
+    Intersection,
+    /// A − B: `max(a', −b')`.
+    Difference,
+    /// Linear morph `(1 − t)·a' + t·b'`, `t` in `[0, 1]` (002 Fig. 6.18).
+    Morph(f32),
+}
+
+impl Combine {
+    /// The code of [`crate::Uniforms::combine`] ([`crate::kernel::COMBINE_UNION`], …).
+    pub fn code(self) -> u32 {
+        use crate::kernel::{
+            COMBINE_DIFFERENCE, COMBINE_INTERSECTION, COMBINE_MORPH, COMBINE_UNION,
+        };
+        match self {
+            Combine::Union => COMBINE_UNION,
+            Combine::Intersection => COMBINE_INTERSECTION,
+            Combine::Difference => COMBINE_DIFFERENCE,
+            Combine::Morph(_) => COMBINE_MORPH,
+        }
+    }
+
+    /// The morph parameter `t` (0 for the other operations).
+    pub fn morph_t(self) -> f32 {
+        match self {
+            Combine::Morph(t) => t,
+            _ => 0.0,
+        }
+    }
+
+    /// Checks the morph parameter.
+    pub fn check(self) -> Result<(), RenderError> {
+        let t = self.morph_t();
+        if !(0.0..=1.0).contains(&t) {
+            return Err(RenderError::bad("morph t", t, "must lie in [0, 1]"));
+        }
+        Ok(())
+    }
+
+    /// Sound bounds of the combined residual `c` over a block, from bounds of `a'` and `b'`
+    /// (interval arithmetic: min, max and the non-negative linear combination are monotone
+    /// in each argument).
+    pub fn interval(self, a: [f32; 2], b: [f32; 2]) -> [f32; 2] {
+        match self {
+            Combine::Union => [a[0].min(b[0]), a[1].min(b[1])],
+            Combine::Intersection => [a[0].max(b[0]), a[1].max(b[1])],
+            Combine::Difference => [a[0].max(-b[1]), a[1].max(-b[0])],
+            Combine::Morph(t) => [(1.0 - t) * a[0] + t * b[0], (1.0 - t) * a[1] + t * b[1]],
+        }
+    }
+}
+
+impl std::str::FromStr for Combine {
+    type Err = String;
+    /// `union`, `intersection`, `difference`, `morph` (t = 0.5; set it with
+    /// `Combine::Morph(t)`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "union" => Ok(Self::Union),
+            "intersection" => Ok(Self::Intersection),
+            "difference" => Ok(Self::Difference),
+            "morph" => Ok(Self::Morph(0.5)),
+            _ => Err(format!(
+                "unknown CSG operation {s:?} (expected union, intersection, difference or morph)"
+            )),
+        }
+    }
+}
+
+/// The second field of a volume and how it combines with the first.
+#[derive(Clone, Debug)]
+struct Operand {
+    data: VolumeData,
+    combine: Combine,
+    /// `[min, max]` per block of B, as [`Volume::block_ranges`] for A.
+    block_range: Vec<[f32; 2]>,
+}
+
+/// `[min, max]` per block of `data` over each block's tricubic support (see [`Volume`]).
+fn block_ranges_of(
+    data: &VolumeData,
+    layout: Layout,
+    dims: [usize; 3],
+    block_dims: [usize; 3],
+) -> Vec<[f32; 2]> {
+    let n_blocks = block_dims.iter().product::<usize>();
+    let b = layout.block as i32;
+    let [bx, by, _] = block_dims;
+    (0..n_blocks)
+        .into_par_iter()
+        .map(|n| {
+            let c = IVec3::new(
+                (n % bx) as i32,
+                ((n / bx) % by) as i32,
+                (n / (bx * by)) as i32,
+            );
+            let lo = (c * b - IVec3::ONE).max(IVec3::ZERO);
+            let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
+            let hi = (c * b + IVec3::splat(b + 1)).min(top);
+            let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+            for k in lo.z..=hi.z {
+                for j in lo.y..=hi.y {
+                    for i in lo.x..=hi.x {
+                        let v = data.get_clamped(IVec3::new(i, j, k));
+                        if v.is_finite() {
+                            mn = mn.min(v);
+                            mx = mx.max(v);
+                        }
+                    }
+                }
+            }
+            [mn, mx]
+        })
+        .collect()
+}
+
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
 /// A sampled field ready for ray casting: the samples, the block grid with min/max per
@@ -142,6 +289,8 @@ pub struct Volume {
     /// `[min, max]` per block, x fastest.
     block_range: Vec<[f32; 2]>,
     range: Option<(f32, f32)>,
+    /// The second field of on-the-fly CSG or morphing, if any.
+    operand: Option<Operand>,
     id: u64,
 }
 
@@ -179,34 +328,7 @@ impl Volume {
                 why: "too many blocks for 32-bit indices; use larger blocks",
             });
         }
-        let b = layout.block as i32;
-        let [bx, by, _] = block_dims;
-        let block_range: Vec<[f32; 2]> = (0..n_blocks)
-            .into_par_iter()
-            .map(|n| {
-                let c = IVec3::new(
-                    (n % bx) as i32,
-                    ((n / bx) % by) as i32,
-                    (n / (bx * by)) as i32,
-                );
-                let lo = (c * b - IVec3::ONE).max(IVec3::ZERO);
-                let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
-                let hi = (c * b + IVec3::splat(b + 1)).min(top);
-                let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
-                for k in lo.z..=hi.z {
-                    for j in lo.y..=hi.y {
-                        for i in lo.x..=hi.x {
-                            let v = data.get_clamped(IVec3::new(i, j, k));
-                            if v.is_finite() {
-                                mn = mn.min(v);
-                                mx = mx.max(v);
-                            }
-                        }
-                    }
-                }
-                [mn, mx]
-            })
-            .collect();
+        let block_range = block_ranges_of(&data, layout, dims, block_dims);
         let range =
             block_range
                 .iter()
@@ -223,8 +345,137 @@ impl Volume {
             brick_dims,
             block_range,
             range,
+            operand: None,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
         })
+    }
+
+    /// This volume with a second field `b` on the same lattice (same dimensions, origin and
+    /// spacing; refused otherwise), combined with the first per sample during ray casting:
+    /// CSG or morphing on the fly (002 Sec. 6.4.3, see [`Combine`]). The brick cache then
+    /// holds both fields per slot ([`Volume::slot_samples`]); the hit's normal and
+    /// curvatures come from the operand that owns it (the object map, `id`
+    /// [`crate::kernel::ID_SURFACE`] for A, [`crate::kernel::ID_SURFACE_B`] for B), or for a
+    /// morph from the same combination of both operands' derivatives.
+    ///
+    /// ```
+    /// use isokit_field::{Grid, sample_into, primitives::Sphere};
+    /// use isokit_render::{Combine, Layout, Volume};
+    /// use glam::Vec3;
+    ///
+    /// let sphere = |c: Vec3| {
+    ///     let mut g = Grid::new([32; 3], Vec3::splat(-1.0), 2.0 / 31.0).unwrap();
+    ///     sample_into(&Sphere::new(c, 0.5).unwrap(), &mut g);
+    ///     g
+    /// };
+    /// let a = Volume::from_grid(sphere(Vec3::ZERO), Layout::default()).unwrap();
+    /// let cut = a.with_operand(sphere(Vec3::X * 0.4), Combine::Difference).unwrap();
+    /// assert_eq!(cut.combine(), Some(Combine::Difference));
+    /// assert_eq!(cut.slot_samples(), 2 * cut.layout().brick_samples());
+    /// ```
+    pub fn with_operand(
+        mut self,
+        b: impl Into<VolumeData>,
+        combine: Combine,
+    ) -> Result<Volume, RenderError> {
+        combine.check()?;
+        let b = b.into();
+        let h = self.spacing();
+        if b.dims() != self.dims {
+            return Err(RenderError::BadVolume {
+                dims: b.dims(),
+                why: "the second CSG/morph operand must have the first's dimensions (the same lattice)",
+            });
+        }
+        if (b.spacing() - h).abs() > 1e-5 * h
+            || (b.origin() - self.origin()).abs().max_element() > 1e-4 * h
+        {
+            return Err(RenderError::BadVolume {
+                dims: b.dims(),
+                why: "the second CSG/morph operand must have the first's origin and spacing (the same lattice)",
+            });
+        }
+        let block_range = block_ranges_of(&b, self.layout, self.dims, self.block_dims);
+        self.operand = Some(Operand {
+            data: b,
+            combine,
+            block_range,
+        });
+        // Another pool layout: caches must reload.
+        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        Ok(self)
+    }
+
+    /// Changes the combination of a volume with a second field (e.g. the morph parameter of
+    /// an animation) without touching the samples: the volume keeps its id, so caches keep
+    /// their bricks. An error without a second field, or for a bad morph parameter.
+    pub fn set_combine(&mut self, combine: Combine) -> Result<(), RenderError> {
+        combine.check()?;
+        match &mut self.operand {
+            Some(op) => {
+                op.combine = combine;
+                Ok(())
+            }
+            None => Err(RenderError::bad(
+                "combine",
+                format!("{combine:?}"),
+                "the volume has no second field (Volume::with_operand)",
+            )),
+        }
+    }
+
+    /// The combination with the second field, if the volume has one.
+    pub fn combine(&self) -> Option<Combine> {
+        self.operand.as_ref().map(|o| o.combine)
+    }
+
+    /// The second field's samples, if any.
+    pub fn operand_data(&self) -> Option<&VolumeData> {
+        self.operand.as_ref().map(|o| &o.data)
+    }
+
+    /// Fields stored per brick slot: 1, or 2 with a second field.
+    pub fn channels(&self) -> usize {
+        1 + usize::from(self.operand.is_some())
+    }
+
+    /// Samples of one brick-cache slot: `channels() · brick_samples()` (channel A first,
+    /// then B).
+    pub fn slot_samples(&self) -> usize {
+        self.channels() * self.layout.brick_samples()
+    }
+
+    /// The block ranges the ray caster skips by for isovalue `iso` and inside sign
+    /// `inside_sign` (±1): [`Volume::block_ranges`] for a single field; with a second field,
+    /// bounds of the combined field `ρ + s·c` per block from interval arithmetic on both
+    /// operands' ranges ([`Combine::interval`]), widened by a few ulps so rounding can never
+    /// make them unsound. A block with no finite sample in either field gets
+    /// `[+∞, −∞]` (never active).
+    pub fn trace_ranges(&self, iso: f32, inside_sign: f32) -> Cow<'_, [[f32; 2]]> {
+        let Some(op) = &self.operand else {
+            return Cow::Borrowed(&self.block_range);
+        };
+        let s = inside_sign;
+        let to_res = |r: [f32; 2]| {
+            let (x, y) = (s * (r[0] - iso), s * (r[1] - iso));
+            [x.min(y), x.max(y)]
+        };
+        Cow::Owned(
+            self.block_range
+                .iter()
+                .zip(&op.block_range)
+                .map(|(&a, &b)| {
+                    if a[0] > a[1] || b[0] > b[1] {
+                        return [f32::INFINITY, f32::NEG_INFINITY];
+                    }
+                    let c = op.combine.interval(to_res(a), to_res(b));
+                    let (x, y) = (iso + s * c[0], iso + s * c[1]);
+                    let m = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
+                    let eps = 8.0 * f32::EPSILON * (m + iso.abs());
+                    [x.min(y) - eps, x.max(y) + eps]
+                })
+                .collect(),
+        )
     }
 
     /// The samples.
@@ -269,11 +520,12 @@ impl Volume {
         self.brick_dims.iter().product()
     }
     /// `[min, max]` of the samples each block's filters read, per block, x fastest
-    /// (`[+inf, −inf]` for a block without finite samples). The GPU twin's block buffer.
+    /// (`[+inf, −inf]` for a block without finite samples), of the first field. What the
+    /// ray caster skips by is [`Volume::trace_ranges`] (the same with a single field).
     pub fn block_ranges(&self) -> &[[f32; 2]] {
         &self.block_range
     }
-    /// Smallest and largest finite sample, or `None` when none is finite.
+    /// Smallest and largest finite sample (of the first field), or `None` when none is finite.
     pub fn value_range(&self) -> Option<(f32, f32)> {
         self.range
     }
@@ -309,18 +561,27 @@ impl Volume {
         Aabb::new(o + lo * h, o + hi * h)
     }
 
-    /// Fills `out` (`brick_side()³` values, x fastest) with the stored samples of brick `n`:
-    /// grid samples `brick·c − 1 ..= brick·c + brick + 1` per axis, clamped to the grid.
-    /// This is the upload of one brick into the cache.
+    /// Fills `out` ([`Volume::slot_samples`] values) with the stored samples of brick `n`:
+    /// grid samples `brick·c − 1 ..= brick·c + brick + 1` per axis, clamped to the grid, x
+    /// fastest (`brick_side()³` values); with a second field its samples follow, in the
+    /// same order. This is the upload of one brick into the cache.
     pub fn fill_brick(&self, n: usize, out: &mut [f32]) {
         let s = self.layout.brick_side();
-        debug_assert_eq!(out.len(), s * s * s);
+        let s3 = s * s * s;
+        debug_assert_eq!(out.len(), self.slot_samples());
         let c = self.brick_coord(n);
         let lo = IVec3::new(c[0] as i32, c[1] as i32, c[2] as i32) * self.layout.brick as i32
             - IVec3::ONE;
-        for (m, v) in out.iter_mut().enumerate() {
-            let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
-            *v = self.data.get_clamped(lo + l);
+        let (a, b) = out.split_at_mut(s3);
+        let fill = |data: &VolumeData, out: &mut [f32]| {
+            for (m, v) in out.iter_mut().enumerate() {
+                let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
+                *v = data.get_clamped(lo + l);
+            }
+        };
+        fill(&self.data, a);
+        if let Some(op) = &self.operand {
+            fill(&op.data, b);
         }
     }
 }

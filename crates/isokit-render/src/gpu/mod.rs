@@ -8,13 +8,15 @@
 //!
 //! ## Data on the GPU
 //! - the [`Uniforms`] as a uniform buffer (208 bytes);
-//! - the brick pool as a storage buffer of f32, slot `s` at `s · brick_side³`, x fastest (as
-//!   [`crate::BrickCache::pool`]): the filters' fetches are 8 loads and 7 lerps each, so no
+//! - the brick pool as a storage buffer of f32, slot `s` at `s · channels · brick_side³`, x
+//!   fastest, a second field's channel after the first (as [`crate::BrickCache::pool`]): the filters' fetches are 8 loads and 7 lerps each, so no
 //!   float-filterable 3D texture is needed and the values equal the CPU's up to the
 //!   rounding of the arithmetic (no 16-bit storage, no texture filtering precision);
 //! - the reference index (`u32` per brick, slot or [`crate::NOT_RESIDENT`]) and the block
-//!   ranges (`vec2<f32>` per block; blocks without finite samples are sent as
-//!   `[f32::MAX, −f32::MAX]`, which no isovalue lies in, instead of `[+∞, −∞]`);
+//!   ranges (`vec2<f32>` per block, [`Volume::trace_ranges`]: for a volume with a second
+//!   field they depend on ρ and the inside sign and are sent with every frame; blocks
+//!   without finite samples are sent as `[f32::MAX, −f32::MAX]`, which no isovalue lies
+//!   in, instead of `[+∞, −∞]`);
 //! - counters (rays that wait, requests and used flags per brick), the lists of waiting
 //!   rays, their resume state, and the G-buffer: 64 bytes per ray, the four `rgba32f` rows
 //!   `(P.xyz, Z), (N.xyz, A), (K1, K2, id, samples), (dir1.xyz, 0)`.
@@ -49,8 +51,9 @@ pub mod splat;
 mod trace;
 
 use crate::kernel::{
-    FILTER_TRICUBIC, FILTER_TRILINEAR, GSample, ID_CAP, ID_MISS, ID_SURFACE, RANGE_MARGIN,
-    REFINE_BISECTION, REFINE_SECANT, Uniforms,
+    COMBINE_DIFFERENCE, COMBINE_INTERSECTION, COMBINE_MORPH, COMBINE_NONE, COMBINE_UNION,
+    FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_SECANT, FLAG_SKIP_EMPTY, GSample, ID_CAP,
+    ID_MISS, ID_SURFACE, ID_SURFACE_B, RANGE_MARGIN, Uniforms,
 };
 use crate::{
     BrickCache, CacheStats, DEFAULT_CACHE_BYTES, Frame, GBuffer, Image, MultiView, NOT_RESIDENT,
@@ -111,10 +114,17 @@ fn constants(label: &str) -> ShaderSource {
         .constant_u32("ID_MISS", ID_MISS)
         .constant_u32("ID_SURFACE", ID_SURFACE)
         .constant_u32("ID_CAP", ID_CAP)
+        .constant_u32("ID_SURFACE_B", ID_SURFACE_B)
         .constant_u32("FILTER_TRILINEAR", FILTER_TRILINEAR)
         .constant_u32("FILTER_TRICUBIC", FILTER_TRICUBIC)
-        .constant_u32("REFINE_BISECTION", REFINE_BISECTION)
-        .constant_u32("REFINE_SECANT", REFINE_SECANT)
+        .constant_u32("FLAG_SKIP_EMPTY", FLAG_SKIP_EMPTY)
+        .constant_u32("FLAG_CAPS", FLAG_CAPS)
+        .constant_u32("FLAG_SECANT", FLAG_SECANT)
+        .constant_u32("COMBINE_NONE", COMBINE_NONE)
+        .constant_u32("COMBINE_UNION", COMBINE_UNION)
+        .constant_u32("COMBINE_INTERSECTION", COMBINE_INTERSECTION)
+        .constant_u32("COMBINE_DIFFERENCE", COMBINE_DIFFERENCE)
+        .constant_u32("COMBINE_MORPH", COMBINE_MORPH)
         .constant_u32("NOT_RESIDENT", NOT_RESIDENT)
         .constant_f32("RANGE_MARGIN", RANGE_MARGIN)
         .constant_f32("MIN_GRADIENT", DEFAULT_MIN_GRADIENT)
@@ -418,7 +428,7 @@ impl GpuRenderer {
             .is_none_or(|r| r.volume_id != volume.id())
         {
             self.resident = None;
-            let brick_samples = volume.layout().brick_samples();
+            let brick_samples = volume.slot_samples();
             let brick_bytes = (brick_samples * size_of::<f32>()) as u64;
             let limit = self.gpu.max_storage_bytes();
             let fit = (limit / brick_bytes) as usize;
@@ -434,17 +444,7 @@ impl GpuRenderer {
                 .max(1);
             let capacity = asked.min(fit).min(volume.brick_count());
             let cache = BrickCache::bookkeeping(volume, capacity)?;
-            let ranges: Vec<[f32; 2]> = volume
-                .block_ranges()
-                .iter()
-                .map(|r| {
-                    if r[0] <= r[1] {
-                        *r
-                    } else {
-                        [f32::MAX, -f32::MAX]
-                    }
-                })
-                .collect();
+            let ranges = gpu_ranges(volume.block_ranges());
             check_fits(
                 &self.gpu,
                 "the block ranges",
@@ -476,6 +476,21 @@ impl GpuRenderer {
         }
         Ok(())
     }
+}
+
+/// Block ranges as the kernel reads them: `[f32::MAX, −f32::MAX]` for a block without
+/// finite samples.
+pub(crate) fn gpu_ranges(ranges: &[[f32; 2]]) -> Vec<[f32; 2]> {
+    ranges
+        .iter()
+        .map(|r| {
+            if r[0] <= r[1] {
+                *r
+            } else {
+                [f32::MAX, -f32::MAX]
+            }
+        })
+        .collect()
 }
 
 /// What `--backend` (or `ISOKIT_BACKEND`) resolved to.
@@ -548,6 +563,7 @@ mod tests {
         let size = |src: &ShaderSource, name| isokit_gpu::wgsl_struct_size(src.text(), name);
         assert_eq!(size(&t, "Uniforms"), Some(size_of::<Uniforms>() as u32));
         assert_eq!(size_of::<Uniforms>(), 208);
+        assert!(t.text().contains("morph_t: f32"));
         assert_eq!(size(&t, "GPixel"), Some(size_of::<GpuPixel>() as u32));
         assert_eq!(size_of::<GpuPixel>(), 64);
         assert_eq!(size(&t, "Params"), Some(size_of::<trace::Params>() as u32));

@@ -88,7 +88,16 @@ pub(crate) fn trace_frame(
     let before = res.cache.stats();
     let total = u.width as usize * u.subpixels as usize * u.height as usize;
     let n_bricks = volume.brick_count();
-    let pre: Prefetch = prefetch(volume, &mut res.cache, camera, &u);
+    let ranges = volume.trace_ranges(u.iso, u.inside_sign);
+    if volume.combine().is_some() {
+        // The combined ranges depend on ρ and the inside sign: sent with every frame.
+        gpu.write(
+            &res.block_range,
+            0,
+            bytemuck::cast_slice(&super::gpu_ranges(&ranges)),
+        );
+    }
+    let pre: Prefetch = prefetch(volume, &ranges, &mut res.cache, camera, &u);
     upload_bricks(gpu, res, volume, &pre.loaded);
 
     let chunk = total.min(chunk_max);

@@ -76,3 +76,15 @@ pub fn angle_degrees(a: Vec3, b: Vec3) -> f32 {
     let (a, b) = (a.as_dvec3(), b.as_dvec3());
     a.cross(b).length().atan2(a.dot(b)).to_degrees() as f32
 }
+
+/// Centre and radius of the first sphere of [`csg_pair`].
+pub const CSG_A: (Vec3, f32) = (Vec3::new(-0.2, 0.0, 0.0), 0.5);
+/// Centre and radius of the second sphere of [`csg_pair`].
+pub const CSG_B: (Vec3, f32) = (Vec3::new(0.3, 0.1, 0.15), 0.4);
+
+/// Two overlapping spheres ([`CSG_A`], [`CSG_B`]) as exact signed distances on the same
+/// 64³ lattice: the operands of the CSG tests.
+pub fn csg_pair() -> (Grid, Grid) {
+    let sdf = |(c, r): (Vec3, f32)| move |p: Vec3| (p - c).length() - r;
+    (grid_of(64, sdf(CSG_A)), grid_of(64, sdf(CSG_B)))
+}
