@@ -158,6 +158,16 @@ fn bad_input_gives_one_clear_line() {
         "0",
     ]);
     assert_clear_error(&o, "image size");
+    let o = isokit(&[
+        "molecule",
+        &molecule("1a8o.pdb.gz"),
+        "-o",
+        out.to_str().unwrap(),
+        "--shadows",
+        "--shadow-map",
+        "100000",
+    ]);
+    assert_clear_error(&o, "--shadow-map");
     let o = isokit(&["molecule", &molecule("1a8o.pdb.gz"), "-o", "x.jpg"]);
     assert_clear_error(&o, "unknown output format");
 }

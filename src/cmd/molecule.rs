@@ -4,7 +4,7 @@
 
 use super::check_output;
 use super::render::{Backend, backend_name, open_backend};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use isokit_io::read_molecule;
 use isokit_render::molecule::{MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene};
 use isokit_render::splat::{
@@ -83,6 +83,15 @@ pub fn run(a: Args) -> Result<()> {
     }
     let (width, height) = check_image_size(a.width, a.height)?;
     let mode: ShadingMode = a.shading.parse().map_err(anyhow::Error::msg)?;
+    // Refuse bad shadow knobs before the work (ShadowMap checks them again).
+    if a.shadows {
+        if !(16..=8192).contains(&a.shadow_map) {
+            bail!("--shadow-map {}: must be 16 to 8192 texels", a.shadow_map);
+        }
+        if !(a.softness.is_finite() && (0.0..=64.0).contains(&a.softness)) {
+            bail!("--softness {}: must be 0 to 64 texels", a.softness);
+        }
+    }
     let t0 = Instant::now();
     let mol = read_molecule(&a.input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
@@ -122,10 +131,11 @@ pub fn run(a: Args) -> Result<()> {
             (f, s)
         }
     };
-    image.write_png(&a.output)?;
+    // The G-buffer first: a failure there leaves the previous image in place.
     if let Some(g) = &a.gbuffer {
         frame.gbuffer.write_exr(g)?;
     }
+    image.write_png(&a.output)?;
     let st = &frame.stats;
     let backend = backend_name(gpu.as_ref());
     eprintln!(

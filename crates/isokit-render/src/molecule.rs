@@ -33,6 +33,10 @@ use crate::RenderError;
 use crate::quadric::Quadric;
 use crate::splat::{MAX_QUADRICS, SplatScene};
 
+/// Largest coordinate magnitude (Å) [`molecule_scene`] accepts: at 1e5 Å an f32 still
+/// resolves 0.01 Å; PDB files cannot exceed ±1e4.
+pub const MAX_COORDINATE: f32 = 1e5;
+
 /// How atoms and bonds are drawn.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum MoleculeStyle {
@@ -96,6 +100,17 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
             "bond radius",
             opts.bond_radius,
             "must be in (0, 2] Å",
+        ));
+    }
+    if let Some(a) = mol
+        .atoms
+        .iter()
+        .find(|a| !(a.position.is_finite() && a.position.abs().max_element() <= MAX_COORDINATE))
+    {
+        return Err(RenderError::bad(
+            "atom position",
+            a.position,
+            "must be finite and within ±100,000 Å (beyond it f32 rendering loses the atoms)",
         ));
     }
     let sticks = opts.style == MoleculeStyle::Balls;

@@ -88,6 +88,9 @@ fn molecule_scenes_refuse_bad_input() {
         ..Default::default()
     };
     assert!(molecule_scene(&mol, &bad).is_err());
+    let mut far = mol.clone();
+    far.atoms[0].position.x = 1e30;
+    assert!(molecule_scene(&far, &MoleculeOptions::default()).is_err());
     mol.bonds.push([0, u32::MAX]);
     assert!(molecule_scene(&mol, &MoleculeOptions::default()).is_err());
 }
