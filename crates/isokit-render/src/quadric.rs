@@ -757,15 +757,37 @@ pub fn setup_hessian(s: &QuadricSetup) -> Mat3 {
     )
 }
 
+/// At most two roots, without allocating (the set-up runs millions of times per frame).
+#[derive(Clone, Copy, Debug, Default)]
+struct Roots {
+    v: [f64; 2],
+    n: usize,
+}
+
+impl Roots {
+    fn none() -> Self {
+        Self::default()
+    }
+    fn one(a: f64) -> Self {
+        Self { v: [a, 0.0], n: 1 }
+    }
+    fn two(a: f64, b: f64) -> Self {
+        Self { v: [a, b], n: 2 }
+    }
+    fn iter(self) -> impl Iterator<Item = f64> {
+        self.v.into_iter().take(self.n)
+    }
+}
+
 /// Roots θ of `α cos θ + β sin θ = γ`.
-fn trig_solve(alpha: f64, beta: f64, gamma: f64) -> Vec<f64> {
+fn trig_solve(alpha: f64, beta: f64, gamma: f64) -> Roots {
     let r = alpha.hypot(beta);
     if r <= 0.0 || gamma.abs() > r {
-        return Vec::new();
+        return Roots::none();
     }
     let base = beta.atan2(alpha);
     let off = (gamma / r).clamp(-1.0, 1.0).acos();
-    vec![base + off, base - off]
+    Roots::two(base + off, base - off)
 }
 
 /// A homogeneous trigonometric curve `P0 + P1 cos θ + P2 sin θ` in parameter space.
@@ -784,15 +806,12 @@ impl Curve {
 
 /// θ where `(a0 + a1 c + a2 s)/(b0 + b1 c + b2 s)` is stationary (`(X/W)' = 0`), from
 /// `X'W − XW' = 0` ⇔ `(a2 b0 − a0 b2) c + (a0 b1 − a1 b0) s + (a2 b1 − a1 b2) = 0`.
-fn ratio_stationary(a: [f64; 3], b: [f64; 3]) -> Vec<f64> {
+fn ratio_stationary(a: [f64; 3], b: [f64; 3]) -> Roots {
     let alpha = a[2] * b[0] - a[0] * b[2];
     let beta = a[0] * b[1] - a[1] * b[0];
     let gamma = a[2] * b[1] - a[1] * b[2];
-    let mut th = trig_solve(alpha, beta, -gamma);
-    if th.is_empty() {
-        th.push(0.0);
-    }
-    th
+    let th = trig_solve(alpha, beta, -gamma);
+    if th.n == 0 { Roots::one(0.0) } else { th }
 }
 
 /// Accumulates candidate extreme points (homogeneous, parameter space) of the visible
@@ -835,7 +854,7 @@ impl BoxAcc {
     fn add_curve(&mut self, c: &Curve, arc_ends: bool) {
         let w = c.coef(self.rows[3]);
         for k in 0..2 {
-            for th in ratio_stationary(c.coef(self.rows[k]), w) {
+            for th in ratio_stationary(c.coef(self.rows[k]), w).iter() {
                 self.add(c.at(th));
             }
         }
@@ -848,7 +867,7 @@ impl BoxAcc {
                 n[2] - self.near * pw[2],
                 self.near * pw[0] - n[0],
             );
-            for th in trig_solve(al, be, ga) {
+            for th in trig_solve(al, be, ga).iter() {
                 // Exactly on the near plane: accept with the tolerance.
                 self.add(c.at(th));
             }
@@ -883,7 +902,7 @@ impl Quadric {
                 for k in 0..2 {
                     let (r, r4) = (rows[k], rows[3]);
                     let (qa, qb, qc) = (dq(r4, r4), -dq(r, r4), dq(r, r));
-                    for b in roots64(qa, qb, qc) {
+                    for b in roots64(qa, qb, qc).iter() {
                         let n = r - r4 * b;
                         acc.add(n * d);
                     }
@@ -984,32 +1003,32 @@ impl Quadric {
 }
 
 /// Real roots of `a x² + 2 b x + c = 0` in f64 (a linear equation's one root).
-fn roots64(a: f64, b: f64, c: f64) -> Vec<f64> {
+fn roots64(a: f64, b: f64, c: f64) -> Roots {
     let scale = a.abs().max(b.abs()).max(c.abs());
     if scale == 0.0 {
-        return Vec::new();
+        return Roots::none();
     }
     if a.abs() <= 1e-14 * scale {
         return if b != 0.0 {
-            vec![-c / (2.0 * b)]
+            Roots::one(-c / (2.0 * b))
         } else {
-            Vec::new()
+            Roots::none()
         };
     }
     let disc = b * b - a * c;
     if disc < 0.0 {
         // Tangent within rounding: one double root.
         return if disc > -1e-12 * b * b {
-            vec![-b / a]
+            Roots::one(-b / a)
         } else {
-            Vec::new()
+            Roots::none()
         };
     }
     let q = -(b + b.signum() * disc.sqrt());
     if q == 0.0 {
-        return vec![0.0];
+        return Roots::one(0.0);
     }
-    vec![q / a, c / q]
+    Roots::two(q / a, c / q)
 }
 
 #[cfg(test)]

@@ -310,14 +310,66 @@ pub fn splat_view_with(
     view: View,
     exhaustive: bool,
 ) -> Result<SplatFrame, RenderError> {
+    let (tiles, mut stats) = splat_core(scene, u, &view, exhaustive, false)?;
+    let t2 = Instant::now();
+    let (w, h) = (u.width, u.height);
+    let n = w as usize * h as usize;
+    let mut pixels = vec![GSample::default(); n];
+    let mut objects = vec![NO_OBJECT; n];
+    for t in tiles {
+        for (i, s, o) in t.samples {
+            pixels[i as usize] = s;
+            objects[i as usize] = o;
+        }
+    }
+    stats.splat_seconds += t2.elapsed().as_secs_f64();
+    Ok(SplatFrame {
+        gbuffer: GBuffer::new(w, h, pixels, vec![0; n]),
+        objects,
+        uniforms: *u,
+        view,
+        stats,
+    })
+}
+
+/// What one tile of [`splat_core`] produced.
+struct TileOut {
+    /// G-buffer samples of the winners: pixel index, sample, object.
+    samples: Vec<(u32, GSample, u32)>,
+    /// Depth-only mode: the winners' depth along the view direction.
+    depths: Vec<(u32, f32)>,
+}
+
+/// Depth along the view direction of the nearest solid per pixel (+∞ where none): the
+/// shadow map's splat, without normals, curvatures or a G-buffer (same culling, same
+/// winners as [`splat_view`]).
+pub fn splat_depths(scene: &SplatScene, u: &Uniforms, view: View) -> Result<Vec<f32>, RenderError> {
+    let (tiles, _) = splat_core(scene, u, &view, false, true)?;
+    let mut depth = vec![f32::INFINITY; u.width as usize * u.height as usize];
+    for t in tiles {
+        for (i, d) in t.depths {
+            depth[i as usize] = d;
+        }
+    }
+    Ok(depth)
+}
+
+/// The tiled splat shared by [`splat_view_with`] and [`splat_depths`].
+fn splat_core(
+    scene: &SplatScene,
+    u: &Uniforms,
+    view: &View,
+    exhaustive: bool,
+    depth_only: bool,
+) -> Result<(Vec<TileOut>, SplatStats), RenderError> {
     scene.check()?;
     let t0 = Instant::now();
-    let set = setups(scene, &view);
+    let set = setups(scene, view);
     let near_t: Vec<f32> = if exhaustive {
         Vec::new()
     } else {
         set.par_iter()
-            .map(|s| nearest_bound(&scene.quadrics[s.object as usize], &view))
+            .map(|s| nearest_bound(&scene.quadrics[s.object as usize], view))
             .collect()
     };
     let setup_seconds = t0.elapsed().as_secs_f64();
@@ -361,12 +413,7 @@ pub fn splat_view_with(
             }
         }
     }
-    struct TileOut {
-        samples: Vec<(u32, GSample, u32)>,
-        evaluated: u64,
-        hits: u64,
-    }
-    let tiles: Vec<TileOut> = bins
+    let tiles: Vec<(TileOut, u64, u64)> = bins
         .into_par_iter()
         .enumerate()
         .map(|(ti, mut list)| {
@@ -416,27 +463,30 @@ pub fn splat_view_with(
                     }
                 }
             }
-            let mut samples = Vec::new();
+            let mut out = TileOut {
+                samples: Vec::new(),
+                depths: Vec::new(),
+            };
+            let forward = Vec3::from_array(u.forward);
             for (i, &k) in best_k.iter().enumerate() {
                 if k == u32::MAX {
                     continue;
                 }
                 let (px, py) = (x0 + (i % tw) as u32, y0 + (i / tw) as u32);
+                if depth_only {
+                    let d = kernel::pixel_ray(u, px, py).1;
+                    out.depths.push((px + w * py, best_t[i] * d.dot(forward)));
+                    continue;
+                }
                 let s = &set[k as usize];
                 if let Some(hit) = fragment(s, u, near, px, py) {
-                    samples.push((px + w * py, resolve(s, u, px, py, &hit), s.object));
+                    out.samples
+                        .push((px + w * py, resolve(s, u, px, py, &hit), s.object));
                 }
             }
-            TileOut {
-                samples,
-                evaluated,
-                hits,
-            }
+            (out, evaluated, hits)
         })
         .collect();
-    let n = w as usize * h as usize;
-    let mut pixels = vec![GSample::default(); n];
-    let mut objects = vec![NO_OBJECT; n];
     let mut stats = SplatStats {
         quadrics: scene.len(),
         drawn: set.len(),
@@ -444,22 +494,16 @@ pub fn splat_view_with(
         setup_seconds,
         ..Default::default()
     };
-    for t in tiles {
-        stats.evaluated += t.evaluated;
-        stats.hits += t.hits;
-        for (i, s, o) in t.samples {
-            pixels[i as usize] = s;
-            objects[i as usize] = o;
-        }
-    }
+    let tiles = tiles
+        .into_iter()
+        .map(|(t, evaluated, hits)| {
+            stats.evaluated += evaluated;
+            stats.hits += hits;
+            t
+        })
+        .collect();
     stats.splat_seconds = t1.elapsed().as_secs_f64();
-    Ok(SplatFrame {
-        gbuffer: GBuffer::new(w, h, pixels, vec![0; n]),
-        objects,
-        uniforms: *u,
-        view,
-        stats,
-    })
+    Ok((tiles, stats))
 }
 
 impl SplatFrame {
@@ -616,23 +660,7 @@ impl ShadowMap {
         opts: &ShadowOptions,
     ) -> Result<Self, RenderError> {
         let (u, view, mut map) = Self::prepare(scene, light, opts)?;
-        let frame = splat_view(scene, &u, view)?;
-        let fwd = Vec3::from_array(u.forward);
-        let res = u.width;
-        map.depth = frame
-            .gbuffer
-            .pixels()
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                if s.is_hit() {
-                    let (_, d) = kernel::pixel_ray(&u, i as u32 % res, i as u32 / res);
-                    s.depth * d.dot(fwd)
-                } else {
-                    f32::INFINITY
-                }
-            })
-            .collect();
+        map.depth = splat_depths(scene, &u, view)?;
         Ok(map)
     }
 
