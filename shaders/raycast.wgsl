@@ -4,7 +4,7 @@
 // resident, where it asks for the brick, saves where to resume and appends itself to the
 // next pass's list.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
-// ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT,
+// ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT, HALF_RESOLUTION,
 // RANGE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl.
 // CPU twin: crates/isokit-render/src/kernel.rs, function by function in the same order.
 
@@ -127,6 +127,8 @@ struct Located {
     cell: vec3<i32>,
     frac: vec3<f32>,
     p: vec3<f32>,
+    side: u32, // samples per axis of the stored brick (brick_side, or brick / 2 + 3)
+    half: u32, // 1 for a brick stored at half resolution (coarse lattice, spacing 2)
 }
 
 // Grid position `p` in block `cell` (brick in `slot`), clamped to the block's box.
@@ -136,10 +138,25 @@ fn locate(slot: u32, cell: vec3<i32>, p: vec3<f32>) -> Located {
     let lo = cell * b;
     let hi = min(lo + vec3<i32>(b), top);
     let q = clamp(p, vec3<f32>(lo), vec3<f32>(hi));
+    if ((slot & HALF_RESOLUTION) != 0u) {
+        return locate_half(slot, cell, lo, hi, q);
+    }
     let c = clamp(vec3<i32>(floor(q)), lo, hi - vec3<i32>(1));
     let first = cell / i32(U.brick / U.block) * i32(U.brick) - vec3<i32>(1);
     let side = U.brick_side;
-    return Located(slot * channels() * side * side * side, c - first, q - vec3<f32>(c), q);
+    return Located(slot * channels() * side * side * side, c - first, q - vec3<f32>(c), q, side, 0u);
+}
+
+// `locate` in a brick stored at half resolution (kernel.rs: locate_half).
+fn locate_half(slot: u32, cell: vec3<i32>, lo: vec3<i32>, hi: vec3<i32>, q: vec3<f32>) -> Located {
+    let corner = cell / i32(U.brick / U.block) * i32(U.brick);
+    let pc = (q - vec3<f32>(corner)) * 0.5;
+    let clo = (lo - corner) / 2;
+    let chi = (hi - corner + vec3<i32>(1)) / 2;
+    let c = clamp(vec3<i32>(floor(pc)), clo, chi - vec3<i32>(1));
+    let side = U.brick / 2u + 3u;
+    let base = (slot & ~HALF_RESOLUTION) * channels() * side * side * side;
+    return Located(base, c + vec3<i32>(1), pc - vec3<f32>(c), q, side, 1u);
 }
 
 // Fields per brick slot: 1, or 2 when a second field is combined (kernel.rs: channels).
@@ -149,8 +166,8 @@ fn channels() -> u32 {
 
 // The same point in channel B of its slot (kernel.rs: channel_b).
 fn channel_b(l: Located) -> Located {
-    let side = U.brick_side;
-    return Located(l.base + side * side * side, l.cell, l.frac, l.p);
+    let side = l.side;
+    return Located(l.base + side * side * side, l.cell, l.frac, l.p, l.side, l.half);
 }
 
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
@@ -158,8 +175,7 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
 }
 
 // The emulated texture fetch: 8 loads and 7 lerps, x then y then z.
-fn fetch(base: u32, c: vec3<i32>, t: vec3<f32>) -> f32 {
-    let side = U.brick_side;
+fn fetch(base: u32, side: u32, c: vec3<i32>, t: vec3<f32>) -> f32 {
     let i = base + u32(c.x) + side * (u32(c.y) + side * u32(c.z));
     let sy = side;
     let sz = side * side;
@@ -223,7 +239,7 @@ fn fetch_sum(l: Located, x: Taps, y: Taps, z: Taps) -> f32 {
             for (var iz = 0u; iz < z.n; iz++) {
                 let c = l.cell + vec3<i32>(x.cell[ix], y.cell[iy], z.cell[iz]);
                 let t = vec3<f32>(x.t[ix], y.t[iy], z.t[iz]);
-                sz += z.w[iz] * fetch(l.base, c, t);
+                sz += z.w[iz] * fetch(l.base, l.side, c, t);
             }
             sy += y.w[iy] * sz;
         }
@@ -234,7 +250,7 @@ fn fetch_sum(l: Located, x: Taps, y: Taps, z: Taps) -> f32 {
 
 fn value_at(filter_code: u32, l: Located) -> f32 {
     if (filter_code == FILTER_TRILINEAR) {
-        return fetch(l.base, l.cell, l.frac);
+        return fetch(l.base, l.side, l.cell, l.frac);
     }
     let bx = taps_two(bspline_weights(l.frac.x));
     let by = taps_two(bspline_weights(l.frac.y));
@@ -247,29 +263,38 @@ struct GradHess {
     h: mat3x3<f32>,
 }
 
-fn sample_at(i: u32, dx: u32, dy: u32, dz: u32) -> f32 {
-    let side = U.brick_side;
+fn sample_at(i: u32, side: u32, dx: u32, dy: u32, dz: u32) -> f32 {
     return pool[i + dx + side * (dy + side * dz)];
 }
 
+// For a brick stored at half resolution the coarse derivatives are scaled back to grid
+// units (kernel.rs: gradient_hessian_at).
 fn gradient_hessian_at(filter_code: u32, l: Located) -> GradHess {
-    let side = U.brick_side;
+    let gh = stored_gradient_hessian(filter_code, l);
+    if (l.half != 0u) {
+        return GradHess(gh.g * 0.5, gh.h * 0.25);
+    }
+    return gh;
+}
+
+fn stored_gradient_hessian(filter_code: u32, l: Located) -> GradHess {
+    let side = l.side;
     if (filter_code == FILTER_TRILINEAR) {
         let i = l.base + u32(l.cell.x) + side * (u32(l.cell.y) + side * u32(l.cell.z));
         let t = l.frac;
         // Differences along each axis at the four edges, interpolated over the other two.
-        let ex00 = sample_at(i, 1u, 0u, 0u) - sample_at(i, 0u, 0u, 0u);
-        let ex10 = sample_at(i, 1u, 1u, 0u) - sample_at(i, 0u, 1u, 0u);
-        let ex01 = sample_at(i, 1u, 0u, 1u) - sample_at(i, 0u, 0u, 1u);
-        let ex11 = sample_at(i, 1u, 1u, 1u) - sample_at(i, 0u, 1u, 1u);
-        let ey00 = sample_at(i, 0u, 1u, 0u) - sample_at(i, 0u, 0u, 0u);
-        let ey10 = sample_at(i, 1u, 1u, 0u) - sample_at(i, 1u, 0u, 0u);
-        let ey01 = sample_at(i, 0u, 1u, 1u) - sample_at(i, 0u, 0u, 1u);
-        let ey11 = sample_at(i, 1u, 1u, 1u) - sample_at(i, 1u, 0u, 1u);
-        let ez00 = sample_at(i, 0u, 0u, 1u) - sample_at(i, 0u, 0u, 0u);
-        let ez10 = sample_at(i, 1u, 0u, 1u) - sample_at(i, 1u, 0u, 0u);
-        let ez01 = sample_at(i, 0u, 1u, 1u) - sample_at(i, 0u, 1u, 0u);
-        let ez11 = sample_at(i, 1u, 1u, 1u) - sample_at(i, 1u, 1u, 0u);
+        let ex00 = sample_at(i, side, 1u, 0u, 0u) - sample_at(i, side, 0u, 0u, 0u);
+        let ex10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 0u, 1u, 0u);
+        let ex01 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 0u, 0u, 1u);
+        let ex11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 0u, 1u, 1u);
+        let ey00 = sample_at(i, side, 0u, 1u, 0u) - sample_at(i, side, 0u, 0u, 0u);
+        let ey10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 1u, 0u, 0u);
+        let ey01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 0u, 1u);
+        let ey11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 0u, 1u);
+        let ez00 = sample_at(i, side, 0u, 0u, 1u) - sample_at(i, side, 0u, 0u, 0u);
+        let ez10 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 1u, 0u, 0u);
+        let ez01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 1u, 0u);
+        let ez11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 1u, 0u);
         let gx = lerp(lerp(ex00, ex10, t.y), lerp(ex01, ex11, t.y), t.z);
         let gy = lerp(lerp(ey00, ey10, t.x), lerp(ey01, ey11, t.x), t.z);
         let gz = lerp(lerp(ez00, ez10, t.x), lerp(ez01, ez11, t.x), t.y);

@@ -17,9 +17,9 @@ use isokit_render::gpu::{BackendChoice, GpuRenderer, select_backend};
 use isokit_render::setup::{ProjectionKind, camera_for_scene, shading_for_scene};
 use isokit_render::shade::default_curvature_scale;
 use isokit_render::{
-    BrickCache, Combine, Filter, Frame, Image, Inside, Layout, MultiView, RefineMethod,
-    RenderOptions, Shading, ShadingMode, Volume, check_image_size, estimate_gradient_scale, render,
-    render_multiview, render_view, shade,
+    BrickCache, CachePolicy, Combine, Filter, Frame, Image, Inside, Layout, MultiView,
+    RefineMethod, RenderOptions, Shading, ShadingMode, Volume, check_image_size,
+    estimate_gradient_scale, render, render_multiview, render_view, shade,
 };
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
@@ -65,6 +65,16 @@ pub fn backend_name(gpu: Option<&GpuRenderer>) -> String {
 }
 
 /// Refinement method.
+/// What a brick cache too small for the active bricks does.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CachePolicyArg {
+    /// Render the exact image in several passes.
+    Passes,
+    /// Store the least detailed bricks at half resolution so that all fit, one pass
+    /// (002 Sec. 6.2.3; hanging samples matched, no cracks).
+    Downsample,
+}
+
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Refine {
     /// Halve the bracket.
@@ -143,6 +153,11 @@ pub struct Args {
     /// image in several passes) [default: 1024].
     #[arg(long)]
     pub cache_mb: Option<usize>,
+    /// What a cache too small for the active bricks does: passes (the exact image, in
+    /// several passes) or downsample (the least detailed bricks at half resolution, one
+    /// pass; passes when even that does not fit).
+    #[arg(long, value_enum, default_value_t = CachePolicyArg::Passes)]
+    pub cache_policy: CachePolicyArg,
     /// Projection: perspective or orthographic (same eye, target and field of view).
     #[arg(long, default_value = "perspective")]
     pub projection: String,
@@ -377,6 +392,10 @@ fn render_once(a: &Args, s: &Settings, mut gpu: Option<&mut GpuRenderer>) -> Res
             Refine::Secant => RefineMethod::Secant,
         },
         skip_empty: !a.no_skip,
+        cache_policy: match a.cache_policy {
+            CachePolicyArg::Passes => CachePolicy::Passes,
+            CachePolicyArg::Downsample => CachePolicy::Downsample,
+        },
         ..Default::default()
     };
     if scene.is_none() {
@@ -500,6 +519,7 @@ fn render_once(a: &Args, s: &Settings, mut gpu: Option<&mut GpuRenderer>) -> Res
             "bricks_loaded": st.bricks_loaded,
             "cache_capacity": capacity,
             "passes": st.passes,
+            "bricks_downsampled": st.bricks_downsampled,
             "prepare_seconds": prepare_seconds,
             "trace_seconds": st.seconds,
             "shade_seconds": shade_seconds,

@@ -2,9 +2,23 @@
 //! index from brick to slot, least-recently-used eviction.
 
 use crate::{RenderError, Volume};
+use rayon::prelude::*;
 
 /// Marks a brick that is not in the cache, in [`BrickCache::reference`].
 pub const NOT_RESIDENT: u32 = u32::MAX;
+
+/// Bit of a [`BrickCache::reference`] entry (other than [`NOT_RESIDENT`]) marking a brick
+/// stored at half resolution (the downsampling policy, [`crate::CachePolicy::Downsample`]);
+/// the other bits are its *half slot* `k`, whose samples start at
+/// `k · Volume::half_slot_samples()` in the pool.
+pub const HALF_RESOLUTION: u32 = 1 << 31;
+
+/// Level of a brick in a downsampled assignment: not stored.
+pub(crate) const LEVEL_NONE: u8 = 0;
+/// Level of a brick in a downsampled assignment: full resolution.
+pub(crate) const LEVEL_FULL: u8 = 1;
+/// Level of a brick in a downsampled assignment: half resolution.
+pub(crate) const LEVEL_HALF: u8 = 2;
 
 /// Default memory budget of a cache made by [`BrickCache::for_volume`]: 1 GiB of samples.
 pub const DEFAULT_CACHE_BYTES: usize = 1 << 30;
@@ -33,8 +47,15 @@ pub struct CacheStats {
 /// Bricks are loaded on demand by [`crate::render`] (first the bricks that hold the active
 /// isovalue, nearest to the eye first, as far as the capacity allows; then those that rays
 /// ask for) and evicted least recently used. A cache smaller than the set of active bricks
-/// still renders the same image, in several passes (see [`crate::render`]). The cache
-/// belongs to one volume; handed another one (see [`Volume::id`]) it empties itself.
+/// still renders the same image, in several passes (see [`crate::render`]), or with
+/// [`crate::CachePolicy::Downsample`] holds some bricks at half resolution so that all fit
+/// (a *downsampled assignment*, see [`BrickCache::half_slot_of`]). The cache belongs to one
+/// volume; handed another one (see [`Volume::id`]) it empties itself.
+///
+/// A downsampled assignment lays the pool out as full-resolution slots `0 .. nf` (each
+/// [`Volume::slot_samples`]), then half slots of [`Volume::half_slot_samples`] from the
+/// first half-slot boundary after them; a half-resolution brick's reference entry is
+/// [`HALF_RESOLUTION`] `|` its half slot. The pool never exceeds `capacity` full slots.
 #[derive(Clone, Debug)]
 pub struct BrickCache {
     /// Slots asked for; `capacity` is this bounded by the bound volume's brick count.
@@ -53,7 +74,22 @@ pub struct BrickCache {
     /// False for the bookkeeping of a pool that lives elsewhere (the GPU renderer's): no
     /// samples are kept on the host.
     host_samples: bool,
+    /// Per brick, its level in the current downsampled assignment ([`LEVEL_FULL`], …);
+    /// empty when the cache holds bricks the ordinary way (slots and LRU).
+    mixed: Vec<u8>,
+    /// Per block, `[min, max]` of what the filters read of the stored samples under the
+    /// downsampled assignment (the volume's own ranges for blocks of bricks not stored);
+    /// second field in `mixed_rb`.
+    mixed_ra: Vec<[f32; 2]>,
+    mixed_rb: Vec<[f32; 2]>,
+    /// The search filter the downsampled assignment's hanging samples are matched for.
+    mixed_filter: crate::Filter,
+    /// Per brick, its detail ([`Volume::brick_detail`]), NaN until computed.
+    detail: Vec<f32>,
 }
+
+/// Bricks filled per batch of a downsampled assignment (bounds the staging memory).
+const FILL_BATCH: usize = 64;
 
 impl BrickCache {
     /// A cache of `capacity` bricks for `volume` (at least 1). Nothing is allocated until
@@ -78,6 +114,11 @@ impl BrickCache {
             clock: 0,
             stats: CacheStats::default(),
             host_samples: true,
+            mixed: Vec::new(),
+            mixed_ra: Vec::new(),
+            mixed_rb: Vec::new(),
+            mixed_filter: crate::Filter::Tricubic,
+            detail: vec![f32::NAN; volume.brick_count()],
         })
     }
 
@@ -107,9 +148,13 @@ impl BrickCache {
     pub fn capacity(&self) -> usize {
         self.capacity
     }
-    /// Bricks now resident.
+    /// Bricks now resident (at either resolution).
     pub fn resident(&self) -> usize {
-        self.slot_brick.len()
+        if self.mixed.is_empty() {
+            self.slot_brick.len()
+        } else {
+            self.mixed.iter().filter(|&&l| l != LEVEL_NONE).count()
+        }
     }
     /// Cumulative counters.
     pub fn stats(&self) -> CacheStats {
@@ -123,12 +168,25 @@ impl BrickCache {
     pub fn reference(&self) -> &[u32] {
         &self.reference
     }
-    /// Slot of brick `n`, if resident.
+    /// Slot of brick `n`, if resident at full resolution.
     pub fn slot_of(&self, n: usize) -> Option<usize> {
         self.reference
             .get(n)
-            .filter(|&&s| s != NOT_RESIDENT)
+            .filter(|&&s| s & HALF_RESOLUTION == 0)
             .map(|&s| s as usize)
+    }
+    /// Half slot of brick `n`, if resident at half resolution (a downsampled assignment):
+    /// its samples ([`Volume::fill_brick_half`]) start at `k · Volume::half_slot_samples()`
+    /// in the pool.
+    pub fn half_slot_of(&self, n: usize) -> Option<usize> {
+        self.reference
+            .get(n)
+            .filter(|&&s| s != NOT_RESIDENT && s & HALF_RESOLUTION != 0)
+            .map(|&s| (s & !HALF_RESOLUTION) as usize)
+    }
+    /// Bricks held at half resolution.
+    pub fn downsampled(&self) -> usize {
+        self.mixed.iter().filter(|&&l| l == LEVEL_HALF).count()
     }
     /// Bytes held by the pool and the index.
     pub fn memory_bytes(&self) -> usize {
@@ -148,6 +206,144 @@ impl BrickCache {
         self.last_used.clear();
         self.reference = vec![NOT_RESIDENT; volume.brick_count()];
         self.capacity = self.requested.min(volume.brick_count());
+        self.mixed.clear();
+        self.mixed_ra.clear();
+        self.mixed_rb.clear();
+        self.detail = vec![f32::NAN; volume.brick_count()];
+    }
+
+    /// True while the cache holds a downsampled assignment.
+    pub(crate) fn is_mixed(&self) -> bool {
+        !self.mixed.is_empty()
+    }
+
+    /// Drops a downsampled assignment (every brick it held counts as evicted), leaving an
+    /// empty cache for ordinary loading. False when there was none (nothing changes).
+    pub(crate) fn clear_mixed(&mut self) -> bool {
+        if self.mixed.is_empty() {
+            return false;
+        }
+        self.stats.evictions += self.resident() as u64;
+        self.mixed.clear();
+        self.mixed_ra.clear();
+        self.mixed_rb.clear();
+        self.pool.clear();
+        self.slot_brick.clear();
+        self.last_used.clear();
+        self.reference.fill(NOT_RESIDENT);
+        true
+    }
+
+    /// The per-block ranges of the stored samples under the downsampled assignment (first
+    /// field, second field or empty).
+    pub(crate) fn mixed_ranges(&self) -> (&[[f32; 2]], &[[f32; 2]]) {
+        (&self.mixed_ra, &self.mixed_rb)
+    }
+
+    /// The detail of each brick in `bricks` ([`Volume::brick_detail`]), computed once per
+    /// volume (in parallel) and kept.
+    pub(crate) fn details(&mut self, volume: &Volume, bricks: &[usize]) -> Vec<f32> {
+        let todo: Vec<usize> = bricks
+            .iter()
+            .copied()
+            .filter(|&n| self.detail[n].is_nan())
+            .collect();
+        let got: Vec<f32> = todo.par_iter().map(|&n| volume.brick_detail(n)).collect();
+        for (n, d) in todo.into_iter().zip(got) {
+            self.detail[n] = d;
+        }
+        bricks.iter().map(|&n| self.detail[n]).collect()
+    }
+
+    /// Whether `full` bricks at full resolution and `half` at half resolution fit the pool
+    /// (see the type's docs for the layout).
+    pub(crate) fn mixed_fits(&self, volume: &Volume, full: usize, half: usize) -> bool {
+        let (ss, hs) = (volume.slot_samples(), volume.half_slot_samples());
+        ((full * ss).div_ceil(hs) + half) * hs <= self.capacity * ss
+    }
+
+    /// Makes `levels` (one per brick) the cache's downsampled assignment unless it already
+    /// is (with hanging samples matched for the same search `filter`): empties the cache,
+    /// stores the full-resolution bricks (hanging samples matched,
+    /// [`Volume::fill_brick_matched`]) and the half-resolution ones
+    /// ([`Volume::fill_brick_half`]) and records the ranges of what is stored. `sink(offset,
+    /// samples)` receives every brick's samples at its offset in the pool (the GPU's upload;
+    /// a host cache also keeps them in [`BrickCache::pool`]). Returns false when nothing had
+    /// to change (every brick a hit).
+    pub(crate) fn load_mixed(
+        &mut self,
+        volume: &Volume,
+        levels: Vec<u8>,
+        filter: crate::Filter,
+        mut sink: impl FnMut(usize, &[f32]),
+    ) -> bool {
+        if self.mixed == levels && self.mixed_filter == filter {
+            self.stats.hits += self.resident() as u64;
+            return false;
+        }
+        self.stats.evictions += self.resident() as u64;
+        self.pool.clear();
+        self.slot_brick.clear();
+        self.last_used.clear();
+        self.reference.fill(NOT_RESIDENT);
+        let (ss, hs) = (volume.slot_samples(), volume.half_slot_samples());
+        // Offsets: full slots first, then half slots from the next half-slot boundary.
+        let full: Vec<usize> = (0..levels.len())
+            .filter(|&n| levels[n] == LEVEL_FULL)
+            .collect();
+        let half: Vec<usize> = (0..levels.len())
+            .filter(|&n| levels[n] == LEVEL_HALF)
+            .collect();
+        let k0 = (full.len() * ss).div_ceil(hs);
+        let mut jobs: Vec<(usize, usize, bool)> = Vec::with_capacity(full.len() + half.len());
+        for (s, &n) in full.iter().enumerate() {
+            self.reference[n] = s as u32;
+            jobs.push((s * ss, n, false));
+        }
+        for (k, &n) in half.iter().enumerate() {
+            self.reference[n] = HALF_RESOLUTION | (k0 + k) as u32;
+            jobs.push(((k0 + k) * hs, n, true));
+        }
+        let total = if half.is_empty() {
+            full.len() * ss
+        } else {
+            (k0 + half.len()) * hs
+        };
+        if self.host_samples {
+            self.pool.resize(total, 0.0);
+        }
+        self.mixed_ra = volume.block_ranges().to_vec();
+        self.mixed_rb = volume
+            .operand_block_ranges()
+            .map_or_else(Vec::new, <[_]>::to_vec);
+        let is_half = |n: usize| levels[n] == LEVEL_HALF;
+        for batch in jobs.chunks(FILL_BATCH) {
+            let filled: Vec<Vec<f32>> = batch
+                .par_iter()
+                .map(|&(_, n, h)| {
+                    if h {
+                        let mut out = vec![0.0; hs];
+                        volume.fill_brick_half(n, &mut out);
+                        out
+                    } else {
+                        let mut out = vec![0.0; ss];
+                        volume.fill_brick_matched(n, is_half, filter, &mut out);
+                        out
+                    }
+                })
+                .collect();
+            for (&(offset, n, h), data) in batch.iter().zip(&filled) {
+                volume.stored_block_ranges(n, h, data, &mut self.mixed_ra, &mut self.mixed_rb);
+                if self.host_samples {
+                    self.pool[offset..offset + data.len()].copy_from_slice(data);
+                }
+                sink(offset, data);
+            }
+        }
+        self.stats.loads += jobs.len() as u64;
+        self.mixed = levels;
+        self.mixed_filter = filter;
+        true
     }
 
     /// Advances the clock (once per pass) and returns it.
@@ -158,6 +354,9 @@ impl BrickCache {
 
     /// Marks brick `n` (resident) as used now.
     pub(crate) fn touch(&mut self, n: usize) {
+        if self.is_mixed() {
+            return;
+        }
         if let Some(s) = self.slot_of(n) {
             self.last_used[s] = self.clock;
         }

@@ -29,6 +29,11 @@
 //! every filter reads only the block's support, which its brick stores (apron 1 before and
 //! 2 after) and its `[min, max]` covers.
 //!
+//! A brick stored at half resolution (reference entry [`HALF_RESOLUTION`] `|` half slot,
+//! [`crate::CachePolicy::Downsample`]) is read the same way on its coarse lattice
+//! ([`locate_half`]: spacing 2, `brick / 2 + 3` samples per axis, the same apron in coarse
+//! samples) with the same filters; derivatives are scaled back to grid units.
+//!
 //! **Caps.** A ray whose first sample (where it enters the box) lies inside hits there: the
 //! volume's box cuts the solid (CT data cut by the scan's field of view, or an isovalue at
 //! the data's extreme). The normal is the face's; curvatures are 0; the id is [`ID_CAP`].
@@ -38,7 +43,7 @@ use isokit_field::curvature::{DEFAULT_MIN_GRADIENT, Inside, curvature_with};
 use isokit_field::filter::TwoFetch;
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use crate::cache::NOT_RESIDENT;
+use crate::cache::{HALF_RESOLUTION, NOT_RESIDENT};
 
 /// [`GSample::id`] of a pixel whose ray hit nothing.
 pub const ID_MISS: u32 = 0;
@@ -386,6 +391,12 @@ pub struct Located {
     pub frac: Vec3,
     /// The (clamped) position in grid coordinates.
     pub p: Vec3,
+    /// Samples per axis of the stored brick: `brick_side`, or `brick / 2 + 3` for a brick
+    /// stored at half resolution.
+    pub side: usize,
+    /// True for a brick stored at half resolution: `cell` and `frac` are on its coarse
+    /// lattice (spacing 2), derivatives are scaled back to grid units.
+    pub half: bool,
 }
 
 /// Resolves grid position `p` in block `cell` whose brick sits in `slot`: `p` is clamped to
@@ -400,6 +411,9 @@ pub fn locate(u: &Uniforms, slot: u32, cell: IVec3, p: Vec3) -> Located {
     let q = p.clamp(lo.as_vec3(), hi.as_vec3());
     // The cell and fraction in grid coordinates (exact, as the dense filters split them),
     // then the cell relative to the brick's first stored sample.
+    if slot & HALF_RESOLUTION != 0 {
+        return locate_half(u, slot, cell, lo, hi, q);
+    }
     let c = q.floor().as_ivec3().clamp(lo, hi - IVec3::ONE);
     let first = cell / (u.brick / u.block) as i32 * u.brick as i32 - IVec3::ONE;
     let side = u.brick_side as usize;
@@ -408,6 +422,32 @@ pub fn locate(u: &Uniforms, slot: u32, cell: IVec3, p: Vec3) -> Located {
         cell: c - first,
         frac: q - c.as_vec3(),
         p: q,
+        side,
+        half: false,
+    }
+}
+
+/// [`locate`] in a brick stored at half resolution (`slot` is [`HALF_RESOLUTION`] `|` its
+/// half slot): the clamped position `q` in coarse coordinates relative to the brick's
+/// corner, `(q − corner) / 2`; the coarse cell clamped to the block's coarse cells
+/// `[(lo − corner) / 2, ceil((hi − corner) / 2))` (a block of an odd number of cells at the
+/// grid's end ends inside its last coarse cell); the stored coarse brick starts one coarse
+/// sample before the corner.
+#[inline]
+pub fn locate_half(u: &Uniforms, slot: u32, cell: IVec3, lo: IVec3, hi: IVec3, q: Vec3) -> Located {
+    let corner = cell / (u.brick / u.block) as i32 * u.brick as i32;
+    let pc = (q - corner.as_vec3()) * 0.5;
+    let clo = (lo - corner) / 2;
+    let chi = (hi - corner + IVec3::ONE) / 2;
+    let c = pc.floor().as_ivec3().clamp(clo, chi - IVec3::ONE);
+    let side = (u.brick / 2 + 3) as usize;
+    Located {
+        base: (slot & !HALF_RESOLUTION) as usize * channels(u) * side * side * side,
+        cell: c + IVec3::ONE,
+        frac: pc - c.as_vec3(),
+        p: q,
+        side,
+        half: true,
     }
 }
 
@@ -419,8 +459,8 @@ pub fn channels(u: &Uniforms) -> usize {
 
 /// The same point in channel B of its slot (the second field).
 #[inline]
-pub fn channel_b(u: &Uniforms, l: &Located) -> Located {
-    let side = u.brick_side as usize;
+pub fn channel_b(_u: &Uniforms, l: &Located) -> Located {
+    let side = l.side;
     Located {
         base: l.base + side * side * side,
         ..*l
@@ -511,8 +551,8 @@ fn fetch_sum<const X: usize, const Y: usize, const Z: usize>(
 /// (8 fetches). Bit-for-bit the value of [`isokit_field::filter::trilinear`] and
 /// [`isokit_field::filter::tricubic_bspline_fast`] on the dense grid.
 #[inline]
-pub fn value_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> f32 {
-    let side = u.brick_side as usize;
+pub fn value_at(_u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> f32 {
+    let side = l.side;
     if filter == FILTER_TRILINEAR {
         return fetch(pool, side, l.base, l.cell, l.frac);
     }
@@ -531,8 +571,19 @@ pub fn derivatives_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (
 
 /// Gradient and Hessian at a located point, in grid units (see [`derivatives_at`]); what
 /// shading needs (84 fetches for the tricubic filter).
+/// For a brick stored at half resolution the coarse lattice's derivatives are scaled back
+/// to grid units (gradient · 1/2, Hessian · 1/4).
 pub fn gradient_hessian_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
-    let side = u.brick_side as usize;
+    let (g, h) = stored_gradient_hessian(u, pool, filter, l);
+    if l.half {
+        return (g * 0.5, h * 0.25);
+    }
+    (g, h)
+}
+
+/// Gradient and Hessian in the stored brick's own units (see [`gradient_hessian_at`]).
+fn stored_gradient_hessian(_u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
+    let side = l.side;
     if filter == FILTER_TRILINEAR {
         let i = l.base + l.cell.x as usize + side * (l.cell.y as usize + side * l.cell.z as usize);
         let s = |dx: usize, dy: usize, dz: usize| pool[i + dx + side * (dy + side * dz)];

@@ -62,9 +62,11 @@
 //!   end is within δ of ρ (002 switches after the near sample, which misses a sheet thinner
 //!   than a base step lying just before it).
 //! - **Too small a cache**: rays that reach a missing brick ask for it and wait; the host
-//!   loads the bricks asked for and resumes them (several passes). 002 Sec. 6.2.3
-//!   downsamples low-detail bricks instead; that changes the surface and needs hanging
-//!   samples matched, whereas passes keep the image exact and cost time only.
+//!   loads the bricks asked for and resumes them (several passes), the default. 002
+//!   Sec. 6.2.3 downsamples low-detail bricks instead: [`CachePolicy::Downsample`], which
+//!   changes the surface slightly and matches hanging samples (exact for the trilinear
+//!   filter, to second order for the tricubic one), whereas passes keep the image exact
+//!   and cost time only.
 //! - **Caps**: a ray that enters the volume inside the solid hits the box there.
 //! - **CSG and morphing** (Sec. 6.4.3, [`Volume::with_operand`]): both fields share each
 //!   brick slot and are combined per sample with the corrected operators of ERRATA 1
@@ -87,14 +89,14 @@ pub mod shade;
 pub mod splat;
 mod volume;
 
-pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, NOT_RESIDENT};
+pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, HALF_RESOLUTION, NOT_RESIDENT};
 pub use error::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};
 pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
 pub use render::{
-    Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats, camera_uniforms,
-    estimate_gradient_scale, render, render_multiview, render_view, uniforms,
+    CachePolicy, Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats,
+    camera_uniforms, estimate_gradient_scale, render, render_multiview, render_view, uniforms,
 };
 pub use shade::{Image, Light, Shading, ShadingMode, shade};
 pub use volume::{Combine, Layout, Volume, VolumeData};

@@ -57,6 +57,36 @@ pub enum RefineMethod {
     Secant,
 }
 
+/// What to do when the bricks a frame needs do not all fit the brick cache.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CachePolicy {
+    /// Render the exact image in several passes: rays wait at a missing brick, the host
+    /// loads the bricks asked for and resumes them.
+    #[default]
+    Passes,
+    /// 002 Sec. 6.2.3: store the bricks with the least detail ([`Volume::brick_detail`])
+    /// at half resolution (every second sample, [`Volume::fill_brick_half`]) until all
+    /// active bricks fit, and render in one pass; full-resolution bricks beside
+    /// half-resolution ones get their hanging samples matched
+    /// ([`Volume::fill_brick_matched`]) so the surface has no cracks. With a cache that
+    /// holds every active brick it changes nothing; when even all at half resolution do
+    /// not fit, it renders in passes.
+    Downsample,
+}
+
+impl std::str::FromStr for CachePolicy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "passes" => Ok(Self::Passes),
+            "downsample" => Ok(Self::Downsample),
+            _ => Err(format!(
+                "unknown cache policy {s:?} (expected passes or downsample)"
+            )),
+        }
+    }
+}
+
 /// The knobs of one rendering: what surface, how it is searched, how precisely.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -90,6 +120,9 @@ pub struct RenderOptions {
     pub skip_empty: bool,
     /// Report caps where a ray enters the volume inside the solid (default true).
     pub caps: bool,
+    /// What a cache too small for the active bricks does (default
+    /// [`CachePolicy::Passes`]).
+    pub cache_policy: CachePolicy,
 }
 
 impl Default for RenderOptions {
@@ -107,6 +140,7 @@ impl Default for RenderOptions {
             refine: RefineMethod::Secant,
             skip_empty: true,
             caps: true,
+            cache_policy: CachePolicy::Passes,
         }
     }
 }
@@ -371,7 +405,7 @@ pub fn render_multiview(
     mv: &MultiView,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, None)?;
-    trace_frame(volume, cache, camera, u)
+    trace_frame(volume, cache, camera, u, opts.cache_policy)
 }
 
 /// One view of a multi-view display rendered alone (every pixel from that view's eye): the
@@ -385,7 +419,7 @@ pub fn render_view(
     view: u32,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, Some(view))?;
-    trace_frame(volume, cache, camera, u)
+    trace_frame(volume, cache, camera, u, opts.cache_policy)
 }
 
 /// What one rendering did.
@@ -419,6 +453,8 @@ pub struct RenderStats {
     pub evictions: u64,
     /// Passes over the pending pixels (1 when the cache held every brick rays needed).
     pub passes: u32,
+    /// Active bricks held at half resolution ([`CachePolicy::Downsample`]).
+    pub bricks_downsampled: usize,
     /// Wall-clock seconds of the frame (cache updates and tracing).
     pub seconds: f64,
 }
@@ -452,6 +488,10 @@ pub struct Frame {
 ///    least recently used, and the waiting rays resume where they stopped. Because a ray
 ///    cuts and samples its segments the same way whether it ran through or was resumed, a
 ///    cache smaller than the active set renders exactly the same image, in more passes.
+///
+/// With [`CachePolicy::Downsample`] and more active bricks than slots, step 2 instead
+/// stores some bricks at half resolution (least detail first) so that every active brick
+/// is resident and step 3 is the only pass (see [`CachePolicy`]).
 pub fn render(
     volume: &Volume,
     cache: &mut BrickCache,
@@ -459,7 +499,7 @@ pub fn render(
     opts: &RenderOptions,
 ) -> Result<Frame, RenderError> {
     let u = uniforms(volume, camera, opts)?;
-    trace_frame(volume, cache, camera, u)
+    trace_frame(volume, cache, camera, u, opts.cache_policy)
 }
 
 /// The host's first steps of a frame, shared by the CPU and GPU twins: which bricks hold an
@@ -472,15 +512,55 @@ pub(crate) struct Prefetch {
     pub blocks_active: usize,
     /// `(slot, brick)` pairs loaded by the prefetch.
     pub loaded: Vec<(usize, usize)>,
+    /// Under a downsampled assignment: the block ranges to trace with (those of the stored
+    /// samples, [`BrickCache`]'s mixed ranges combined as [`Volume::trace_ranges`]).
+    pub ranges: Option<Vec<[f32; 2]>>,
+    /// Active bricks at half resolution.
+    pub downsampled: usize,
+    /// True when the reference index changed other than through `loaded`.
+    pub reference_changed: bool,
+}
+
+/// The downsampled assignment of a frame (one level per brick) when the active bricks do
+/// not fit the cache at full resolution but do with the least detailed ones at half
+/// resolution; `None` when they fit as they are, or not even all at half resolution.
+fn plan_downsample(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    brick_active: &[bool],
+) -> Option<Vec<u8>> {
+    use crate::cache::{LEVEL_FULL, LEVEL_HALF, LEVEL_NONE};
+    let active: Vec<usize> = (0..brick_active.len())
+        .filter(|&n| brick_active[n])
+        .collect();
+    if active.len() <= cache.capacity() {
+        return None;
+    }
+    let a = active.len();
+    let nh = (0..=a).find(|&nh| cache.mixed_fits(volume, a - nh, nh))?;
+    let detail = cache.details(volume, &active);
+    let mut order: Vec<(f32, usize)> = detail.into_iter().zip(active.iter().copied()).collect();
+    order.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    let mut levels = vec![LEVEL_NONE; brick_active.len()];
+    for (i, &(_, n)) in order.iter().enumerate() {
+        levels[n] = if i < nh { LEVEL_HALF } else { LEVEL_FULL };
+    }
+    Some(levels)
 }
 
 /// Steps 1–2 of [`render`] (see there).
+///
+/// With [`CachePolicy::Downsample`], a downsampled assignment when one is needed (see
+/// [`plan_downsample`]); `sink` receives the samples the cache stores for it (the GPU's
+/// upload). Otherwise a downsampled assignment left from an earlier frame is dropped first.
 pub(crate) fn prefetch(
     volume: &Volume,
     ranges: &[[f32; 2]],
     cache: &mut BrickCache,
     camera: &Camera,
     u: &Uniforms,
+    policy: CachePolicy,
+    sink: impl FnMut(usize, &[f32]),
 ) -> Prefetch {
     let n_bricks = volume.brick_count();
     // 1. Active blocks and bricks.
@@ -498,8 +578,32 @@ pub(crate) fn prefetch(
             brick_active[kernel::brick_of_block(u, c)] = true;
         }
     }
-    // 2. Hits and prefetch, nearest first.
     cache.tick();
+    if policy == CachePolicy::Downsample
+        && let Some(levels) = plan_downsample(volume, cache, &brick_active)
+    {
+        let downsampled = levels
+            .iter()
+            .filter(|&&l| l == crate::cache::LEVEL_HALF)
+            .count();
+        let filter = if u.filter == FILTER_TRILINEAR {
+            Filter::Trilinear
+        } else {
+            Filter::Tricubic
+        };
+        let changed = cache.load_mixed(volume, levels, filter, sink);
+        let (ra, rb) = cache.mixed_ranges();
+        return Prefetch {
+            brick_active,
+            blocks_active,
+            loaded: Vec::new(),
+            ranges: Some(volume.trace_ranges_of(ra, rb, u.iso, u.inside_sign)),
+            downsampled,
+            reference_changed: changed,
+        };
+    }
+    let reference_changed = cache.clear_mixed();
+    // 2. Hits and prefetch, nearest first.
     let eye = camera.eye();
     let forward = camera.forward();
     let mut wanted: Vec<(f32, usize)> = Vec::new();
@@ -523,6 +627,9 @@ pub(crate) fn prefetch(
         brick_active,
         blocks_active,
         loaded,
+        ranges: None,
+        downsampled: 0,
+        reference_changed,
     }
 }
 
@@ -535,6 +642,14 @@ pub(crate) fn load_requested(
     cache: &mut BrickCache,
     requests: impl Iterator<Item = u32>,
 ) -> Result<Vec<(usize, usize)>, RenderError> {
+    if cache.is_mixed() {
+        // Every active brick is resident under a downsampled assignment: no ray waits.
+        return Err(RenderError::bad(
+            "cache capacity",
+            cache.capacity(),
+            "a ray waited for a brick under a downsampled assignment",
+        ));
+    }
     let mut asked: Vec<(u32, usize)> = requests
         .enumerate()
         .filter_map(|(n, c)| (c > 0).then_some((c, n)))
@@ -589,6 +704,7 @@ pub(crate) fn frame_stats(
         bricks_loaded: after.loads - before.loads,
         evictions: after.evictions - before.evictions,
         passes,
+        bricks_downsampled: pre.downsampled,
         seconds,
     }
 }
@@ -599,6 +715,7 @@ fn trace_frame(
     cache: &mut BrickCache,
     camera: &Camera,
     u: Uniforms,
+    policy: CachePolicy,
 ) -> Result<Frame, RenderError> {
     let t0 = Instant::now();
     cache.bind(volume);
@@ -606,7 +723,8 @@ fn trace_frame(
     let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
     let n_bricks = volume.brick_count();
     let ranges = volume.trace_ranges(u.iso, u.inside_sign);
-    let pre = prefetch(volume, &ranges, cache, camera, &u);
+    let pre = prefetch(volume, &ranges, cache, camera, &u, policy, |_, _| {});
+    let ranges: &[[f32; 2]] = pre.ranges.as_deref().unwrap_or(&ranges);
 
     // 3–4. Passes.
     let mut pixels = vec![GSample::default(); w * h];
@@ -620,7 +738,7 @@ fn trace_frame(
         let data = TraceData {
             pool: cache.pool(),
             reference: cache.reference(),
-            block_range: &ranges,
+            block_range: ranges,
             requests: &requests,
             used: &used,
         };

@@ -301,9 +301,10 @@ fn nearest_bound(q: &Quadric, view: &View) -> f32 {
     (n * (1.0 - 1e-5)) as f32
 }
 
-/// [`splat_view`], culling or not. With culling each tile takes its quadrics in order of
-/// [`nearest_bound`] and stops once every pixel of the tile is covered by a hit nearer
-/// than the next quadric can be; ties in depth go to the lower quadric index either way.
+/// [`splat_view`], culling or not. With culling each tile takes its quadrics in order of a
+/// lower bound of their distance and stops once every pixel of the tile is covered by a hit
+/// nearer than the next quadric can be; ties in depth go to the lower quadric index either
+/// way.
 pub fn splat_view_with(
     scene: &SplatScene,
     u: &Uniforms,

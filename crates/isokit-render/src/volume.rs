@@ -67,6 +67,67 @@ impl Layout {
     pub fn blocks_per_brick(&self) -> usize {
         self.brick / self.block
     }
+
+    /// Samples per axis of a *half-resolution* brick (the downsampling cache policy,
+    /// [`crate::CachePolicy::Downsample`]): `brick / 2 + 3`, every second grid sample
+    /// (spacing 2h) with the same apron, one coarse sample before and two after.
+    pub fn half_side(&self) -> usize {
+        self.brick / 2 + 3
+    }
+
+    /// Samples of a half-resolution brick: `half_side()³`.
+    pub fn half_samples(&self) -> usize {
+        self.half_side().pow(3)
+    }
+}
+
+/// The trilinear interpolation of the *coarse lattice* (the grid samples with even indices,
+/// clamped to the grid) at integer sample `g`: the value a half-resolution brick
+/// reconstructs there. Along an axis where `g` is even the coarse fraction is 0, where it
+/// is odd 0.5; the lerps run x, then y, then z, as the kernel's fetch, so the value is bit
+/// for bit what the kernel's trilinear fetch in the coarse cell returns at that point.
+fn coarse_interp(data: &VolumeData, g: IVec3) -> f32 {
+    let e = IVec3::new(
+        g.x.div_euclid(2) * 2,
+        g.y.div_euclid(2) * 2,
+        g.z.div_euclid(2) * 2,
+    );
+    let t = (g - e).as_vec3() * 0.5;
+    let s = |dx: i32, dy: i32, dz: i32| data.get_clamped(e + 2 * IVec3::new(dx, dy, dz));
+    let lerp = |a: f32, b: f32, t: f32| a + t * (b - a);
+    let x00 = lerp(s(0, 0, 0), s(1, 0, 0), t.x);
+    let x10 = lerp(s(0, 1, 0), s(1, 1, 0), t.x);
+    let x01 = lerp(s(0, 0, 1), s(1, 0, 1), t.x);
+    let x11 = lerp(s(0, 1, 1), s(1, 1, 1), t.x);
+    lerp(lerp(x00, x10, t.y), lerp(x01, x11, t.y), t.z)
+}
+
+/// The cubic B-spline *subdivision* of the coarse lattice at integer sample `g`: the fine
+/// control point that makes a cubic B-spline on the fine lattice equal to the B-spline of
+/// the coarse samples (knot insertion), per axis `(c₋₁ + 6c₀ + c₁)/8` at an even index and
+/// `(c₀ + c₁)/2` at an odd one (tensor product, coarse samples clamped to the grid).
+fn coarse_subdivision(data: &VolumeData, g: IVec3) -> f32 {
+    let taps = |v: i32| -> ([i32; 3], [f32; 3], usize) {
+        if v.rem_euclid(2) == 0 {
+            ([v - 2, v, v + 2], [0.125, 0.75, 0.125], 3)
+        } else {
+            ([v - 1, v + 1, 0], [0.5, 0.5, 0.0], 2)
+        }
+    };
+    let (tx, ty, tz) = (taps(g.x), taps(g.y), taps(g.z));
+    let mut sum = 0.0f32;
+    for iz in 0..tz.2 {
+        let mut sy = 0.0f32;
+        for iy in 0..ty.2 {
+            let mut sx = 0.0f32;
+            for ix in 0..tx.2 {
+                sx += tx.1[ix] * data.get_clamped(IVec3::new(tx.0[ix], ty.0[iy], tz.0[iz]));
+            }
+            sy += ty.1[iy] * sx;
+        }
+        sum += tz.1[iz] * sy;
+    }
+    sum
 }
 
 /// Where the samples come from.
@@ -455,27 +516,57 @@ impl Volume {
         let Some(op) = &self.operand else {
             return Cow::Borrowed(&self.block_range);
         };
+        Cow::Owned(self.combined_ranges(&self.block_range, &op.block_range, iso, inside_sign))
+    }
+
+    /// The second field's `[min, max]` per block, if any (as [`Volume::block_ranges`]).
+    pub(crate) fn operand_block_ranges(&self) -> Option<&[[f32; 2]]> {
+        self.operand.as_ref().map(|o| o.block_range.as_slice())
+    }
+
+    /// [`Volume::trace_ranges`] from given per-block ranges of the fields (`b` only with a
+    /// second field): the cache's ranges of what it stores under the downsampling policy.
+    pub(crate) fn trace_ranges_of(
+        &self,
+        a: &[[f32; 2]],
+        b: &[[f32; 2]],
+        iso: f32,
+        inside_sign: f32,
+    ) -> Vec<[f32; 2]> {
+        match &self.operand {
+            None => a.to_vec(),
+            Some(_) => self.combined_ranges(a, b, iso, inside_sign),
+        }
+    }
+
+    fn combined_ranges(
+        &self,
+        ra: &[[f32; 2]],
+        rb: &[[f32; 2]],
+        iso: f32,
+        inside_sign: f32,
+    ) -> Vec<[f32; 2]> {
+        let Some(op) = &self.operand else {
+            return ra.to_vec();
+        };
         let s = inside_sign;
         let to_res = |r: [f32; 2]| {
             let (x, y) = (s * (r[0] - iso), s * (r[1] - iso));
             [x.min(y), x.max(y)]
         };
-        Cow::Owned(
-            self.block_range
-                .iter()
-                .zip(&op.block_range)
-                .map(|(&a, &b)| {
-                    if a[0] > a[1] || b[0] > b[1] {
-                        return [f32::INFINITY, f32::NEG_INFINITY];
-                    }
-                    let c = op.combine.interval(to_res(a), to_res(b));
-                    let (x, y) = (iso + s * c[0], iso + s * c[1]);
-                    let m = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
-                    let eps = 8.0 * f32::EPSILON * (m + iso.abs());
-                    [x.min(y) - eps, x.max(y) + eps]
-                })
-                .collect(),
-        )
+        ra.iter()
+            .zip(rb)
+            .map(|(&a, &b)| {
+                if a[0] > a[1] || b[0] > b[1] {
+                    return [f32::INFINITY, f32::NEG_INFINITY];
+                }
+                let c = op.combine.interval(to_res(a), to_res(b));
+                let (x, y) = (iso + s * c[0], iso + s * c[1]);
+                let m = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
+                let eps = 8.0 * f32::EPSILON * (m + iso.abs());
+                [x.min(y) - eps, x.max(y) + eps]
+            })
+            .collect()
     }
 
     /// The samples.
@@ -582,6 +673,238 @@ impl Volume {
         fill(&self.data, a);
         if let Some(op) = &self.operand {
             fill(&op.data, b);
+        }
+    }
+
+    /// Samples of one half-resolution slot: `channels() · half_samples()` (see
+    /// [`Layout::half_side`]).
+    pub fn half_slot_samples(&self) -> usize {
+        self.channels() * self.layout.half_samples()
+    }
+
+    /// Grid coordinates of brick `n`'s first cell (its corner sample).
+    fn brick_corner(&self, n: usize) -> IVec3 {
+        let c = self.brick_coord(n);
+        IVec3::new(c[0] as i32, c[1] as i32, c[2] as i32) * self.layout.brick as i32
+    }
+
+    /// Fills `out` ([`Volume::half_slot_samples`] values) with brick `n` at half resolution:
+    /// coarse sample `m` (per axis, `0 ..= brick / 2 + 2`) is grid sample
+    /// `brick·c + 2(m − 1)` clamped to the grid, x fastest; a second field's follow. The
+    /// coarse samples are a subset of the grid's (every second one, on the global lattice
+    /// of even indices), not averages, so a half-resolution brick and a full-resolution
+    /// one agree wherever both hold a coarse sample.
+    pub fn fill_brick_half(&self, n: usize, out: &mut [f32]) {
+        let s = self.layout.half_side();
+        let s3 = s * s * s;
+        debug_assert_eq!(out.len(), self.half_slot_samples());
+        let lo = self.brick_corner(n) - IVec3::splat(2);
+        let (a, b) = out.split_at_mut(s3);
+        let fill = |data: &VolumeData, out: &mut [f32]| {
+            for (m, v) in out.iter_mut().enumerate() {
+                let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
+                *v = data.get_clamped(lo + 2 * l);
+            }
+        };
+        fill(&self.data, a);
+        if let Some(op) = &self.operand {
+            fill(&op.data, b);
+        }
+    }
+
+    /// True when grid sample `g` lies in the closed box (cells' corners, clamped to the
+    /// grid) of a half-resolution brick (`is_half`) dilated by `d` samples.
+    fn in_half_box(&self, g: IVec3, d: i32, is_half: &impl Fn(usize) -> bool) -> bool {
+        let r = self.layout.brick as i32;
+        // Per axis the bricks whose dilated closed cell range holds g (at most 3).
+        let cand = |a: usize| -> ([usize; 3], usize) {
+            let (v, n) = (g[a], self.brick_dims[a] as i32);
+            let top = self.dims[a] as i32 - 1;
+            let mut out = ([0; 3], 0);
+            for k in (v.div_euclid(r) - 1)..=(v.div_euclid(r) + 1) {
+                if k >= 0 && k < n && k * r - d <= v && v <= (k * r + r).min(top) + d {
+                    out.0[out.1] = k as usize;
+                    out.1 += 1;
+                }
+            }
+            out
+        };
+        let (cx, cy, cz) = (cand(0), cand(1), cand(2));
+        for &z in &cz.0[..cz.1] {
+            for &y in &cy.0[..cy.1] {
+                for &x in &cx.0[..cx.1] {
+                    if is_half(self.brick_index([x, y, z])) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// [`Volume::fill_brick`] for a full-resolution brick beside half-resolution ones
+    /// (`is_half(brick)`), with its **hanging samples matched** to what the half-resolution
+    /// bricks reconstruct with the search filter `filter`, so that both sides of a shared
+    /// face (or edge, or corner) reconstruct the same field there and the isosurface has no
+    /// cracks. Samples are replaced by a rule on their grid position alone, so every brick
+    /// that stores a sample stores the same value:
+    ///
+    /// - [`crate::Filter::Trilinear`]: every stored sample (face and apron alike) in the
+    ///   closed box of a half-resolution brick becomes that brick's trilinear
+    ///   reconstruction there, the trilinear interpolation of the coarse lattice (linear
+    ///   along a shared face; coarse samples keep their values). The fine bilinear
+    ///   interpolant of a coarse bilinear function is that function: both sides agree
+    ///   exactly on the face (to the rounding of a lerp at fraction 1).
+    /// - [`crate::Filter::Tricubic`]: the B-spline reads one sample before and two after a
+    ///   cell, so a face's values depend on three planes of samples; every stored sample
+    ///   within one sample of a half-resolution brick's closed box becomes the cubic
+    ///   B-spline subdivision of the coarse lattice (knot insertion: `(c₋₁ + 6c₀ + c₁)/8`,
+    ///   `(c₀ + c₁)/2` per axis). The fine B-spline of subdivided control points *is* the
+    ///   coarse B-spline, so both sides agree on the face to rounding. The full brick's
+    ///   surface changes within a sample of the face (it is smoothed like the coarse one).
+    ///
+    /// The residual mismatch is a filter's matching seen through the other filter (e.g. a
+    /// trilinear shading filter after a tricubic search): it moves normals, not the
+    /// surface the search found; what it amounts to is measured in the tests.
+    pub fn fill_brick_matched(
+        &self,
+        n: usize,
+        is_half: impl Fn(usize) -> bool,
+        filter: crate::Filter,
+        out: &mut [f32],
+    ) {
+        self.fill_brick(n, out);
+        let s = self.layout.brick_side();
+        let s3 = s * s * s;
+        let lo = self.brick_corner(n) - IVec3::ONE;
+        let (a, b) = out.split_at_mut(s3);
+        let (d, rule): (i32, fn(&VolumeData, IVec3) -> f32) = match filter {
+            crate::Filter::Trilinear => (0, coarse_interp),
+            crate::Filter::Tricubic => (1, coarse_subdivision),
+        };
+        for m in 0..s3 {
+            let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
+            let g = lo + l;
+            if self.in_half_box(g, d, &is_half) {
+                a[m] = rule(&self.data, g);
+                if let Some(op) = &self.operand {
+                    b[m] = rule(&op.data, g);
+                }
+            }
+        }
+    }
+
+    /// The **detail** of brick `n`, the measure the downsampling policy ranks bricks by
+    /// (least detail is downsampled first): the largest deviation
+    /// `|f(g) − f̃(g)|` over the brick's grid samples `g` (its cells' corners) of the
+    /// samples from the trilinear interpolation `f̃` of the coarse lattice (every second
+    /// sample), i.e. the error of the trilinear reconstruction at half resolution at the
+    /// samples it drops; the larger of both fields' with a second field. Non-finite samples
+    /// are ignored. 0 for a brick linear along every axis (and any flat one).
+    pub fn brick_detail(&self, n: usize) -> f32 {
+        let c = self.brick_corner(n);
+        let r = self.layout.brick as i32;
+        let top = IVec3::new(
+            self.dims[0] as i32 - 1,
+            self.dims[1] as i32 - 1,
+            self.dims[2] as i32 - 1,
+        );
+        let hi = (c + IVec3::splat(r)).min(top);
+        let mut worst = 0.0f32;
+        let mut scan = |data: &VolumeData| {
+            for k in c.z..=hi.z {
+                for j in c.y..=hi.y {
+                    for i in c.x..=hi.x {
+                        let g = IVec3::new(i, j, k);
+                        let d = (data.get_clamped(g) - coarse_interp(data, g)).abs();
+                        if d.is_finite() {
+                            worst = worst.max(d);
+                        }
+                    }
+                }
+            }
+        };
+        scan(&self.data);
+        if let Some(op) = &self.operand {
+            scan(&op.data);
+        }
+        worst
+    }
+
+    /// `[min, max]` per block of brick `n` over what the filters read of its *stored*
+    /// samples `stored` (full resolution, or half when `half`), per field, written into
+    /// `ra` and `rb` (`rb` only with a second field) at the blocks' indices. Sound bounds
+    /// for skipping blocks of a brick stored downsampled or with hanging samples matched.
+    pub(crate) fn stored_block_ranges(
+        &self,
+        n: usize,
+        half: bool,
+        stored: &[f32],
+        ra: &mut [[f32; 2]],
+        rb: &mut [[f32; 2]],
+    ) {
+        let lay = self.layout;
+        let side = if half {
+            lay.half_side()
+        } else {
+            lay.brick_side()
+        };
+        let s3 = side * side * side;
+        let corner = self.brick_corner(n);
+        let top = IVec3::new(
+            self.dims[0] as i32 - 1,
+            self.dims[1] as i32 - 1,
+            self.dims[2] as i32 - 1,
+        );
+        let b = lay.block as i32;
+        let per = lay.blocks_per_brick() as i32;
+        let bc = corner / b;
+        for kz in 0..per {
+            for ky in 0..per {
+                for kx in 0..per {
+                    let cell = bc + IVec3::new(kx, ky, kz);
+                    if cell.x >= self.block_dims[0] as i32
+                        || cell.y >= self.block_dims[1] as i32
+                        || cell.z >= self.block_dims[2] as i32
+                    {
+                        continue;
+                    }
+                    let lo = cell * b;
+                    let hi = (lo + IVec3::splat(b)).min(top);
+                    // Stored index range the filters read for points of this block.
+                    let (s0, s1) = if half {
+                        let clo = (lo - corner) / 2;
+                        let chi = (hi - corner + IVec3::ONE) / 2;
+                        (clo, chi + IVec3::splat(2))
+                    } else {
+                        (lo - corner, hi - corner + IVec3::splat(2))
+                    };
+                    let s1 = s1.min(IVec3::splat(side as i32 - 1));
+                    let idx = cell.x as usize
+                        + self.block_dims[0]
+                            * (cell.y as usize + self.block_dims[1] * cell.z as usize);
+                    let range = |ch: &[f32]| {
+                        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+                        for z in s0.z..=s1.z {
+                            for y in s0.y..=s1.y {
+                                for x in s0.x..=s1.x {
+                                    let v =
+                                        ch[x as usize + side * (y as usize + side * z as usize)];
+                                    if v.is_finite() {
+                                        mn = mn.min(v);
+                                        mx = mx.max(v);
+                                    }
+                                }
+                            }
+                        }
+                        [mn, mx]
+                    };
+                    ra[idx] = range(&stored[..s3]);
+                    if self.operand.is_some() {
+                        rb[idx] = range(&stored[s3..2 * s3]);
+                    }
+                }
+            }
         }
     }
 }

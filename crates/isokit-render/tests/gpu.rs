@@ -838,3 +838,60 @@ fn csg_gpu_equals_cpu() {
         );
     }
 }
+
+/// The downsampling cache policy (002 Sec. 6.2.3): a cache of about half the active bricks
+/// stores the least detailed ones at half resolution, hanging samples matched; the GPU reads
+/// the same pool layout with the same arithmetic and renders the CPU's image in one pass,
+/// for both search filters. A passes frame after it, on the same small cache, is exact
+/// again (the volume's own block ranges restored).
+#[test]
+fn downsample_gpu_equals_cpu() {
+    use isokit_render::CachePolicy;
+    let Some(mut gpu) = renderer("downsample_gpu_equals_cpu") else {
+        return;
+    };
+    let layout = Layout {
+        block: 4,
+        brick: 16,
+    };
+    let v = Volume::from_grid(sphere_grid(65), layout).unwrap();
+    let cam = perspective(Vec3::new(0.4, 0.9, 2.6), 80, 80);
+    let mut big = BrickCache::for_volume(&v);
+    let exact = render(&v, &mut big, &cam, &RenderOptions::default()).unwrap();
+    let cap = exact.stats.bricks_active / 2;
+    for filter in [Filter::Tricubic, Filter::Trilinear] {
+        let opts = RenderOptions {
+            filter,
+            cache_policy: CachePolicy::Downsample,
+            ..Default::default()
+        };
+        let name = format!("sphere 65³, bricks of 16, cache {cap}, downsample, {filter:?}");
+        let (c, g) = both(&mut gpu, &name, &v, &cam, &opts, Some(cap), &TOL);
+        assert_eq!(g.stats.passes, 1, "{name}");
+        assert!(c.stats.bricks_downsampled > 0, "{name}");
+        assert_eq!(
+            g.stats.bricks_downsampled, c.stats.bricks_downsampled,
+            "{name}"
+        );
+        // Passes on the same (GPU) cache afterwards: exact.
+        let p = RenderOptions {
+            filter,
+            ..Default::default()
+        };
+        let back = gpu.render(&v, &cam, &p).unwrap();
+        let mut small = BrickCache::new(&v, cap).unwrap();
+        let cpu = render(&v, &mut small, &cam, &p).unwrap();
+        let img = gpu
+            .shade(&back.gbuffer, &back.uniforms, &Shading::default())
+            .unwrap();
+        check(
+            &format!("{name}, then passes"),
+            &cpu,
+            &back,
+            &img,
+            v.spacing(),
+            &TOL,
+        );
+        assert!(back.stats.passes > 1 && back.stats.bricks_downsampled == 0);
+    }
+}

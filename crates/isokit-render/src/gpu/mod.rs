@@ -12,7 +12,8 @@
 //!   fastest, a second field's channel after the first (as [`crate::BrickCache::pool`]): the filters' fetches are 8 loads and 7 lerps each, so no
 //!   float-filterable 3D texture is needed and the values equal the CPU's up to the
 //!   rounding of the arithmetic (no 16-bit storage, no texture filtering precision);
-//! - the reference index (`u32` per brick, slot or [`crate::NOT_RESIDENT`]) and the block
+//! - the reference index (`u32` per brick, slot, [`crate::HALF_RESOLUTION`] `|` half slot,
+//!   or [`crate::NOT_RESIDENT`]) and the block
 //!   ranges (`vec2<f32>` per block, [`Volume::trace_ranges`]: for a volume with a second
 //!   field they depend on ρ and the inside sign and are sent with every frame; blocks
 //!   without finite samples are sent as `[f32::MAX, −f32::MAX]`, which no isovalue lies
@@ -126,6 +127,7 @@ fn constants(label: &str) -> ShaderSource {
         .constant_u32("COMBINE_DIFFERENCE", COMBINE_DIFFERENCE)
         .constant_u32("COMBINE_MORPH", COMBINE_MORPH)
         .constant_u32("NOT_RESIDENT", NOT_RESIDENT)
+        .constant_u32("HALF_RESOLUTION", crate::HALF_RESOLUTION)
         .constant_f32("RANGE_MARGIN", RANGE_MARGIN)
         .constant_f32("MIN_GRADIENT", DEFAULT_MIN_GRADIENT)
         .constant_f32("F32_MAX", f32::MAX)
@@ -230,6 +232,9 @@ pub(crate) struct Resident {
     pub(crate) reference: wgpu::Buffer,
     pub(crate) block_range: wgpu::Buffer,
     pub(crate) brick_samples: usize,
+    /// True while `block_range` holds a downsampled assignment's ranges instead of the
+    /// volume's own (restored by the next frame that does not use them).
+    pub(crate) ranges_modified: bool,
 }
 
 /// The GPU ray caster and shader: a device, the two compiled kernels, and the brick cache
@@ -378,7 +383,7 @@ impl GpuRenderer {
         opts: &RenderOptions,
     ) -> Result<Frame, RenderError> {
         let u = crate::uniforms(volume, camera, opts)?;
-        trace::trace_frame(self, volume, camera, u)
+        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
     }
 
     /// The geometric pass for a multi-view display: the GPU twin of
@@ -391,7 +396,7 @@ impl GpuRenderer {
         mv: &MultiView,
     ) -> Result<Frame, RenderError> {
         let u = mv.uniforms(volume, camera, opts, None)?;
-        trace::trace_frame(self, volume, camera, u)
+        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
     }
 
     /// One view of a multi-view display rendered alone: the GPU twin of
@@ -405,7 +410,7 @@ impl GpuRenderer {
         view: u32,
     ) -> Result<Frame, RenderError> {
         let u = mv.uniforms(volume, camera, opts, Some(view))?;
-        trace::trace_frame(self, volume, camera, u)
+        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
     }
 
     /// Shades a G-buffer traced with uniforms `u` into an image on the GPU: the GPU twin of
@@ -472,6 +477,7 @@ impl GpuRenderer {
                 reference,
                 block_range,
                 brick_samples,
+                ranges_modified: false,
             });
         }
         Ok(())

@@ -4,7 +4,7 @@
 use super::{GpuPixel, GpuRenderer, Resident, WORKGROUP, scoped};
 use crate::kernel::{GSample, Uniforms};
 use crate::render::{Prefetch, frame_stats, load_requested, prefetch};
-use crate::{Frame, GBuffer, RenderError, Volume};
+use crate::{CachePolicy, Frame, GBuffer, RenderError, Volume};
 use bytemuck::{Pod, Zeroable};
 use isokit_field::Camera;
 use isokit_gpu::{Gpu, wgpu};
@@ -71,6 +71,7 @@ pub(crate) fn trace_frame(
     volume: &Volume,
     camera: &Camera,
     u: Uniforms,
+    policy: CachePolicy,
 ) -> Result<Frame, RenderError> {
     let t0 = Instant::now();
     let chunk_max = r.max_rays_per_dispatch();
@@ -89,15 +90,40 @@ pub(crate) fn trace_frame(
     let total = u.width as usize * u.subpixels as usize * u.height as usize;
     let n_bricks = volume.brick_count();
     let ranges = volume.trace_ranges(u.iso, u.inside_sign);
-    if volume.combine().is_some() {
-        // The combined ranges depend on ρ and the inside sign: sent with every frame.
+    let pool = &res.pool;
+    let pre: Prefetch = prefetch(
+        volume,
+        &ranges,
+        &mut res.cache,
+        camera,
+        &u,
+        policy,
+        |offset, samples| {
+            gpu.write(
+                pool,
+                (offset * size_of::<f32>()) as u64,
+                bytemuck::cast_slice(samples),
+            )
+        },
+    );
+    if volume.combine().is_some() || pre.ranges.is_some() || res.ranges_modified {
+        // The combined ranges depend on ρ and the inside sign, a downsampled assignment's
+        // on what it stores: sent with every frame (and the volume's own restored after).
+        let trace_ranges: &[[f32; 2]] = pre.ranges.as_deref().unwrap_or(&ranges);
         gpu.write(
             &res.block_range,
             0,
-            bytemuck::cast_slice(&super::gpu_ranges(&ranges)),
+            bytemuck::cast_slice(&super::gpu_ranges(trace_ranges)),
+        );
+        res.ranges_modified = pre.ranges.is_some();
+    }
+    if pre.reference_changed && pre.loaded.is_empty() {
+        gpu.write(
+            &res.reference,
+            0,
+            bytemuck::cast_slice(res.cache.reference()),
         );
     }
-    let pre: Prefetch = prefetch(volume, &ranges, &mut res.cache, camera, &u);
     upload_bricks(gpu, res, volume, &pre.loaded);
 
     let chunk = total.min(chunk_max);
