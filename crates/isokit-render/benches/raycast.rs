@@ -2,7 +2,7 @@
 //! sphere sampled densely; the trefoil knot tube and a mesh, each sampled lazily as a band
 //! from its exact mesh distance), with and without empty-space skipping, trilinear and
 //! tricubic, several base rates r0, fine factors n and refinement steps, and a cache too
-//! small for the active bricks. Each configuration's image is compared with a reference
+//! small for the active bricks (rendered in passes, or with low-detail bricks downsampled). Each configuration's image is compared with a reference
 //! traced at a very high sampling rate (r0 = 8, n = 8, 16 secant steps, tricubic): pixels
 //! whose hit status differs, depth and normal errors where both hit, and the mean
 //! difference of the Phong-shaded 8-bit images.
@@ -25,7 +25,8 @@ use isokit_field::{Aabb, Camera, Grid, Projection, sample_into};
 use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
 use isokit_render::gpu::GpuRenderer;
 use isokit_render::{
-    BrickCache, Filter, Frame, Layout, RefineMethod, RenderOptions, Shading, Volume, render, shade,
+    BrickCache, CachePolicy, Filter, Frame, Layout, RefineMethod, RenderOptions, Shading, Volume,
+    render, shade,
 };
 use std::path::Path;
 use std::time::Instant;
@@ -276,6 +277,15 @@ fn main() {
             None,
         ),
         ("cache of 16 bricks", base, Some(16)),
+        ("cache of 48 bricks", base, Some(48)),
+        (
+            "cache of 48 bricks, downsample",
+            RenderOptions {
+                cache_policy: CachePolicy::Downsample,
+                ..base
+            },
+            Some(48),
+        ),
     ];
     let reference = RenderOptions {
         r0: 8.0,
