@@ -2,6 +2,8 @@
 //! ray casting, depths and normals against analytic ray–sphere, ray–cylinder and ray–cone
 //! intersections, intersecting spheres, curvatures, Sobel, shadows.
 
+mod common;
+
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::rng::SplitMix64;
 use isokit_field::{Camera, Projection};
@@ -467,22 +469,13 @@ fn intersecting_spheres_meet_on_their_intersection_curve() {
 /// intersection curve.
 #[test]
 fn quadrics_and_ray_cast_isosurfaces_share_the_depth_buffer() {
-    use isokit_field::Grid;
-    use isokit_render::{BrickCache, Layout, RenderOptions, Volume, render};
+    use isokit_render::{BrickCache, RenderOptions, render};
     let (ca, ra) = (Vec3::new(-0.3, 0.0, 0.0), 0.55f32);
     let (cb, rb) = (Vec3::new(0.3, 0.05, 0.1), 0.5f32);
     let n = 64;
     let h = 2.0 / (n - 1) as f32;
-    let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let p = g.position(i, j, k);
-                g.set(i, j, k, (p - ca).length() - ra);
-            }
-        }
-    }
-    let volume = Volume::from_grid(g, Layout::default()).unwrap();
+    let g = common::grid_of(n, |p| (p - ca).length() - ra);
+    let volume = common::volume(g);
     let cam = camera(Vec3::new(0.4, 1.2, 3.5), Vec3::ZERO, 96, 72, 40.0);
     let cast = render(
         &volume,
