@@ -196,7 +196,7 @@ pub(crate) fn valid_cell(cell: Cell, l: u32) -> bool {
     cell.pos
         .to_array()
         .iter()
-        .all(|&v| (v as u64) % s == 0 && v as u64 + s <= n)
+        .all(|&v| (v as u64).is_multiple_of(s) && v as u64 + s <= n)
 }
 
 /// The position of `cell` moved by `dir` cells of its size, None outside the domain.
