@@ -81,4 +81,18 @@ fn csg_difference_renders_and_other_lattices_are_refused() {
         b.to_str().unwrap(),
     ]);
     assert_clear_error(&out, "--csg combines two volumes");
+    // --morph-t belongs to --csg morph.
+    let out = isokit(&[
+        "render",
+        a.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--csg",
+        "union",
+        "--with",
+        b.to_str().unwrap(),
+        "--morph-t",
+        "0.3",
+    ]);
+    assert_clear_error(&out, "--morph-t applies to --csg morph only");
 }

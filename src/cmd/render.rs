@@ -194,9 +194,9 @@ pub struct Args {
     /// The second volume of --csg.
     #[arg(long, requires = "csg")]
     pub with: Option<PathBuf>,
-    /// The morph parameter t in [0, 1] of --csg morph.
-    #[arg(long, default_value_t = 0.5)]
-    pub morph_t: f32,
+    /// The morph parameter t in [0, 1] of --csg morph [default: 0.5].
+    #[arg(long)]
+    pub morph_t: Option<f32>,
 }
 
 /// The operation of `--csg`.
@@ -279,11 +279,14 @@ struct Settings {
 }
 
 fn combine_of(a: &Args) -> Result<Combine> {
+    if a.morph_t.is_some() && a.csg != Some(CsgOp::Morph) {
+        bail!("--morph-t applies to --csg morph only");
+    }
     Ok(match a.csg {
         Some(CsgOp::Union) | None => Combine::Union,
         Some(CsgOp::Intersection) => Combine::Intersection,
         Some(CsgOp::Difference) => Combine::Difference,
-        Some(CsgOp::Morph) => Combine::Morph(a.morph_t),
+        Some(CsgOp::Morph) => Combine::Morph(a.morph_t.unwrap_or(0.5)),
     })
 }
 

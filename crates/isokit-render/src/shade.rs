@@ -36,7 +36,9 @@
 //!    one pixel forward and as many backward; each step reads the field of the pixel it
 //!    lands in (nearest-pixel sampling, `floor` of the position) and stops at the image's
 //!    border and at a pixel whose flow key ([`FlowPixel::key`]: the id, or none) differs
-//!    from the start's: misses, other objects and umbilic pixels are never read. Principal
+//!    from the start's: misses, other object-map ids (caps, the other CSG operand) and
+//!    umbilic pixels are never read (parts of one surface share an id, so a streamline may
+//!    cross a depth discontinuity of the same surface, e.g. at a silhouette). Principal
 //!    directions have no sign, so each step's direction is flipped when it points against
 //!    the previous one; where the field is not orientable (around umbilics) seams remain,
 //!    as 002 notes. The LIC value is the box-filtered mean of the noise over the pixels

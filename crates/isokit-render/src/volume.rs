@@ -286,6 +286,10 @@ struct Operand {
     combine: Combine,
     /// `[min, max]` per block of B, as [`Volume::block_ranges`] for A.
     block_range: Vec<[f32; 2]>,
+    /// Per block: B has a non-finite sample in the block's support. The kernel's `combine`
+    /// takes A's value where B is not finite (NaN compares false), so such blocks must be
+    /// active wherever A alone would be.
+    nonfinite: Vec<bool>,
 }
 
 /// `[min, max]` per block of `data` over each block's tricubic support (see [`Volume`]).
@@ -295,6 +299,20 @@ fn block_ranges_of(
     dims: [usize; 3],
     block_dims: [usize; 3],
 ) -> Vec<[f32; 2]> {
+    block_scan(data, layout, dims, block_dims)
+        .into_iter()
+        .map(|(r, _)| r)
+        .collect()
+}
+
+/// Per block: `[min, max]` of the finite samples of its tricubic support (`[+inf, −inf]`
+/// when none is finite) and whether any sample there is not finite.
+fn block_scan(
+    data: &VolumeData,
+    layout: Layout,
+    dims: [usize; 3],
+    block_dims: [usize; 3],
+) -> Vec<([f32; 2], bool)> {
     let n_blocks = block_dims.iter().product::<usize>();
     let b = layout.block as i32;
     let [bx, by, _] = block_dims;
@@ -310,6 +328,7 @@ fn block_ranges_of(
             let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
             let hi = (c * b + IVec3::splat(b + 1)).min(top);
             let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+            let mut nonfinite = false;
             for k in lo.z..=hi.z {
                 for j in lo.y..=hi.y {
                     for i in lo.x..=hi.x {
@@ -317,11 +336,13 @@ fn block_ranges_of(
                         if v.is_finite() {
                             mn = mn.min(v);
                             mx = mx.max(v);
+                        } else {
+                            nonfinite = true;
                         }
                     }
                 }
             }
-            [mn, mx]
+            ([mn, mx], nonfinite)
         })
         .collect()
 }
@@ -456,11 +477,14 @@ impl Volume {
                 why: "the second CSG/morph operand must have the first's origin and spacing (the same lattice)",
             });
         }
-        let block_range = block_ranges_of(&b, self.layout, self.dims, self.block_dims);
+        let (block_range, nonfinite) = block_scan(&b, self.layout, self.dims, self.block_dims)
+            .into_iter()
+            .unzip();
         self.operand = Some(Operand {
             data: b,
             combine,
             block_range,
+            nonfinite,
         });
         // Another pool layout: caches must reload.
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
@@ -554,13 +578,28 @@ impl Volume {
             let (x, y) = (s * (r[0] - iso), s * (r[1] - iso));
             [x.min(y), x.max(y)]
         };
+        let morph = matches!(op.combine, Combine::Morph(_));
         ra.iter()
             .zip(rb)
-            .map(|(&a, &b)| {
-                if a[0] > a[1] || b[0] > b[1] {
+            .zip(&op.nonfinite)
+            .map(|((&a, &b), &b_nonfinite)| {
+                if a[0] > a[1] {
                     return [f32::INFINITY, f32::NEG_INFINITY];
                 }
-                let c = op.combine.interval(to_res(a), to_res(b));
+                // Where B is not finite, min/max/difference take A's value (a morph gives
+                // NaN there: nothing to add).
+                let a_alone = b_nonfinite && !morph;
+                if b[0] > b[1] {
+                    if !a_alone {
+                        return [f32::INFINITY, f32::NEG_INFINITY];
+                    }
+                    return a;
+                }
+                let mut c = op.combine.interval(to_res(a), to_res(b));
+                if a_alone {
+                    let ar = to_res(a);
+                    c = [c[0].min(ar[0]), c[1].max(ar[1])];
+                }
                 let (x, y) = (iso + s * c[0], iso + s * c[1]);
                 let m = a[0].abs().max(a[1].abs()).max(b[0].abs()).max(b[1].abs());
                 let eps = 8.0 * f32::EPSILON * (m + iso.abs());

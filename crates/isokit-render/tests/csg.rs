@@ -348,3 +348,37 @@ fn lattice_mismatch_is_refused() {
             .is_err()
     );
 }
+
+/// Where the second field is not finite (NaN: missing data), min/max/difference take the
+/// first field's value; the block ranges must follow, so skipping still changes no pixel —
+/// with B partly NaN, and with B NaN over whole blocks.
+#[test]
+fn non_finite_samples_of_the_second_field_keep_skipping_exact() {
+    let cam = camera();
+    let (a, b) = csg_pair();
+    let mut partly = b.clone();
+    for k in 0..64 {
+        for j in 0..64 {
+            for i in 0..64 {
+                if partly.position(i, j, k).x > 0.1 {
+                    partly.set(i, j, k, f32::NAN);
+                }
+            }
+        }
+    }
+    for op in OPS {
+        let v = volume(a.clone()).with_operand(partly.clone(), op).unwrap();
+        let on = frame(&v, &cam, &RenderOptions::default());
+        let off = frame(
+            &v,
+            &cam,
+            &RenderOptions {
+                skip_empty: false,
+                ..Default::default()
+            },
+        );
+        assert_eq!(on.gbuffer.pixels(), off.gbuffer.pixels(), "{op:?}");
+        // The picture is not empty (A shows where B is NaN).
+        assert!(on.gbuffer.hit_count() > 500, "{op:?}");
+    }
+}
