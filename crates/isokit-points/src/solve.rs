@@ -544,6 +544,18 @@ mod tests {
     use sprs::TriMat;
 
     /// Solves `A x = A xs` with `solve` and checks that it recovers `xs`.
+    /// A small nonsymmetric, diagonally dominant system shared by the solver tests.
+    const NONSYMMETRIC: [(usize, usize, f64); 8] = [
+        (0, 0, 0.5),
+        (0, 1, 0.3),
+        (0, 2, 0.2),
+        (1, 0, 0.1),
+        (1, 1, 0.6),
+        (1, 2, 0.3),
+        (2, 0, 0.4),
+        (2, 2, 0.6),
+    ];
+
     fn recovers(
         triplets: &[(usize, usize, f64)],
         solve: impl Fn(&CsMat<f64>, &[f64]) -> (Vec<f64>, SolveStats),
@@ -565,16 +577,7 @@ mod tests {
 
     #[test]
     fn bicgstab_solves_a_small_nonsymmetric_system() {
-        let a = [
-            (0, 0, 0.5),
-            (0, 1, 0.3),
-            (0, 2, 0.2),
-            (1, 0, 0.1),
-            (1, 1, 0.6),
-            (1, 2, 0.3),
-            (2, 0, 0.4),
-            (2, 2, 0.6),
-        ];
+        let a = NONSYMMETRIC;
         recovers(&a, |a, b| bicgstab(a, b, 1e-12, 100));
     }
 
@@ -683,16 +686,7 @@ mod tests {
 
     #[test]
     fn lsqr_solves_and_damps() {
-        let a = [
-            (0, 0, 0.5),
-            (0, 1, 0.3),
-            (0, 2, 0.2),
-            (1, 0, 0.1),
-            (1, 1, 0.6),
-            (1, 2, 0.3),
-            (2, 0, 0.4),
-            (2, 2, 0.6),
-        ];
+        let a = NONSYMMETRIC;
         recovers(&a, |a, b| lsqr(a, b, 0.0, 1e-14, 100));
         // Damped: the normal equations (AᵀA + λ²I) x = Aᵀb, checked densely; and a
         // singular matrix gives the finite, minimum-norm-like damped solution.
