@@ -155,6 +155,24 @@ fn mean_rgb8(a: &Image, b: &Image) -> f64 {
     sum as f64 / (3 * a.len() / 4) as f64
 }
 
+/// Mean |Δ| over RGB in 8 bits, the largest 8-bit channel difference, the largest linear one.
+fn image_differences(c: &Image, g: &Image) -> (f64, u8, f32) {
+    let (c8, g8) = (c.to_rgba8(), g.to_rgba8());
+    let worst = c8
+        .iter()
+        .zip(&g8)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap_or(0);
+    let linear = c
+        .pixels
+        .iter()
+        .zip(&g.pixels)
+        .map(|(a, b)| (0..4).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max))
+        .fold(0f32, f32::max);
+    (mean_rgb8(c, g), worst, linear)
+}
+
 fn compare(cpu: &Frame, gpu: &Frame, spacing: f32, tol: &Tol, gpu_image: &Image) -> Report {
     let (a, b) = (&cpu.gbuffer, &gpu.gbuffer);
     assert_eq!((a.width(), a.height()), (b.width(), b.height()));
@@ -616,20 +634,7 @@ fn gpu_shading_equals_cpu_shading() {
             };
             let c = shade(&f.gbuffer, &f.uniforms, &sh).unwrap();
             let g = gpu.shade(&f.gbuffer, &f.uniforms, &sh).unwrap();
-            let mean = mean_rgb8(&c, &g);
-            let (c8, g8) = (c.to_rgba8(), g.to_rgba8());
-            let worst = c8
-                .iter()
-                .zip(&g8)
-                .map(|(a, b)| a.abs_diff(*b))
-                .max()
-                .unwrap_or(0);
-            let linear = c
-                .pixels
-                .iter()
-                .zip(&g.pixels)
-                .map(|(a, b)| (0..4).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max))
-                .fold(0f32, f32::max);
+            let (mean, worst, linear) = image_differences(&c, &g);
             eprintln!(
                 "shading {name} ({} lights): mean |Δ| {mean:.5}, max {worst} (8-bit), max linear {linear:.2e}",
                 lights.len()
@@ -738,20 +743,7 @@ fn gpu_flow_equals_cpu_flow() {
                 chunk.unwrap_or(isokit_render::gpu::DEFAULT_MAX_RAYS_PER_DISPATCH),
             );
             let g = gpu.shade(&f.gbuffer, &f.uniforms, &sh).unwrap();
-            let mean = mean_rgb8(&c, &g);
-            let (c8, g8) = (c.to_rgba8(), g.to_rgba8());
-            let worst = c8
-                .iter()
-                .zip(&g8)
-                .map(|(a, b)| a.abs_diff(*b))
-                .max()
-                .unwrap_or(0);
-            let linear = c
-                .pixels
-                .iter()
-                .zip(&g.pixels)
-                .map(|(a, b)| (0..4).map(|k| (a[k] - b[k]).abs()).fold(0f32, f32::max))
-                .fold(0f32, f32::max);
+            let (mean, worst, linear) = image_differences(&c, &g);
             eprintln!(
                 "flow, {name}, chunk {chunk:?}: {flowing} of {} hit pixels flow; mean |Δ| {mean:.5}, max {worst} (8-bit), max linear {linear:.2e}",
                 f.gbuffer.hit_count()
