@@ -696,17 +696,20 @@ impl Volume {
     /// fastest (`brick_side()³` values); with a second field its samples follow, in the
     /// same order. This is the upload of one brick into the cache.
     pub fn fill_brick(&self, n: usize, out: &mut [f32]) {
-        let s = self.layout.brick_side();
-        let s3 = s * s * s;
         debug_assert_eq!(out.len(), self.slot_samples());
-        let c = self.brick_coord(n);
-        let lo = IVec3::new(c[0] as i32, c[1] as i32, c[2] as i32) * self.layout.brick as i32
-            - IVec3::ONE;
-        let (a, b) = out.split_at_mut(s3);
+        let lo = self.brick_corner(n) - IVec3::ONE;
+        self.fill_lattice(out, self.layout.brick_side(), lo, 1);
+    }
+
+    /// Fills `out` with `side³` samples per field, grid sample `lo + stride·(i, j, k)`
+    /// (clamped to the grid) for `i, j, k` in `0..side`, x fastest, the second field's after
+    /// the first's: full bricks have stride 1, half-resolution ones stride 2.
+    fn fill_lattice(&self, out: &mut [f32], s: usize, lo: IVec3, stride: i32) {
+        let (a, b) = out.split_at_mut(s * s * s);
         let fill = |data: &VolumeData, out: &mut [f32]| {
             for (m, v) in out.iter_mut().enumerate() {
                 let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
-                *v = data.get_clamped(lo + l);
+                *v = data.get_clamped(lo + stride * l);
             }
         };
         fill(&self.data, a);
@@ -734,21 +737,9 @@ impl Volume {
     /// of even indices), not averages, so a half-resolution brick and a full-resolution
     /// one agree wherever both hold a coarse sample.
     pub fn fill_brick_half(&self, n: usize, out: &mut [f32]) {
-        let s = self.layout.half_side();
-        let s3 = s * s * s;
         debug_assert_eq!(out.len(), self.half_slot_samples());
         let lo = self.brick_corner(n) - IVec3::splat(2);
-        let (a, b) = out.split_at_mut(s3);
-        let fill = |data: &VolumeData, out: &mut [f32]| {
-            for (m, v) in out.iter_mut().enumerate() {
-                let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
-                *v = data.get_clamped(lo + 2 * l);
-            }
-        };
-        fill(&self.data, a);
-        if let Some(op) = &self.operand {
-            fill(&op.data, b);
-        }
+        self.fill_lattice(out, self.layout.half_side(), lo, 2);
     }
 
     /// True when grid sample `g` lies in the closed box (cells' corners, clamped to the
