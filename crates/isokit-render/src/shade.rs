@@ -198,6 +198,15 @@ impl Default for Shading {
 }
 
 impl Shading {
+    /// The lights to shade with for the camera `u`: the given ones, or [`default_light`].
+    pub fn lights_or_default(&self, u: &Uniforms) -> Vec<Light> {
+        if self.lights.is_empty() {
+            vec![default_light(u)]
+        } else {
+            self.lights.clone()
+        }
+    }
+
     /// Checks the parameters.
     pub fn check(&self) -> Result<(), RenderError> {
         let finite = self.color.is_finite()
@@ -658,13 +667,7 @@ pub(crate) fn check_flow(u: &Uniforms) -> Result<(), RenderError> {
 pub fn flow_image(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Vec<f32>, RenderError> {
     sh.check()?;
     check_flow(u)?;
-    if gbuffer.width() != u.width || gbuffer.height() != u.height {
-        return Err(RenderError::bad(
-            "G-buffer",
-            format!("{}x{}", gbuffer.width(), gbuffer.height()),
-            "does not match the uniforms it is shaded with",
-        ));
-    }
+    check_gbuffer(gbuffer, u)?;
     let field = flow_field(gbuffer, u, sh);
     let w = u.width;
     Ok((0..w * u.height)
@@ -684,13 +687,9 @@ pub fn flow_modulate(c: [f32; 4], lic: f32) -> [f32; 4] {
     [c[0] * m, c[1] * m, c[2] * m, c[3]]
 }
 
-/// Shades a G-buffer traced with uniforms `u` (the camera) into an image, in parallel. For
-/// a multi-view G-buffer ([`crate::render_multiview`], 3 subpixels per pixel) each channel
-/// of a pixel comes from its own subpixel's sample, seen from that subpixel's view. The
-/// `flow` mode computes the LIC image of the whole G-buffer first ([`flow_image`]) and
-/// refuses multi-view G-buffers.
-pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, RenderError> {
-    sh.check()?;
+/// Checks that a G-buffer is the size the uniforms it is shaded with make (one sample per
+/// pixel, or per subpixel of a multi-view display): both twins' shading start with it.
+pub(crate) fn check_gbuffer(gbuffer: &GBuffer, u: &Uniforms) -> Result<(), RenderError> {
     let subs = u.subpixels.max(1);
     if gbuffer.width() != u.width * subs || gbuffer.height() != u.height {
         return Err(RenderError::bad(
@@ -699,11 +698,19 @@ pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, Ren
             "does not match the uniforms it is shaded with",
         ));
     }
-    let lights = if sh.lights.is_empty() {
-        vec![default_light(u)]
-    } else {
-        sh.lights.clone()
-    };
+    Ok(())
+}
+
+/// Shades a G-buffer traced with uniforms `u` (the camera) into an image, in parallel. For
+/// a multi-view G-buffer ([`crate::render_multiview`], 3 subpixels per pixel) each channel
+/// of a pixel comes from its own subpixel's sample, seen from that subpixel's view. The
+/// `flow` mode computes the LIC image of the whole G-buffer first ([`flow_image`]) and
+/// refuses multi-view G-buffers.
+pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, RenderError> {
+    sh.check()?;
+    check_gbuffer(gbuffer, u)?;
+    let subs = u.subpixels.max(1);
+    let lights = sh.lights_or_default(u);
     let lic = if sh.mode == ShadingMode::Flow {
         Some(flow_image(gbuffer, u, sh)?)
     } else {

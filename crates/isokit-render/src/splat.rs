@@ -219,14 +219,34 @@ pub fn fragment(
     px: u32,
     py: u32,
 ) -> Option<crate::quadric::QuadricHit> {
-    let (o, d) = kernel::pixel_ray(u, px, py);
-    let forward = Vec3::from_array(u.forward);
-    let (offset, t_near) = if u.ortho != 0 {
-        (o - Vec3::from_array(u.eye), near)
-    } else {
-        (Vec3::ZERO, near / d.dot(forward))
-    };
-    intersect(s, offset, d, t_near)
+    FragmentRay::new(u, near, px, py).hit(s)
+}
+
+/// What [`intersect`] reads of a pixel's ray: the offset of its origin from the eye (0 for
+/// perspective), its direction and the distance of the near plane along it. The same for
+/// every quadric covering the pixel: the CPU splatter makes it once per pixel.
+#[derive(Clone, Copy, Debug)]
+struct FragmentRay {
+    offset: Vec3,
+    d: Vec3,
+    t_near: f32,
+}
+
+impl FragmentRay {
+    fn new(u: &Uniforms, near: f32, px: u32, py: u32) -> Self {
+        let (o, d) = kernel::pixel_ray(u, px, py);
+        let forward = Vec3::from_array(u.forward);
+        let (offset, t_near) = if u.ortho != 0 {
+            (o - Vec3::from_array(u.eye), near)
+        } else {
+            (Vec3::ZERO, near / d.dot(forward))
+        };
+        Self { offset, d, t_near }
+    }
+
+    fn hit(&self, s: &QuadricSetup) -> Option<crate::quadric::QuadricHit> {
+        intersect(s, self.offset, self.d, self.t_near)
+    }
 }
 
 /// The G-buffer sample of a fragment that won its pixel: position on the ray, the normal
@@ -424,6 +444,9 @@ fn splat_core(
             let tw = (x1 - x0) as usize;
             let mut best_t = vec![f32::INFINITY; tw * (y1 - y0) as usize];
             let mut best_k = vec![u32::MAX; best_t.len()];
+            // Per pixel: its ray (made on first use) and the winning hit so far.
+            let mut rays: Vec<Option<FragmentRay>> = vec![None; best_t.len()];
+            let mut best_hit: Vec<Option<crate::quadric::QuadricHit>> = vec![None; best_t.len()];
             let (mut evaluated, mut hits) = (0u64, 0u64);
             if !exhaustive {
                 list.sort_unstable_by(|a, b| {
@@ -450,15 +473,17 @@ fn splat_core(
                 for py in r[1].max(y0)..r[3].min(y1) {
                     for px in r[0].max(x0)..r[2].min(x1) {
                         evaluated += 1;
-                        if let Some(hit) = fragment(s, u, near, px, py) {
+                        let i = (px - x0) as usize + tw * (py - y0) as usize;
+                        let ray = *rays[i].get_or_insert_with(|| FragmentRay::new(u, near, px, py));
+                        if let Some(hit) = ray.hit(s) {
                             hits += 1;
-                            let i = (px - x0) as usize + tw * (py - y0) as usize;
                             if hit.t < best_t[i] || (hit.t == best_t[i] && k < best_k[i]) {
                                 if best_k[i] == u32::MAX {
                                     uncovered -= 1;
                                 }
                                 best_t[i] = hit.t;
                                 best_k[i] = k;
+                                best_hit[i] = Some(hit);
                             }
                         }
                     }
@@ -469,21 +494,18 @@ fn splat_core(
                 depths: Vec::new(),
             };
             let forward = Vec3::from_array(u.forward);
-            for (i, &k) in best_k.iter().enumerate() {
-                if k == u32::MAX {
+            for (i, (&k, hit)) in best_k.iter().zip(&best_hit).enumerate() {
+                let (Some(hit), Some(ray)) = (hit, rays[i]) else {
                     continue;
-                }
+                };
                 let (px, py) = (x0 + (i % tw) as u32, y0 + (i / tw) as u32);
                 if depth_only {
-                    let d = kernel::pixel_ray(u, px, py).1;
-                    out.depths.push((px + w * py, best_t[i] * d.dot(forward)));
+                    out.depths.push((px + w * py, hit.t * ray.d.dot(forward)));
                     continue;
                 }
                 let s = &set[k as usize];
-                if let Some(hit) = fragment(s, u, near, px, py) {
-                    out.samples
-                        .push((px + w * py, resolve(s, u, px, py, &hit), s.object));
-                }
+                out.samples
+                    .push((px + w * py, resolve(s, u, px, py, hit), s.object));
             }
             (out, evaluated, hits)
         })
@@ -509,13 +531,14 @@ fn splat_core(
 
 impl SplatFrame {
     /// Checks that the parts agree: the G-buffer is the uniforms' size (one sample per
-    /// pixel) and there is one object index per pixel. Frames made by [`splat`] always do;
+    /// pixel, a single view) and there is one object index per pixel. Frames made by [`splat`] always do;
     /// frames assembled by hand may not.
     pub fn check(&self) -> Result<(), RenderError> {
         let (w, h) = (self.gbuffer.width(), self.gbuffer.height());
         if w != self.uniforms.width
             || h != self.uniforms.height
             || self.objects.len() != w as usize * h as usize
+            || self.uniforms.subpixels > 1
         {
             return Err(RenderError::bad(
                 "splat frame",
@@ -525,7 +548,7 @@ impl SplatFrame {
                     self.uniforms.width,
                     self.uniforms.height
                 ),
-                "G-buffer, object indices and uniforms must agree in size",
+                "G-buffer, object indices and uniforms must agree in size (one view)",
             ));
         }
         Ok(())
@@ -750,6 +773,11 @@ pub fn hash_u32(x: u32) -> u32 {
     (w >> 22) ^ w
 }
 
+/// Shadow-map samples per pixel in a penumbra (002 Sec. 7.3.2).
+pub const SHADOW_SAMPLES: u32 = 64;
+/// The first samples, spanning the disc, that decide whether a pixel is in a penumbra.
+pub const PENUMBRA_TEST_SAMPLES: u32 = 8;
+
 /// Sample `k` (0..64) of the jittered polar grid for screen pixel `(px, py)`: 8 rings × 8
 /// angles, the outer ring first (so the first 8 samples span the disc for the penumbra
 /// test), jittered per pixel modulo a 4x4 tile (002 Sec. 7.3.2). Offset in units of the
@@ -809,16 +837,19 @@ pub fn shadow_factor(
         u32::from(map.get(i).is_none_or(|d| *d >= limit))
     };
     let mut count = 0;
-    for k in 0..8 {
+    for k in 0..PENUMBRA_TEST_SAMPLES {
         count += lit(k);
     }
-    if count == 0 || count == 8 {
-        return (count as f32 / 8.0, 8);
+    if count == 0 || count == PENUMBRA_TEST_SAMPLES {
+        return (
+            count as f32 / PENUMBRA_TEST_SAMPLES as f32,
+            PENUMBRA_TEST_SAMPLES,
+        );
     }
-    for k in 8..64 {
+    for k in PENUMBRA_TEST_SAMPLES..SHADOW_SAMPLES {
         count += lit(k);
     }
-    (count as f32 / 64.0, 64)
+    (count as f32 / SHADOW_SAMPLES as f32, SHADOW_SAMPLES)
 }
 
 /// The four bilinear fetches at the pixel corners `(x ± ½, y ± ½)` in the order
@@ -910,6 +941,14 @@ pub struct ShadeStats {
     pub shade_seconds: f64,
 }
 
+impl ShadeStats {
+    /// Counts one pixel that took `k` shadow-map samples (64: it was in a penumbra).
+    pub fn count_pixel(&mut self, k: u32) {
+        self.shadow_samples += u64::from(k);
+        self.penumbra_pixels += u64::from(k == SHADOW_SAMPLES);
+    }
+}
+
 /// The spot light's default position for a frame: along the default key light's direction,
 /// as far from the scene's centre as the eye.
 pub fn default_spot(u: &Uniforms, scene: &SplatScene) -> Vec3 {
@@ -958,30 +997,33 @@ pub fn shade_splat(
     };
     stats.shadow_map_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let lights: Vec<Light> = match (&shadow, opts.shading.lights.is_empty()) {
-        (Some(m), _) => vec![m.light],
-        (None, true) => vec![default_light(u)],
-        (None, false) => opts.shading.lights.clone(),
+    let lights: Vec<Light> = match &shadow {
+        Some(m) => vec![m.light],
+        None => opts.shading.lights_or_default(u),
     };
     let (w, h) = (u.width, u.height);
     let g = &frame.gbuffer;
-    let far = miss_depth(g);
-    let depth: Vec<[f32; 1]> = g
-        .pixels()
-        .iter()
-        .map(|p| [if p.is_hit() { p.depth } else { far }])
-        .collect();
-    let normals: Vec<[f32; 3]> = g
-        .pixels()
-        .iter()
-        .map(|p| {
-            if p.is_hit() {
-                p.normal.to_array()
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect();
+    // The outline images, only when outlines are drawn.
+    let outline_images = opts.outlines.map(|o| {
+        let far = miss_depth(g);
+        let depth: Vec<[f32; 1]> = g
+            .pixels()
+            .iter()
+            .map(|p| [if p.is_hit() { p.depth } else { far }])
+            .collect();
+        let normals: Vec<[f32; 3]> = g
+            .pixels()
+            .iter()
+            .map(|p| {
+                if p.is_hit() {
+                    p.normal.to_array()
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        (o, depth, normals)
+    });
     let pixel_angle = 2.0 * u.half_height / h as f32;
     let sh = &opts.shading;
     let results: Vec<([f32; 4], u32)> = (0..w * h)
@@ -1012,8 +1054,8 @@ pub fn shade_splat(
             } else {
                 sh.background
             };
-            if let Some(o) = &opts.outlines {
-                let wgt = outline_weight(&depth, &normals, w, h, px, py, o);
+            if let Some((o, depth, normals)) = &outline_images {
+                let wgt = outline_weight(depth, normals, w, h, px, py, o);
                 for (ch, v) in c.iter_mut().take(3).enumerate() {
                     *v += wgt * (o.color[ch] - *v);
                 }
@@ -1025,8 +1067,7 @@ pub fn shade_splat(
     stats.shade_seconds = t1.elapsed().as_secs_f64();
     let mut pixels = Vec::with_capacity(results.len());
     for (c, k) in results {
-        stats.shadow_samples += u64::from(k);
-        stats.penumbra_pixels += u64::from(k == 64);
+        stats.count_pixel(k);
         pixels.push(c);
     }
     Ok((

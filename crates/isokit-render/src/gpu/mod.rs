@@ -97,6 +97,16 @@ pub(crate) fn scoped<T>(gpu: &Gpu, what: &str, f: impl FnOnce() -> T) -> Result<
     }
 }
 
+/// The workgroup grid of a dispatch over `count` items (x up to the device's limit, the rest
+/// along y) and the invocations per row of workgroups (the `stride` the shaders read).
+pub(crate) fn dispatch_grid(gpu: &Gpu, count: usize) -> ([u32; 3], u32) {
+    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
+    let groups = count.div_ceil(WORKGROUP as usize).max(1);
+    let gx = groups.min(max);
+    let gy = groups.div_ceil(gx);
+    ([gx as u32, gy as u32, 1], gx as u32 * WORKGROUP)
+}
+
 /// Checks that a buffer of `bytes` fits the device's largest storage binding.
 pub(crate) fn check_fits(gpu: &Gpu, what: &str, bytes: u64) -> Result<(), GpuError> {
     let limit = gpu.max_storage_bytes();

@@ -6,9 +6,10 @@
 //! per pixel; refused when it exceeds the largest storage binding), and `flow.wgsl`
 //! writes the LIC value of every pixel into a buffer the shading pass reads.
 
-use super::{GpuPixel, GpuRenderer, WORKGROUP, check_fits, mode_code, scoped};
+use super::{GpuPixel, GpuRenderer, check_fits, mode_code, scoped};
+use crate::gpu::dispatch_grid;
 use crate::kernel::Uniforms;
-use crate::shade::{check_flow, default_light, flow_field};
+use crate::shade::{check_flow, flow_field};
 use crate::{GBuffer, Image, Light, RenderError, Shading, ShadingMode};
 use bytemuck::{Pod, Zeroable};
 use isokit_gpu::wgpu;
@@ -89,15 +90,12 @@ fn flow_pass(
     let dirs: Vec<[f32; 2]> = field.iter().map(|f| f.dir).collect();
     let keys: Vec<u32> = field.iter().map(|f| f.key).collect();
     drop(field);
-    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
-    let groups = total.div_ceil(WORKGROUP as usize);
-    let gx = groups.min(max);
-    let gy = groups.div_ceil(gx);
+    let (flow_groups, stride) = dispatch_grid(gpu, total);
     let params = FlowParams {
         width: u.width,
         height: u.height,
         count: total as u32,
-        stride: gx as u32 * WORKGROUP,
+        stride,
     };
     let storage = wgpu::BufferUsages::STORAGE;
     // The parameters and the field are only read through the bind group.
@@ -109,7 +107,7 @@ fn flow_pass(
         let bind = gpu.bind_buffers("flow", &r.flow, &[&pbuf, &dbuf, &kbuf, &lic]);
         (pbuf, dbuf, kbuf, lic, bind)
     })?;
-    gpu.dispatch("flow", &r.flow, &bind, [gx as u32, gy as u32, 1])?;
+    gpu.dispatch("flow", &r.flow, &bind, flow_groups)?;
     Ok(lic)
 }
 
@@ -150,20 +148,10 @@ pub(crate) fn shade(
     sh: &Shading,
 ) -> Result<Image, RenderError> {
     sh.check()?;
+    crate::shade::check_gbuffer(gbuffer, u)?;
     let subs = u.subpixels.max(1);
-    if gbuffer.width() != u.width * subs || gbuffer.height() != u.height {
-        return Err(RenderError::bad(
-            "G-buffer",
-            format!("{}x{}", gbuffer.width(), gbuffer.height()),
-            "does not match the uniforms it is shaded with",
-        ));
-    }
     let gpu = &r.gpu;
-    let lights: Vec<GpuLight> = if sh.lights.is_empty() {
-        vec![GpuLight::new(&default_light(u))]
-    } else {
-        sh.lights.iter().map(GpuLight::new).collect()
-    };
+    let lights: Vec<GpuLight> = sh.lights_or_default(u).iter().map(GpuLight::new).collect();
     let storage = wgpu::BufferUsages::STORAGE;
     let total = u.width as usize * u.height as usize;
     let per_pixel = (size_of::<GpuPixel>() * subs as usize) as u64;
@@ -203,7 +191,6 @@ pub(crate) fn shade(
             );
             (ubuf, pbuf, gbuf, lbuf, image, bind)
         })?;
-    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
     let mut pixels = Vec::with_capacity(total);
     for base in (0..total).step_by(chunk) {
         let len = chunk.min(total - base);
@@ -213,12 +200,10 @@ pub(crate) fn shade(
             .map(GpuPixel::from_sample)
             .collect();
         gpu.write(&gbuf, 0, bytemuck::cast_slice(&up));
-        let groups = len.div_ceil(WORKGROUP as usize);
-        let gx = groups.min(max);
-        let gy = groups.div_ceil(gx);
-        let params = ShadeParams::new(sh, lights.len(), u, base, len, gx as u32 * WORKGROUP);
+        let (groups, stride) = dispatch_grid(gpu, len);
+        let params = ShadeParams::new(sh, lights.len(), u, base, len, stride);
         gpu.write(&pbuf, 0, bytemuck::bytes_of(&params));
-        gpu.dispatch("shade", &r.shade, &bind, [gx as u32, gy as u32, 1])?;
+        gpu.dispatch("shade", &r.shade, &bind, groups)?;
         let out: Vec<[f32; 4]> = gpu.read_buffer(&image, 0, len)?;
         pixels.extend(out);
     }

@@ -66,12 +66,11 @@
 
 use super::shade::{GpuLight, ShadeParams};
 use super::{
-    GpuPixel, GpuRenderer, RAYCAST, RAYCAST_COMMON, SHADE, WORKGROUP, check_fits, constants,
-    mode_code, scoped,
+    GpuPixel, GpuRenderer, RAYCAST, RAYCAST_COMMON, SHADE, check_fits, constants, mode_code, scoped,
 };
+use crate::gpu::dispatch_grid;
 use crate::kernel::{self, GSample, Uniforms};
 use crate::quadric::{QuadricSetup, View};
-use crate::shade::default_light;
 use crate::splat::{
     NO_OBJECT, ShadeStats, ShadowMap, ShadowOptions, ShadowParams, SplatFrame, SplatOptions,
     SplatScene, SplatShading, SplatStats, camera_uniforms, default_spot, miss_depth, pixel_range,
@@ -211,31 +210,28 @@ const GBUFFER_FORMATS: [wgpu::TextureFormat; 2] = [
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Runs `f` under a validation error scope; wgpu's error comes back as [`GpuError::Wgpu`].
-fn validated<T>(gpu: &Gpu, what: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+/// Runs `f` (creating a shader module or pipeline) under a validation error scope; an
+/// error is a shader error named `label`.
+fn shader_checked<T>(gpu: &Gpu, label: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
     let scope = gpu.device().push_error_scope(wgpu::ErrorFilter::Validation);
     let out = f();
     match pollster::block_on(scope.pop()) {
-        Some(e) => Err(GpuError::Wgpu(format!("{what}: {e}"))),
+        Some(e) => Err(GpuError::Shader {
+            label: label.to_string(),
+            message: e.to_string(),
+        }),
         None => Ok(out),
     }
 }
 
 fn module(gpu: &Gpu, src: &ShaderSource) -> Result<wgpu::ShaderModule, GpuError> {
-    let scope = gpu.device().push_error_scope(wgpu::ErrorFilter::Validation);
-    let m = gpu
-        .device()
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(src.label()),
-            source: wgpu::ShaderSource::Wgsl(src.text().into()),
-        });
-    match pollster::block_on(scope.pop()) {
-        Some(e) => Err(GpuError::Shader {
-            label: src.label().to_string(),
-            message: e.to_string(),
-        }),
-        None => Ok(m),
-    }
+    shader_checked(gpu, src.label(), || {
+        gpu.device()
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(src.label()),
+                source: wgpu::ShaderSource::Wgsl(src.text().into()),
+            })
+    })
 }
 
 fn render_pipeline(
@@ -247,47 +243,40 @@ fn render_pipeline(
 ) -> Result<wgpu::RenderPipeline, GpuError> {
     let targets: Vec<Option<wgpu::ColorTargetState>> =
         formats.iter().map(|&f| Some(f.into())).collect();
-    let scope = gpu.device().push_error_scope(wgpu::ErrorFilter::Validation);
-    let p = gpu
-        .device()
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_splat"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(fragment),
-                compilation_options: Default::default(),
-                targets: &targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-    match pollster::block_on(scope.pop()) {
-        Some(e) => Err(GpuError::Shader {
-            label: label.to_string(),
-            message: e.to_string(),
-        }),
-        None => Ok(p),
-    }
+    shader_checked(gpu, label, || {
+        gpu.device()
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_splat"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+    })
 }
 
 impl SplatPipelines {
@@ -481,7 +470,7 @@ fn draw(
             0,
             bytemuck::cast_slice(&set[start..start + len]),
         );
-        validated(gpu, pass.label, || {
+        scoped(gpu, pass.label, || {
             let mut enc = gpu
                 .device()
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -572,35 +561,16 @@ fn read_texture<T: Pod>(
     let mut y0 = 0;
     while y0 < height {
         let rows = band.min(height - y0);
-        validated(gpu, "reading the splat targets", || {
-            let mut enc = gpu
-                .device()
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("splat read-back"),
-                });
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d { x: 0, y: y0, z: 0 },
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buf,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded as u32),
-                        rows_per_image: None,
-                    },
-                },
-                wgpu::Extent3d {
-                    width,
-                    height: rows,
-                    depth_or_array_layers: 1,
-                },
-            );
-            gpu.queue().submit([enc.finish()]);
-        })?;
+        copy_rows(
+            gpu,
+            "reading the splat targets",
+            texture,
+            &buf,
+            y0,
+            width,
+            rows,
+            padded,
+        )?;
         let words: Vec<u32> = gpu.read_buffer(&buf, 0, words_per_row * rows as usize)?;
         for r in words.chunks(words_per_row) {
             out.extend_from_slice(bytemuck::cast_slice(&r[..row_words]));
@@ -608,6 +578,48 @@ fn read_texture<T: Pod>(
         y0 += rows;
     }
     Ok(out)
+}
+
+/// Copies rows `y0 .. y0 + rows` (each `width` texels) of `texture` into `buffer`, rows
+/// `padded` bytes apart (a multiple of 256).
+#[allow(clippy::too_many_arguments)]
+fn copy_rows(
+    gpu: &Gpu,
+    what: &str,
+    texture: &wgpu::Texture,
+    buffer: &wgpu::Buffer,
+    y0: u32,
+    width: u32,
+    rows: u32,
+    padded: u64,
+) -> Result<(), GpuError> {
+    scoped(gpu, what, || {
+        let mut enc = gpu
+            .device()
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(what) });
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: y0, z: 0 },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded as u32),
+                    rows_per_image: None,
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height: rows,
+                depth_or_array_layers: 1,
+            },
+        );
+        gpu.queue().submit([enc.finish()]);
+    })
 }
 
 /// An `Rgba32Float` texture holding `data` (`width × height`, row-major), as a view.
@@ -900,35 +912,16 @@ impl GpuRenderer {
             params,
             usize::MAX,
         )?;
-        validated(gpu, "copying the shadow map", || {
-            let mut enc = gpu
-                .device()
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("shadow map copy"),
-                });
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &color,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &depth,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded as u32),
-                        rows_per_image: None,
-                    },
-                },
-                wgpu::Extent3d {
-                    width: res,
-                    height: res,
-                    depth_or_array_layers: 1,
-                },
-            );
-            gpu.queue().submit([enc.finish()]);
-        })?;
+        copy_rows(
+            gpu,
+            "copying the shadow map",
+            &color,
+            &depth,
+            0,
+            res,
+            res,
+            padded,
+        )?;
         Ok(GpuShadow {
             map,
             depth,
@@ -953,13 +946,6 @@ impl GpuRenderer {
         let (w, h) = (u.width, u.height);
         let g = &frame.gbuffer;
         let total = w as usize * h as usize;
-        if g.width() != w || g.height() != h || frame.objects.len() != total || u.subpixels > 1 {
-            return Err(RenderError::bad(
-                "splat frame",
-                format!("{}x{}", g.width(), g.height()),
-                "does not match its uniforms and objects",
-            ));
-        }
         let gpu = &self.gpu;
         let p = self.splat_pipelines()?;
         let mut stats = ShadeStats::default();
@@ -975,10 +961,9 @@ impl GpuRenderer {
         };
         stats.shadow_map_seconds = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let lights: Vec<GpuLight> = match (&shadow, sh.lights.is_empty()) {
-            (Some(s), _) => vec![GpuLight::new(&s.map.light)],
-            (None, true) => vec![GpuLight::new(&default_light(u))],
-            (None, false) => sh.lights.iter().map(GpuLight::new).collect(),
+        let lights: Vec<GpuLight> = match &shadow {
+            Some(s) => vec![GpuLight::new(&s.map.light)],
+            None => sh.lights_or_default(u).iter().map(GpuLight::new).collect(),
         };
         // At least one entry: a binding of `array<vec4<f32>>` cannot be smaller than 16 bytes
         // (the count passed to the kernel stays the scene's).
@@ -1113,7 +1098,6 @@ impl GpuRenderer {
                     bind,
                 )
             })?;
-        let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
         let outline_opts = opts.outlines.unwrap_or_default();
         let mut pixels = Vec::with_capacity(total);
         for base in (0..total).step_by(chunk) {
@@ -1128,11 +1112,9 @@ impl GpuRenderer {
                 0,
                 bytemuck::cast_slice(&frame.objects[base..base + len]),
             );
-            let groups = len.div_ceil(WORKGROUP as usize);
-            let gx = groups.min(max);
-            let gy = groups.div_ceil(gx);
+            let (groups, stride) = dispatch_grid(gpu, len);
             let params = SplatShadeParams {
-                shade: ShadeParams::new(sh, lights.len(), u, base, len, gx as u32 * WORKGROUP),
+                shade: ShadeParams::new(sh, lights.len(), u, base, len, stride),
                 shadow: shadow.as_ref().map(|s| s.map.params).unwrap_or_default(),
                 outline_color: outline_opts.color.to_array(),
                 outlines: u32::from(opts.outlines.is_some()),
@@ -1144,13 +1126,12 @@ impl GpuRenderer {
                 pad: 0,
             };
             gpu.write(&pbuf, 0, bytemuck::bytes_of(&params));
-            gpu.dispatch("splat shade", pipeline, &bind, [gx as u32, gy as u32, 1])?;
+            gpu.dispatch("splat shade", pipeline, &bind, groups)?;
             let out: Vec<[f32; 4]> = gpu.read_buffer(&image, 0, len)?;
             let taken: Vec<u32> = gpu.read_buffer(&samples, 0, len)?;
             pixels.extend(out);
             for k in taken {
-                stats.shadow_samples += u64::from(k);
-                stats.penumbra_pixels += u64::from(k == 64);
+                stats.count_pixel(k);
             }
         }
         stats.shade_seconds = t1.elapsed().as_secs_f64();

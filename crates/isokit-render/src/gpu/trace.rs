@@ -1,7 +1,8 @@
 //! The host side of the GPU ray caster: buffers, the pass loop, read-back (the twin of
 //! `trace_frame` in `render.rs`).
 
-use super::{GpuPixel, GpuRenderer, Resident, WORKGROUP, scoped};
+use super::{GpuPixel, GpuRenderer, Resident, scoped};
+use crate::gpu::dispatch_grid;
 use crate::kernel::{GSample, Uniforms};
 use crate::render::{Prefetch, frame_stats, load_requested, prefetch};
 use crate::{CachePolicy, Frame, GBuffer, RenderError, Volume};
@@ -53,16 +54,6 @@ fn upload_bricks(gpu: &Gpu, res: &Resident, volume: &Volume, loaded: &[(usize, u
             bytemuck::cast_slice(res.cache.reference()),
         );
     }
-}
-
-/// Workgroups for `count` invocations within the per-dimension limit, and the invocations
-/// per row of the grid.
-fn grid(gpu: &Gpu, count: usize) -> ([u32; 3], u32) {
-    let max = gpu.limits().max_compute_workgroups_per_dimension.max(1) as usize;
-    let groups = count.div_ceil(WORKGROUP as usize).max(1);
-    let gx = groups.min(max);
-    let gy = groups.div_ceil(gx);
-    ([gx as u32, gy as u32, 1], gx as u32 * WORKGROUP)
 }
 
 /// Traces every ray `u` describes on the GPU.
@@ -176,7 +167,7 @@ pub(crate) fn trace_frame(
         loop {
             passes += 1;
             gpu.write(&counters, 0, bytemuck::cast_slice(&zeros));
-            let (groups, stride) = grid(gpu, count);
+            let (groups, stride) = dispatch_grid(gpu, count);
             let params = Params {
                 count: count as u32,
                 stride,
