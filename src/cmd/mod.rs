@@ -96,3 +96,9 @@ pub fn fill_slices<S: Send + Default>(
     progress.finish();
     out
 }
+
+/// Clamps a band field to ±`w`: lazily sampled bricks hold exact values a little beyond the
+/// band, and the files read "exact within W, ±W beyond" everywhere.
+pub fn clamp_to_band(grid: &mut isokit_field::Grid, w: f32) {
+    grid.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
+}

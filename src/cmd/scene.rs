@@ -4,7 +4,6 @@
 use super::check_output;
 use anyhow::{Result, bail};
 use glam::Vec3;
-use isokit_field::Grid;
 use isokit_io::{Volume, write_mesh, write_volume};
 use isokit_levelset::meshing::{MeshOptions, mesh_brick_grid, mesh_grid};
 use isokit_levelset::scene::{SampleOptions, Scene};
@@ -75,7 +74,7 @@ pub fn run(a: Args) -> Result<()> {
             Some(mesh.triangles.len())
         } else {
             let mut grid = grid;
-            clamp_to_band(&mut grid, stats.band);
+            super::clamp_to_band(&mut grid, stats.band);
             write_volume(&a.output, &Volume::from(grid))?;
             None
         };
@@ -91,10 +90,7 @@ pub fn run(a: Args) -> Result<()> {
             // file reads "exact within W, ±W beyond" everywhere.
             let mut dense = grid.to_grid()?;
             let w = stats.band;
-            dense
-                .data_mut()
-                .iter_mut()
-                .for_each(|v| *v = v.clamp(-w, w));
+            super::clamp_to_band(&mut dense, w);
             write_volume(&a.output, &Volume::from(dense))?;
             None
         };
@@ -138,10 +134,4 @@ pub fn run(a: Args) -> Result<()> {
         println!("{j}");
     }
     Ok(())
-}
-
-/// Volumes read "exact within W, ±W beyond" everywhere: kept bricks (and dense runs) hold
-/// exact values beyond the band, which are clamped here.
-fn clamp_to_band(grid: &mut Grid, w: f32) {
-    grid.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
 }
