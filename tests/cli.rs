@@ -348,7 +348,7 @@ fn bad_input_gives_one_line_and_exit_code_2() {
         &isokit(&["sample", "sphere", "-o", d.join("x.vtk").to_str().unwrap()]),
         "unknown output format",
     );
-    // A failed run keeps the previous output intact.
+    // A run refused before it starts keeps the previous output intact.
     std::fs::write(&out, b"previous").unwrap();
     let o = isokit(&[
         "sample",
@@ -360,6 +360,64 @@ fn bad_input_gives_one_line_and_exit_code_2() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(std::fs::read(&out).unwrap(), b"previous");
+}
+
+/// A run that fails *while writing* its output keeps the previous output intact: a file-size
+/// limit (`ulimit -f`) stops the write part-way, after the temporary output was opened and
+/// partly written (the kernel either kills the process with SIGXFSZ or fails the write with
+/// EFBIG). A writer that wrote to the output path directly fails this test.
+#[cfg(unix)]
+#[test]
+fn a_run_failing_while_writing_keeps_the_previous_output() {
+    let d = scratch("failing-write");
+    // A mesh output needs a volume input: sample one first, without the limit.
+    let vol = d.join("in.nrrd");
+    let torus = data("torus.off");
+    isokit_ok(&["sdf", &torus, "--res", "64", "-o", vol.to_str().unwrap()]);
+    let vol = vol.display().to_string();
+    for (name, args) in [
+        ("big.nrrd", ["sample", "sphere", "--res", "96"]),
+        ("big.npy", ["sample", "torus", "--res", "96"]),
+        ("big.obj", ["mesh", &vol, "--iso", "0"]),
+    ] {
+        let out = d.join(name);
+        std::fs::write(&out, b"previous").unwrap();
+        // 16 blocks of 512 bytes (dash) or 1024 bytes (bash): far below each output's size.
+        let o = std::process::Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -f 16; exec \"$@\"")
+            .arg("sh")
+            .arg(env!("CARGO_BIN_EXE_isokit"))
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success(),
+            "{name}: the limit did not stop the run: {stderr}"
+        );
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            b"previous",
+            "{name}: the previous output was touched"
+        );
+        // It failed after the output was opened: either it was killed with a partial
+        // temporary file beside the output, or the write failed and said so.
+        let partial = std::fs::read_dir(&*d)
+            .unwrap()
+            .filter_map(Result::ok)
+            .any(|e| {
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with(&format!(".{name}.tmp"))
+            });
+        assert!(
+            partial || stderr.contains("File too large"),
+            "{name}: neither a partial temporary file nor a write error: {stderr}"
+        );
+    }
 }
 
 #[test]

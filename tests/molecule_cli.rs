@@ -81,12 +81,13 @@ fn spacefill_with_shadows_and_outlines() {
 /// `--backend gpu` splats and shades on the GPU (lavapipe in CI) the picture the CPU makes.
 #[test]
 fn gpu_backend_splats_like_the_cpu() {
-    if let Err(e) = isokit::render::gpu::GpuRenderer::open() {
-        assert!(
-            !isokit::render::gpu::testing::gpu_required(),
-            "ISOKIT_REQUIRE_GPU=1 but no GPU: {e}"
-        );
-        eprintln!("gpu_backend_splats_like_the_cpu: SKIPPED (no GPU: {e})");
+    if isokit::render::gpu::testing::run_or_skip(
+        "gpu_backend_splats_like_the_cpu",
+        isokit::render::gpu::GpuRenderer::open(),
+        |g| g.describe(),
+    )
+    .is_none()
+    {
         return;
     }
     let dir = scratch("molecule-gpu");

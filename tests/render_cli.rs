@@ -136,17 +136,12 @@ fn mean_rgb8(a: &[u8], b: &[u8]) -> f64 {
 /// `ISOKIT_REQUIRE_GPU=1`).
 #[test]
 fn gpu_backend_renders_like_the_cpu() {
-    let software = match isokit::render::gpu::GpuRenderer::open() {
-        Ok(g) => Some(g.is_software()),
-        Err(e) if isokit::render::gpu::testing::gpu_required() => {
-            panic!("ISOKIT_REQUIRE_GPU=1 but no GPU: {e}")
-        }
-        Err(e) => {
-            eprintln!("gpu_backend_renders_like_the_cpu: SKIPPED (no GPU: {e})");
-            None
-        }
-    };
-    let Some(software) = software else {
+    let Some(software) = isokit::render::gpu::testing::run_or_skip(
+        "gpu_backend_renders_like_the_cpu",
+        isokit::render::gpu::GpuRenderer::open().map(|g| (g.is_software(), g.describe())),
+        |(_, name)| name.clone(),
+    )
+    .map(|(software, _)| software) else {
         return;
     };
     let dir = scratch("render-gpu");

@@ -213,8 +213,86 @@ pub struct ExrInfo {
     pub layers: usize,
 }
 
-/// Reads the header of an OpenEXR file: size and channel names. isokit writes EXR
-/// ([`write_exr`]) but does not decode its pixels.
+/// The pixels of an OpenEXR file's first layer, as [`read_exr`] decodes them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrImage {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// The channels in file order (EXR sorts them by name), each `width * height` values
+    /// with row 0 at the top; half-float and integer channels are converted to f32.
+    pub channels: Vec<(String, Vec<f32>)>,
+}
+
+impl ExrImage {
+    /// The channel called `name`, if the image has one.
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+}
+
+/// The most samples (pixels times channels) [`read_exr`] decodes: the header is checked
+/// before any pixel is allocated.
+pub const MAX_EXR_SAMPLES: usize = 1 << 28;
+
+/// Reads the first layer of an OpenEXR file with all its channels (flat images only, as
+/// [`write_exr`] writes them). Refuses, from the header alone, images of more than
+/// [`MAX_EXR_SAMPLES`] samples.
+pub fn read_exr(path: &Path) -> Result<ExrImage, IoError> {
+    let bytes = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
+    read_exr_bytes(&bytes, &path.display().to_string())
+}
+
+/// [`read_exr`] on bytes in memory; `name` is used in messages.
+pub fn read_exr_bytes(bytes: &[u8], name: &str) -> Result<ExrImage, IoError> {
+    use exr::prelude::*;
+    let path = Path::new(name);
+    let info = read_exr_info_bytes(bytes, name)?;
+    let samples = info
+        .width
+        .checked_mul(info.height)
+        .and_then(|px| px.checked_mul(info.channels.len()));
+    if samples.is_none_or(|n| n > MAX_EXR_SAMPLES) {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "EXR of {}x{} pixels with {} channels is larger than {MAX_EXR_SAMPLES} samples",
+                info.width,
+                info.height,
+                info.channels.len()
+            ),
+        ));
+    }
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| IoError::malformed(path, format!("EXR: {e}")))?;
+    let layer = image.layer_data;
+    let (width, height) = (layer.size.0, layer.size.1);
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok(ExrImage {
+        width,
+        height,
+        channels,
+    })
+}
+
+/// Reads the header of an OpenEXR file: size and channel names, without decoding pixels
+/// ([`read_exr`] decodes them).
 pub fn read_exr_info(path: &Path) -> Result<ExrInfo, IoError> {
     let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
     exr_info(exr::meta::MetaData::read_from_unbuffered(file, false), path)

@@ -9,7 +9,7 @@
 //! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY, NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
 //! | molecules (atoms, bonds, elements) | [`Molecule`] | [`read_molecule`]: PDB (`.pdb`, `.ent`), mmCIF (`.cif`, `.mmcif`), also `.gz` | — |
-//! | images | RGBA8 / f32 channels | [`read_png`]; EXR header only: [`read_exr_info`] | [`write_png`], [`write_exr`] |
+//! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
 //!
 //! It is *not* a general mesh-processing or imaging library: it reads geometry into
 //! isokit's plain types and writes results out, nothing more. Materials, textures, UVs,
@@ -69,8 +69,8 @@ mod volume;
 pub use atomic::atomic_write;
 pub use error::IoError;
 pub use image::{
-    ExrInfo, linear_to_srgb8, read_exr_info, read_exr_info_bytes, read_png, read_png_bytes,
-    srgb8_to_linear, write_exr, write_png,
+    ExrImage, ExrInfo, MAX_EXR_SAMPLES, linear_to_srgb8, read_exr, read_exr_bytes, read_exr_info,
+    read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear, write_exr, write_png,
 };
 pub use kind::{FileKind, detect_kind};
 pub use mesh::{

@@ -197,6 +197,9 @@ fn estimated_normals_have_no_flips() {
             e.rms / h,
             e.max / h
         );
+        // The same bounds as with exact normals (`check_shape`).
+        assert!(e.rms < 0.1 * h, "{}: RMS {} h", shape.name, e.rms / h);
+        assert!(e.max < 0.75 * h, "{}: max {} h", shape.name, e.max / h);
     }
 }
 
@@ -205,6 +208,7 @@ fn variants_compared() {
     let shape = torus();
     let (p, n) = cloud(&shape, N, 5);
     let h = spacing(&p);
+    let mut rms = Vec::new();
     for opts in common::all_weightings() {
         let weighting = opts.weighting;
         let sdf = PointSdf::new(&p, &n, &opts).unwrap();
@@ -216,6 +220,8 @@ fn variants_compared() {
             e.rms / h,
             e.max / h
         );
+        assert_eq!(bad, 0, "{}: spurious zero crossings", weighting.name());
+        rms.push((weighting, e.rms));
         // The inverse-square variants interpolate the samples exactly.
         if weighting != Weighting::PolyGauss {
             for &q in sdf.samples().iter().step_by(97) {
@@ -223,6 +229,19 @@ fn variants_compared() {
             }
         }
     }
+    // The partition of unity (the default) fits the band better than both inverse-square
+    // variants, as BENCHMARKS.md states.
+    let of = |w: Weighting| rms.iter().find(|(x, _)| *x == w).map(|(_, r)| *r).unwrap();
+    let pu = of(Weighting::PolyGauss);
+    for other in rms.iter().filter(|(w, _)| *w != Weighting::PolyGauss) {
+        assert!(
+            pu < other.1,
+            "partition of unity {pu} vs {} {}",
+            other.0.name(),
+            other.1
+        );
+    }
+    assert_eq!(rms.len(), 3, "partition of unity, Shepard and Nie04");
 }
 
 #[test]

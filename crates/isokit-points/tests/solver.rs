@@ -270,7 +270,7 @@ fn solver_figures() {
                 lsqr_default = Some(o);
             }
         }
-        let mut worst_plain = 0.0f64;
+        let mut best_plain = f64::INFINITY;
         for (solver, caps) in [
             (Solver::Gmres, &[30usize, 100, 400][..]),
             (Solver::GmresIlu0, &[30, 100][..]),
@@ -279,14 +279,14 @@ fn solver_figures() {
             for &cap in caps {
                 let o = run(solver, 0.0, cap);
                 print_row(name, &format!("{} (cap {cap})", solver.name()), &o);
-                worst_plain = worst_plain.max(o.band_rms);
+                best_plain = best_plain.min(o.band_rms);
             }
         }
         let l = lsqr_default.unwrap();
         if name == "random" {
             // The plain system's solvers, wherever they stop, are no better between the
-            // samples than the damped solve.
-            assert!(l.band_rms <= worst_plain, "{} vs {worst_plain}", l.band_rms);
+            // samples than the damped solve: not even the best of them.
+            assert!(l.band_rms <= best_plain, "{} vs {best_plain}", l.band_rms);
         }
         assert!(l.converged && l.at_samples < 0.02, "{name}");
     }

@@ -86,6 +86,47 @@ impl GBuffer {
         ]
     }
 
+    /// Checks that an OpenEXR image (e.g. [`isokit_io::read_exr`] of a file
+    /// [`GBuffer::write_exr`] wrote) holds exactly this G-buffer: the same size and, for every
+    /// channel of [`GBUFFER_CHANNELS`], every pixel's value bit for bit (the sample's field
+    /// where the pixel hits, 0 where it misses; `A` is 1 on hits). The error names the first
+    /// difference.
+    pub fn matches_exr(&self, image: &isokit_io::ExrImage) -> Result<(), String> {
+        if (image.width, image.height) != (self.width as usize, self.height as usize) {
+            return Err(format!(
+                "size {}x{} in the file, {}x{} in memory",
+                image.width, image.height, self.width, self.height
+            ));
+        }
+        let fields: [fn(&GSample) -> f32; 10] = [
+            |p| p.position.x,
+            |p| p.position.y,
+            |p| p.position.z,
+            |p| p.normal.x,
+            |p| p.normal.y,
+            |p| p.normal.z,
+            |p| p.depth,
+            |p| p.k1,
+            |p| p.k2,
+            |_| 1.0,
+        ];
+        for (name, field) in GBUFFER_CHANNELS.iter().zip(fields) {
+            let data = image
+                .channel(name)
+                .ok_or_else(|| format!("channel {name} is missing"))?;
+            for (i, (p, &v)) in self.pixels.iter().zip(data).enumerate() {
+                let want = if p.is_hit() { field(p) } else { 0.0 };
+                if v.to_bits() != want.to_bits() {
+                    let (x, y) = (i % self.width as usize, i / self.width as usize);
+                    return Err(format!(
+                        "channel {name} at pixel ({x}, {y}): {v} in the file, {want} in memory"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Writes the G-buffer as OpenEXR with the channels [`GBUFFER_CHANNELS`] (atomically).
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
         let planes = self.channels();

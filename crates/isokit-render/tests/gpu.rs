@@ -20,7 +20,7 @@
 
 use glam::Vec3;
 use isokit_field::{Camera, Projection};
-use isokit_gpu::testing::gpu_or_skip;
+use isokit_gpu::{Gpu, GpuOptions, testing};
 use isokit_render::gpu::{GpuRenderer, raycast_shader, shade_shader};
 use isokit_render::{
     BrickCache, DEFAULT_CACHE_BYTES, Filter, Frame, Image, Inside, Layout, MultiView, RefineMethod,
@@ -37,22 +37,24 @@ use common::*;
 // few seconds); tests take turns.
 // ---------------------------------------------------------------------------------------
 
-static RENDERER: OnceLock<Option<Mutex<GpuRenderer>>> = OnceLock::new();
+static RENDERER: OnceLock<Result<Mutex<GpuRenderer>, String>> = OnceLock::new();
 
 fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
     let slot = RENDERER.get_or_init(|| {
-        gpu_or_skip(test).map(|g| Mutex::new(GpuRenderer::new(g).expect("kernels compile")))
+        Gpu::new(&GpuOptions::default())
+            .map(|g| Mutex::new(GpuRenderer::new(g).expect("kernels compile")))
+            .map_err(|e| e.to_string())
     });
     match slot {
-        Some(m) => {
+        Ok(m) => {
             let mut r = m.lock().unwrap_or_else(|e| e.into_inner());
-            eprintln!("{test}: running on {}", r.describe());
+            testing::ran(test, &r.describe());
             r.set_cache_bytes(DEFAULT_CACHE_BYTES);
             r.set_max_rays_per_dispatch(isokit_render::gpu::DEFAULT_MAX_RAYS_PER_DISPATCH);
             Some(r)
         }
-        None => {
-            eprintln!("{test}: SKIPPED (no GPU adapter; see the first GPU test's note)");
+        Err(reason) => {
+            testing::skipped(test, reason);
             None
         }
     }

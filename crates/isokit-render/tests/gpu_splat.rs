@@ -33,7 +33,7 @@
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::rng::SplitMix64;
 use isokit_field::{Camera, Projection};
-use isokit_gpu::testing::gpu_or_skip;
+use isokit_gpu::testing;
 use isokit_gpu::{Gpu, GpuError, GpuOptions, wgpu};
 use isokit_render::gpu::GpuRenderer;
 use isokit_render::quadric::Quadric;
@@ -69,22 +69,32 @@ const IMAGE_PX: usize = 4;
 // adapter has FLOAT32_FILTERABLE), one on a device without extra features (2x2 loads).
 // ---------------------------------------------------------------------------------------
 
-static PLAIN: OnceLock<Option<Mutex<GpuRenderer>>> = OnceLock::new();
+static PLAIN: OnceLock<Result<Mutex<GpuRenderer>, String>> = OnceLock::new();
 static FILTERED: OnceLock<Option<Mutex<GpuRenderer>>> = OnceLock::new();
 
 fn lock(m: &Mutex<GpuRenderer>) -> MutexGuard<'_, GpuRenderer> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// The renderer on a device without extra features, opened once (the error, once).
+fn plain_slot() -> &'static Result<Mutex<GpuRenderer>, String> {
+    PLAIN.get_or_init(|| {
+        Gpu::new(&GpuOptions::default())
+            .map(|g| Mutex::new(GpuRenderer::new(g).expect("kernels compile")))
+            .map_err(|e| e.to_string())
+    })
+}
+
 /// The renderer on a device without extra features (outline fetches from 2x2 loads).
 fn plain(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
-    let slot = PLAIN.get_or_init(|| {
-        gpu_or_skip(test).map(|g| Mutex::new(GpuRenderer::new(g).expect("kernels compile")))
-    });
-    match slot {
-        Some(m) => Some(lock(m)),
-        None => {
-            eprintln!("{test}: SKIPPED (no GPU adapter; see the first GPU test's note)");
+    match plain_slot() {
+        Ok(m) => {
+            let r = lock(m);
+            testing::ran(test, &r.describe());
+            Some(r)
+        }
+        Err(reason) => {
+            testing::skipped(test, reason);
             None
         }
     }
@@ -93,7 +103,9 @@ fn plain(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
 /// The renderer with FLOAT32_FILTERABLE (bilinear outline fetches), or the plain one where
 /// the adapter lacks the feature (printed).
 fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
-    drop(plain(test)?);
+    if plain_slot().is_err() {
+        return plain(test);
+    }
     let slot = FILTERED.get_or_init(|| {
         let opts = GpuOptions {
             features: wgpu::Features::FLOAT32_FILTERABLE,
@@ -109,7 +121,11 @@ fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
         }
     });
     match slot {
-        Some(m) => Some(lock(m)),
+        Some(m) => {
+            let r = lock(m);
+            testing::ran(test, &r.describe());
+            Some(r)
+        }
         None => plain(test),
     }
 }

@@ -591,6 +591,16 @@ fn gbuffer_exr_has_the_named_channels() {
     );
     let z = &planes[6];
     assert!(z.iter().zip(a).all(|(z, a)| (*z > 0.0) == (*a > 0.0)));
+    // The pixels read back from the file are the in-memory samples, channel by channel.
+    let back = isokit_io::read_exr(&path).unwrap();
+    f.gbuffer.matches_exr(&back).unwrap();
+    // The check can fail: one changed value in memory is found.
+    let mut pixels = f.gbuffer.pixels().to_vec();
+    let hit = pixels.iter().position(|p| p.is_hit()).unwrap();
+    pixels[hit].k2 += 1.0;
+    let changed = isokit_render::GBuffer::new(20, 12, pixels, f.gbuffer.samples().to_vec());
+    let e = changed.matches_exr(&back).unwrap_err();
+    assert!(e.contains("channel K2"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
