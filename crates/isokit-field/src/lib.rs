@@ -6,10 +6,12 @@
 //! scale that keep distances exact ([`transform`]), reconstruction filters on grids
 //! ([`filter`]: trilinear, tricubic B-spline value/gradient/Hessian by direct 64-tap
 //! convolution and by the 8-fetch scheme, Catmull-Rom), differential geometry of level
-//! sets ([`curvature`]) and a [`Camera`].
+//! sets ([`curvature`]) and a [`Camera`]; the plain geometry the other crates exchange:
+//! triangle meshes ([`TriMesh`], with a validation report) and point clouds ([`PointCloud`]),
+//! and small generated ones for tests ([`generate`]).
 //!
-//! It is not the place for meshes, file formats, CSG or rendering: those live in the other
-//! isokit crates and build on these types.
+//! It is not the place for file formats, CSG or rendering: those live in the other isokit
+//! crates and build on these types.
 //!
 //! ## Conventions
 //! - Sign: negative inside, positive outside.
@@ -25,11 +27,14 @@
 mod aabb;
 mod brick;
 mod camera;
+mod cloud;
 pub mod curvature;
 mod error;
 mod field;
 pub mod filter;
+pub mod generate;
 mod grid;
+pub mod mesh;
 pub mod primitives;
 pub mod rng;
 pub mod transform;
@@ -37,6 +42,8 @@ pub mod transform;
 pub use aabb::Aabb;
 pub use brick::{BrickGrid, BrickInfo};
 pub use camera::{Camera, Projection, Ray};
+pub use cloud::PointCloud;
 pub use error::FieldError;
 pub use field::{Field, finite_difference_hessian, sample_field, sample_into};
 pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, checked_len, finite_min_max};
+pub use mesh::{DEGENERATE_REL_TOL, MeshReport, TriMesh};

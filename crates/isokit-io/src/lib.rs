@@ -27,8 +27,9 @@
 //! - Volumes come in as [`Volume`] (per-axis spacing, as files store them). Turn one into an
 //!   isokit [`Grid`](isokit_field::Grid) with [`Volume::into_grid`] when the spacing is
 //!   uniform, or [`Volume::resample_uniform`] when it is not.
-//! - [`generate`] builds small closed meshes (icosphere, torus, tube around a curve) and
-//!   clouds for tests and examples.
+//! - [`generate`] (re-exported from `isokit-field`, as are [`TriMesh`] and [`PointCloud`])
+//!   builds small closed meshes (icosphere, torus, tube around a curve) and clouds for tests
+//!   and examples.
 //! - For meshes to hand to other tools prefer binary PLY or STL (compact, exact f32); OBJ
 //!   and OFF are text and also exact (shortest round-trip float formatting).
 //!
@@ -48,7 +49,6 @@
 
 mod atomic;
 mod error;
-pub mod generate;
 mod gltf_read;
 mod image;
 mod kind;
@@ -61,7 +61,6 @@ mod obj;
 mod off;
 mod ply;
 mod points;
-mod report;
 mod stl;
 mod util;
 mod volume;
@@ -72,14 +71,14 @@ pub use image::{
     ExrImage, ExrInfo, MAX_EXR_SAMPLES, linear_to_srgb8, read_exr, read_exr_bytes, read_exr_info,
     read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear, write_exr, write_png,
 };
+pub use isokit_field::{DEGENERATE_REL_TOL, MeshReport, PointCloud, TriMesh, generate};
 pub use kind::{FileKind, detect_kind};
 pub use mesh::{
-    MeshFormat, TriMesh, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_stl_ascii,
+    MeshFormat, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_stl_ascii,
 };
 pub use molecule::{Atom, Element, Molecule, MoleculeFormat, read_molecule, read_molecule_bytes};
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
-pub use points::{PointCloud, PointFormat, read_points, read_points_bytes, write_points};
-pub use report::{DEGENERATE_REL_TOL, MeshReport};
+pub use points::{PointFormat, read_points, read_points_bytes, write_points};
 pub use volume::{
     ISOTROPY_TOL, NrrdEncoding, Volume, VolumeFormat, read_volume, read_volume_bytes, write_nrrd,
     write_nrrd_raw, write_volume,

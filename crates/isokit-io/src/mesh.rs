@@ -1,80 +1,11 @@
-//! Triangle meshes: the [`TriMesh`] type, format dispatch, and the mesh readers' and
-//! writers' entry points.
+//! Triangle meshes: format dispatch, and the mesh readers' and writers' entry points (the
+//! [`TriMesh`] type itself is `isokit-field`'s).
 
 use std::path::Path;
 
-use glam::Vec3;
-use isokit_field::Aabb;
-
 use crate::util::{extension, read_file};
-use crate::{IoError, gltf_read, obj, off, ply, stl};
-
-/// An indexed triangle mesh: positions and triangles as index triples into them.
-///
-/// Readers guarantee every index is in range; a mesh built by hand may break that, and
-/// [`TriMesh::validate`] counts such triangles instead of panicking. Writers refuse them.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriMesh {
-    /// Vertex positions in world units.
-    pub positions: Vec<Vec3>,
-    /// Triangles, counter-clockwise seen from outside for an oriented surface.
-    pub triangles: Vec<[u32; 3]>,
-}
-
-impl TriMesh {
-    /// A mesh from its parts (not checked; see [`TriMesh::validate`]).
-    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
-        Self {
-            positions,
-            triangles,
-        }
-    }
-
-    /// The box around all finite positions ([`Aabb::EMPTY`] for none).
-    pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&self.positions)
-    }
-
-    /// True when the mesh has no triangles.
-    pub fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
-    }
-
-    /// Appends another mesh, offsetting its indices.
-    pub fn append(&mut self, other: &TriMesh) {
-        let base = self.positions.len() as u32;
-        self.positions.extend_from_slice(&other.positions);
-        self.triangles.extend(
-            other
-                .triangles
-                .iter()
-                .map(|t| t.map(|i| i.wrapping_add(base))),
-        );
-    }
-
-    /// Checks every index against the vertex count (writers call this before writing).
-    pub(crate) fn check_indices(&self, path: &Path) -> Result<(), IoError> {
-        let n = self.positions.len();
-        if n > u32::MAX as usize {
-            return Err(IoError::invalid_input(
-                path,
-                format!("{n} vertices do not fit 32-bit indices"),
-            ));
-        }
-        if let Some((t, tri)) = self
-            .triangles
-            .iter()
-            .enumerate()
-            .find(|(_, t)| t.iter().any(|&i| i as usize >= n))
-        {
-            return Err(IoError::invalid_input(
-                path,
-                format!("triangle {t} {tri:?} refers to a vertex beyond the {n} vertices"),
-            ));
-        }
-        Ok(())
-    }
-}
+use crate::{IoError, TriMesh, gltf_read, obj, off, ply, stl};
+use glam::Vec3;
 
 /// The mesh file formats this crate reads, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -204,4 +135,12 @@ pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
 /// A face normal (unit, or zero for a degenerate triangle).
 pub(crate) fn face_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// Refuses a mesh whose indices are out of range (writers call this first).
+pub(crate) fn check_indices(mesh: &TriMesh, path: &Path) -> Result<(), IoError> {
+    match mesh.index_problem() {
+        Some(m) => Err(IoError::invalid_input(path, m)),
+        None => Ok(()),
+    }
 }

@@ -89,7 +89,7 @@ pub(crate) fn read_obj(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {
 }
 
 pub(crate) fn write_obj(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
-    mesh.check_indices(path)?;
+    crate::mesh::check_indices(mesh, path)?;
     atomic_write(path, |w| {
         writeln!(w, "# written by isokit")?;
         for p in &mesh.positions {

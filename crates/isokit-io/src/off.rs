@@ -155,7 +155,7 @@ pub(crate) fn read_off(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {
 }
 
 pub(crate) fn write_off(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
-    mesh.check_indices(path)?;
+    crate::mesh::check_indices(mesh, path)?;
     atomic_write(path, |w| {
         writeln!(w, "OFF")?;
         writeln!(w, "{} {} 0", mesh.positions.len(), mesh.triangles.len())?;

@@ -483,7 +483,7 @@ fn index_type(n: usize) -> &'static str {
 }
 
 pub(crate) fn write_ply_mesh(path: &Path, mesh: &TriMesh, ascii: bool) -> Result<(), IoError> {
-    mesh.check_indices(path)?;
+    crate::mesh::check_indices(mesh, path)?;
     atomic_write(path, |w| {
         let fmt = if ascii {
             "ascii"
@@ -526,7 +526,7 @@ pub(crate) fn write_ply_mesh(path: &Path, mesh: &TriMesh, ascii: bool) -> Result
 }
 
 pub(crate) fn write_ply_points(path: &Path, cloud: &PointCloud) -> Result<(), IoError> {
-    cloud.check(path)?;
+    crate::points::check_normals(cloud, path)?;
     atomic_write(path, |w| {
         write!(
             w,

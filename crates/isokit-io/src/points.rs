@@ -3,46 +3,9 @@
 use std::path::Path;
 
 use glam::Vec3;
-use isokit_field::Aabb;
 
 use crate::util::{extension, parse_f64, read_file, show};
-use crate::{IoError, atomic_write, ply};
-
-/// Points with optional per-point normals (same length as `points` when present).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PointCloud {
-    /// Point positions in world units.
-    pub points: Vec<Vec3>,
-    /// One normal per point, when the file has them (not necessarily unit length).
-    pub normals: Option<Vec<Vec3>>,
-}
-
-impl PointCloud {
-    /// The box around all finite points.
-    pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&self.points)
-    }
-
-    /// Number of points.
-    pub fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// True when there are no points.
-    pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
-    }
-
-    pub(crate) fn check(&self, path: &Path) -> Result<(), IoError> {
-        match &self.normals {
-            Some(n) if n.len() != self.points.len() => Err(IoError::invalid_input(
-                path,
-                format!("{} normals for {} points", n.len(), self.points.len()),
-            )),
-            _ => Ok(()),
-        }
-    }
-}
+use crate::{IoError, PointCloud, atomic_write, ply};
 
 /// The point-cloud file formats, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -177,7 +140,7 @@ fn read_xyz(bytes: &[u8], path: &Path) -> Result<PointCloud, IoError> {
 }
 
 fn write_xyz(path: &Path, cloud: &PointCloud) -> Result<(), IoError> {
-    cloud.check(path)?;
+    check_normals(cloud, path)?;
     atomic_write(path, |w| {
         match &cloud.normals {
             Some(ns) => {
@@ -195,4 +158,12 @@ fn write_xyz(path: &Path, cloud: &PointCloud) -> Result<(), IoError> {
         }
         Ok(())
     })
+}
+
+/// Refuses a cloud whose normals do not match its points (writers call this first).
+pub(crate) fn check_normals(cloud: &PointCloud, path: &Path) -> Result<(), IoError> {
+    match cloud.normals_problem() {
+        Some(m) => Err(IoError::invalid_input(path, m)),
+        None => Ok(()),
+    }
 }

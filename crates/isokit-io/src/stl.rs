@@ -6,9 +6,9 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::mesh::face_normal;
-use crate::report::pos_key;
 use crate::util::{Cursor, parse_f64, show};
 use crate::{IoError, TriMesh, atomic_write};
+use isokit_field::mesh::pos_key;
 
 /// Builds an indexed mesh from triangle soup, welding bit-identical positions.
 struct Welder {
@@ -205,7 +205,7 @@ fn read_ascii(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {
 }
 
 pub(crate) fn write_stl(path: &Path, mesh: &TriMesh, ascii: bool) -> Result<(), IoError> {
-    mesh.check_indices(path)?;
+    crate::mesh::check_indices(mesh, path)?;
     if !ascii && mesh.triangles.len() > u32::MAX as usize {
         return Err(IoError::invalid_input(
             path,

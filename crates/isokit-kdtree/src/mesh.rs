@@ -5,8 +5,8 @@ use crate::pseudonormal::Pseudonormals;
 use crate::tree::{BuildParams, KdTree, QueryStats};
 use crate::triangle::{ClosestPoint, Feature, closest_point, ray_triangle, solid_angle};
 use glam::{DMat3, DVec3, Vec3};
+use isokit_field::TriMesh;
 use isokit_field::{Aabb, Field};
-use isokit_io::TriMesh;
 use std::f64::consts::PI;
 
 /// How the sign of the distance is decided (the user's request).
@@ -130,7 +130,7 @@ pub struct MeshHit {
 /// use isokit_kdtree::mesh::{MeshSdf, MeshOptions, SignMethod};
 /// use isokit_field::Field;
 /// use glam::Vec3;
-/// let sphere = isokit_io::generate::icosphere(Vec3::ZERO, 1.0, 3);
+/// let sphere = isokit_field::generate::icosphere(Vec3::ZERO, 1.0, 3);
 /// let sdf = MeshSdf::new(&sphere, MeshOptions::default()).unwrap();
 /// assert_eq!(sdf.sign_method(), SignMethod::Pseudonormal);
 /// assert!(sdf.value(Vec3::ZERO) < -0.99);
@@ -603,8 +603,8 @@ pub fn brute_force_distance(mesh: &TriMesh, p: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use isokit_field::generate;
     use isokit_field::rng::SplitMix64;
-    use isokit_io::generate;
 
     fn meshes() -> Vec<(&'static str, TriMesh)> {
         vec![

@@ -280,9 +280,9 @@ impl Pseudonormals {
 mod tests {
     use super::*;
     use crate::triangle::{closest_point, solid_angle};
+    use isokit_field::TriMesh;
+    use isokit_field::generate::{icosphere, torus, trefoil, tube};
     use isokit_field::rng::{DEFAULT_SEED, SplitMix64};
-    use isokit_io::TriMesh;
-    use isokit_io::generate::{icosphere, torus, trefoil, tube};
     use std::f64::consts::PI;
 
     struct Mesh {

@@ -968,7 +968,7 @@ mod tests {
 
     #[test]
     fn solid_angle_sums_to_winding_number_on_icosphere() {
-        let mesh = isokit_io::generate::icosphere(glam::Vec3::new(0.1, -0.2, 0.3), 1.0, 3);
+        let mesh = isokit_field::generate::icosphere(glam::Vec3::new(0.1, -0.2, 0.3), 1.0, 3);
         let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
         let centre = DVec3::new(0.1, -0.2, 0.3);
         let winding = |p: DVec3| {

@@ -1,7 +1,7 @@
 //! Isosurface meshing for export: watertight, 2-manifold triangle meshes of `f = iso`.
 //!
 //! [`mesh_grid`] meshes a dense [`Grid`], [`mesh_brick_grid`] a sparse [`BrickGrid`] (only
-//! where the surface can be); both return an [`isokit_io::TriMesh`] in world coordinates,
+//! where the surface can be); both return an [`isokit_field::TriMesh`] in world coordinates,
 //! triangles counter-clockwise seen from outside (outside = values at or above `iso`), ready
 //! for [`isokit_io::write_mesh`]. [`mesh_volume`] and [`mesh_area`] measure the result.
 //!
@@ -68,8 +68,8 @@
 //! lies above (CT-like), mesh the negated grid at `-iso`.
 
 use glam::{DVec3, Vec3};
+use isokit_field::TriMesh;
 use isokit_field::{BrickGrid, Grid};
-use isokit_io::TriMesh;
 use rayon::prelude::*;
 
 /// Options of [`mesh_grid`] and [`mesh_brick_grid`].
@@ -187,7 +187,7 @@ pub fn mesh_brick_grid(grid: &BrickGrid, opts: &MeshOptions) -> Result<TriMesh, 
 ///
 /// ```
 /// use glam::Vec3;
-/// use isokit_io::TriMesh;
+/// use isokit_field::TriMesh;
 /// use isokit_levelset::meshing::{mesh_area, mesh_volume};
 /// // A right tetrahedron with legs 1, faces counter-clockwise seen from outside.
 /// let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];

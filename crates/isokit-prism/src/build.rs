@@ -40,7 +40,7 @@
 //! (the repair test shows the unwritten samples).
 
 use glam::DVec3;
-use isokit_io::TriMesh;
+use isokit_field::TriMesh;
 use isokit_kdtree::pseudonormal::Pseudonormals;
 use isokit_kdtree::triangle::{Feature, is_degenerate};
 use rayon::prelude::*;
@@ -709,7 +709,7 @@ fn build_with_wedges(
 mod tests {
     use super::*;
     use glam::Vec3;
-    use isokit_io::generate;
+    use isokit_field::generate;
 
     #[test]
     fn frame_puts_corners_where_the_listing_expects_them() {

@@ -49,7 +49,7 @@
 //! ```
 //! use isokit_prism::{PrismSdf, PrismOptions, GridGeometry, Engine};
 //! use glam::Vec3;
-//! let sphere = isokit_io::generate::icosphere(Vec3::ZERO, 1.0, 3);
+//! let sphere = isokit_field::generate::icosphere(Vec3::ZERO, 1.0, 3);
 //! let sdf = PrismSdf::new(&sphere, PrismOptions::with_band(0.2)).unwrap();
 //! let g = GridGeometry { dims: [41, 41, 41], origin: Vec3::splat(-1.25), spacing: 0.0625 };
 //! let (grid, stats) = sdf.grid(&g, &Engine::Cpu).unwrap();
@@ -71,9 +71,9 @@ pub use isokit_kdtree::mesh::{MeshOptions, SignMethod, SignMode};
 pub use placed::{GpuPrism, GridGeometry, PLANE_MARGIN};
 
 use build::WorldPrism;
+use isokit_field::TriMesh;
 use isokit_field::{BrickGrid, Field, FieldError, Grid};
 use isokit_gpu::GpuError;
-use isokit_io::TriMesh;
 use isokit_kdtree::mesh::{MeshError, MeshSdf};
 use isokit_kdtree::pseudonormal::Pseudonormals;
 use rayon::prelude::*;

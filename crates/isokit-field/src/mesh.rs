@@ -1,12 +1,73 @@
-//! Mesh validation: topology and geometry statistics of a [`TriMesh`].
+//! Triangle meshes as plain data: [`TriMesh`] (positions and index triples) and its
+//! validation report ([`TriMesh::validate`], [`MeshReport`]). Reading and writing mesh files
+//! is `isokit-io`'s job; this module has no formats.
 
 use std::collections::HashMap;
 use std::fmt;
 
-use glam::DVec3;
-use isokit_field::Aabb;
+use glam::{DVec3, Vec3};
 
-use crate::TriMesh;
+use crate::Aabb;
+
+/// An indexed triangle mesh: positions and triangles as index triples into them.
+///
+/// Readers guarantee every index is in range; a mesh built by hand may break that, and
+/// [`TriMesh::validate`] counts such triangles instead of panicking. Writers refuse them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions in world units.
+    pub positions: Vec<Vec3>,
+    /// Triangles, counter-clockwise seen from outside for an oriented surface.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// A mesh from its parts (not checked; see [`TriMesh::validate`]).
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
+        Self {
+            positions,
+            triangles,
+        }
+    }
+
+    /// The box around all finite positions ([`Aabb::EMPTY`] for none).
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    /// True when the mesh has no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Appends another mesh, offsetting its indices.
+    pub fn append(&mut self, other: &TriMesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| t.map(|i| i.wrapping_add(base))),
+        );
+    }
+
+    /// The first problem with the indices, if any: a triangle naming a vertex beyond the
+    /// vertex count, or more vertices than 32-bit indices hold (writers refuse such meshes).
+    pub fn index_problem(&self) -> Option<String> {
+        let n = self.positions.len();
+        if n > u32::MAX as usize {
+            return Some(format!("{n} vertices do not fit 32-bit indices"));
+        }
+        self.triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|&i| i as usize >= n))
+            .map(|(t, tri)| {
+                format!("triangle {t} {tri:?} refers to a vertex beyond the {n} vertices")
+            })
+    }
+}
 
 /// Relative tolerance below which a triangle counts as zero-area: `|(b−a)×(c−a)| ≤ tol ·
 /// (longest edge)²`, i.e. the sine of its smallest angle is about `tol` or less. Computed in
@@ -142,7 +203,9 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     x
 }
 
-pub(crate) fn pos_key(p: glam::Vec3) -> [u32; 3] {
+/// The key under which positions weld: their exact bits, with −0 taken as +0 (used to count
+/// duplicate vertices and to merge coincident ones).
+pub fn pos_key(p: glam::Vec3) -> [u32; 3] {
     // +0.0 for -0.0 so that both weld together.
     [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f32::to_bits)
 }

@@ -6,8 +6,8 @@
 use std::collections::HashMap;
 use std::f32::consts::TAU;
 
+use crate::rng::SplitMix64;
 use glam::Vec3;
-use isokit_field::rng::SplitMix64;
 
 use crate::{PointCloud, TriMesh};
 
