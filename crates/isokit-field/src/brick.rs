@@ -1,6 +1,6 @@
 //! Sparse brick grids: only the bricks near the surface are stored.
 
-use crate::{Field, FieldError, Grid, grid::checked_len};
+use crate::{Field, FieldError, Grid, Job, grid::checked_len};
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 use std::cell::Cell;
@@ -189,6 +189,38 @@ impl BrickGrid {
         band: f32,
         background: f32,
     ) -> Result<Self, FieldError> {
+        Self::sample_field_job(
+            field,
+            dims,
+            origin,
+            spacing,
+            brick,
+            apron,
+            band,
+            background,
+            &Job::default(),
+        )
+    }
+
+    /// [`BrickGrid::sample_field`] with progress reports (stage `"sampling bricks"`, one unit
+    /// per brick of the lattice) and cancellation checked before every brick
+    /// ([`FieldError::Cancelled`]).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "grid geometry plus brick layout and job"
+    )]
+    pub fn sample_field_job(
+        field: &dyn Field,
+        dims: [usize; 3],
+        origin: Vec3,
+        spacing: f32,
+        brick: usize,
+        apron: usize,
+        band: f32,
+        background: f32,
+        job: &Job,
+    ) -> Result<Self, FieldError> {
+        job.check()?;
         let mut b = Self::new(dims, origin, spacing, brick, apron, background)?;
         let lip = field.lipschitz().max(0.0);
         let reach = 0.5 * ((brick + 2 * apron) as f32) * spacing * 3f32.sqrt();
@@ -197,9 +229,11 @@ impl BrickGrid {
         // Pass 1: one evaluation per brick decides which bricks may hold the band.
         let coords = b.all_brick_coords();
         // `Some(true)` keep, `Some(false)` skip as outside, `None` skip as inside.
+        let progress = job.counter("sampling bricks", 2 * coords.len() as u64);
         let keep: Vec<Option<bool>> = coords
             .par_iter()
             .map(|&c| {
+                progress.advance(1);
                 let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                 let centre = origin + spacing * (lo.as_vec3() + Vec3::splat(0.5 * brick as f32));
                 let v = field.value(centre);
@@ -215,12 +249,14 @@ impl BrickGrid {
                 b.mark_inside(*c);
             }
         }
+        job.check()?;
         // Pass 2: the core samples of kept bricks, each evaluated once.
         let cores: Vec<Option<Vec<f32>>> = coords
             .par_iter()
             .zip(keep.par_iter())
             .map(|(&c, &k)| {
-                (k == Some(true)).then(|| {
+                progress.advance(1);
+                (k == Some(true) && !job.is_cancelled()).then(|| {
                     let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                     (0..brick * brick * brick)
                         .map(|n| {
@@ -235,6 +271,7 @@ impl BrickGrid {
                 })
             })
             .collect();
+        job.check()?;
         // Pass 3: aprons read neighbouring cores where kept and evaluate the field elsewhere.
         let bd = IVec3::from_array(b.brick_dims.map(|v| v as i32));
         let side = brick + 2 * apron;

@@ -48,6 +48,9 @@ pub enum FieldError {
     /// Bounds to sample are empty or not finite.
     #[error("bounds {0:?} are empty or not finite; give explicit bounds")]
     BadBounds(crate::Aabb),
+    /// The computation's [`crate::Job`] was cancelled.
+    #[error(transparent)]
+    Cancelled(#[from] crate::Cancelled),
     /// A parameter is out of its valid range.
     #[error("invalid parameter {name} = {value}: {why}")]
     BadParameter {

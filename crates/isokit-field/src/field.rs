@@ -62,6 +62,94 @@ pub trait Field: Send + Sync {
     fn hessian(&self, p: Vec3) -> Mat3 {
         finite_difference_hessian(self, p)
     }
+
+    /// A box and a slack with `value(p) ≥ box.distance(p) − slack` at every point `p` (so
+    /// the box holds everything where the value is below `−slack`), or `None` when nothing
+    /// of the kind is known (the default). An exact distance field has its bounds with slack
+    /// 0. Unions of many fields use it to skip whole groups of children by one box test.
+    fn distance_box(&self) -> Option<DistanceBox> {
+        None
+    }
+
+    /// A lower bound on the value at `p` known without evaluating the field, from bounding
+    /// boxes alone; [`f32::NEG_INFINITY`] when nothing is known. Never NaN, never above the
+    /// value. The default derives it from [`Field::distance_box`].
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        match self.distance_box() {
+            Some(d) => d.lower_bound(p),
+            None => f32::NEG_INFINITY,
+        }
+    }
+
+    /// The value at `p` *clamped to `±cap`*: the result `r` lies in `[−cap, cap]` and
+    /// `r == clamp(value(p), −cap, cap)` wherever `|value(p)| < cap`; where `|value(p)| ≥ cap`
+    /// it is `±cap` with the right sign. This licence lets a field skip work that cannot
+    /// change the clamped result (a union skips children whose lower bound is above the best
+    /// value, a mesh answers a band-limited query). `cap = ∞` is the full value. The default
+    /// clamps [`Field::value`]. Call it through [`value_clamped`], which first tests
+    /// [`Field::lower_bound`].
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        self.value(p).clamp(-cap, cap)
+    }
+}
+
+/// See [`Field::distance_box`]: `value(p) ≥ aabb.distance(p) − slack` everywhere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DistanceBox {
+    /// The box.
+    pub aabb: Aabb,
+    /// How far below the distance to the box the value may be (≥ 0; may be infinite).
+    pub slack: f32,
+}
+
+impl DistanceBox {
+    /// The box of an exact distance field's bounds (slack 0).
+    pub fn exact(aabb: Aabb) -> Self {
+        Self { aabb, slack: 0.0 }
+    }
+
+    /// The lower bound it gives at `p`: the distance to the box less the slack outside a
+    /// finite box, [`f32::NEG_INFINITY`] inside it or for an infinite box or slack.
+    #[inline]
+    pub fn lower_bound(&self, p: Vec3) -> f32 {
+        let lb = box_lower_bound(&self.aabb, p) - self.slack;
+        if lb.is_nan() { f32::NEG_INFINITY } else { lb }
+    }
+
+    /// The box and slack of the smallest of several fields (a union): the union of the
+    /// boxes with the largest slack.
+    pub fn union(&self, other: &DistanceBox) -> DistanceBox {
+        DistanceBox {
+            aabb: self.aabb.union(&other.aabb),
+            slack: self.slack.max(other.slack),
+        }
+    }
+}
+
+/// `field`'s value at `p` clamped to `±cap` (see [`Field::value_clamped`]), returning `cap`
+/// at once where the field's [`Field::lower_bound`] is already at least `cap`. NaN for a
+/// non-finite point.
+#[inline]
+pub fn value_clamped<F: Field + ?Sized>(field: &F, p: Vec3, cap: f32) -> f32 {
+    if !p.is_finite() {
+        return f32::NAN;
+    }
+    if cap.is_finite() && field.lower_bound(p) >= cap {
+        return cap;
+    }
+    field.value_clamped(p, cap)
+}
+
+/// The lower bound an exact field with (P) — `{f ≤ δ} ⊂ bounds.expanded(δ)` for every
+/// `δ ≥ 0`, true of exact distances — has at `p`: the distance to `bounds` outside a finite
+/// box, [`f32::NEG_INFINITY`] inside it or for an infinite box.
+#[inline]
+pub fn box_lower_bound(bounds: &Aabb, p: Vec3) -> f32 {
+    if bounds.is_finite() && !bounds.contains(p) {
+        bounds.distance(p)
+    } else {
+        f32::NEG_INFINITY
+    }
 }
 
 /// The symmetrized central differences of `field`'s gradient at `p`, with step
@@ -103,10 +191,19 @@ macro_rules! forward_field {
             fn hessian(&self, p: Vec3) -> Mat3 {
                 (**self).hessian(p)
             }
+            fn distance_box(&self) -> Option<DistanceBox> {
+                (**self).distance_box()
+            }
+            fn lower_bound(&self, p: Vec3) -> f32 {
+                (**self).lower_bound(p)
+            }
+            fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+                (**self).value_clamped(p, cap)
+            }
         }
     )*};
 }
-forward_field!(&F, Box<F>);
+forward_field!(&F, Box<F>, std::sync::Arc<F>);
 
 /// Samples `field` at every node of `grid` (in parallel, one z-slice per task), overwriting
 /// its samples.

@@ -34,6 +34,7 @@ mod field;
 pub mod filter;
 pub mod generate;
 mod grid;
+mod job;
 pub mod mesh;
 pub mod primitives;
 pub mod rng;
@@ -44,6 +45,10 @@ pub use brick::{BrickGrid, BrickInfo};
 pub use camera::{Camera, Projection, Ray};
 pub use cloud::PointCloud;
 pub use error::FieldError;
-pub use field::{Field, finite_difference_hessian, sample_field, sample_into};
+pub use field::{
+    DistanceBox, Field, box_lower_bound, finite_difference_hessian, sample_field, sample_into,
+    value_clamped,
+};
 pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, checked_len, finite_min_max};
+pub use job::{Cancelled, Counter, Job, ProgressFn};
 pub use mesh::{DEGENERATE_REL_TOL, MeshReport, TriMesh};

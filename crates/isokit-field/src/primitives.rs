@@ -57,6 +57,9 @@ macro_rules! field_from_sdf64 {
                 self.hess(p.as_dvec3())
                     .unwrap_or_else(|| crate::finite_difference_hessian(self, p))
             }
+            fn distance_box(&self) -> Option<crate::DistanceBox> {
+                Some(crate::DistanceBox::exact(self.aabb()))
+            }
         }
     )*};
 }
@@ -948,6 +951,12 @@ impl Field for Primitive {
     }
     fn hessian(&self, p: Vec3) -> Mat3 {
         self.as_field().hessian(p)
+    }
+    fn distance_box(&self) -> Option<crate::DistanceBox> {
+        self.as_field().distance_box()
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        self.as_field().lower_bound(p)
     }
 }
 

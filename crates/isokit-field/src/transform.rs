@@ -154,6 +154,36 @@ impl<F: Field> Field for Transformed<F> {
         (self.scale * self.inner.value(self.to_local(p).as_vec3()) as f64) as f32
     }
 
+    /// The world box of the inner box (as [`Field::bounds`] transforms it) with the slack
+    /// scaled by `s`: distances to the transformed box are at most `s` times the local ones.
+    fn distance_box(&self) -> Option<crate::DistanceBox> {
+        let d = self.inner.distance_box()?;
+        let aabb = Transformed {
+            inner: BoxOnly(d.aabb),
+            rotation: self.rotation,
+            translation: self.translation,
+            scale: self.scale,
+        }
+        .bounds();
+        Some(crate::DistanceBox {
+            aabb,
+            slack: (self.scale * d.slack as f64) as f32,
+        })
+    }
+
+    /// `s ·` the inner field's lower bound at the local point.
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        let lb = (self.scale * self.inner.lower_bound(self.to_local(p).as_vec3()) as f64) as f32;
+        if lb.is_nan() { f32::NEG_INFINITY } else { lb }
+    }
+
+    /// `s ·` the inner field clamped to `cap / s` at the local point.
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        let local_cap = (cap as f64 / self.scale) as f32;
+        let v = crate::value_clamped(&self.inner, self.to_local(p).as_vec3(), local_cap);
+        ((self.scale * v as f64) as f32).clamp(-cap, cap)
+    }
+
     /// The box of the eight transformed corners of the inner bounds (rounded outward);
     /// unbounded inner fields stay [`Aabb::INFINITE`] unless the rotation is the identity.
     fn bounds(&self) -> Aabb {
@@ -192,6 +222,18 @@ impl<F: Field> Field for Transformed<F> {
         let h = self.inner.hessian(self.to_local(p).as_vec3()).as_dmat3();
         let r = DMat3::from_quat(self.rotation);
         (r * h * r.transpose() / self.scale).as_mat3()
+    }
+}
+
+/// A field that is only a box, to transform boxes with [`Transformed::bounds`].
+struct BoxOnly(Aabb);
+
+impl Field for BoxOnly {
+    fn value(&self, p: Vec3) -> f32 {
+        self.0.distance(p)
+    }
+    fn bounds(&self) -> Aabb {
+        self.0
     }
 }
 

@@ -27,7 +27,7 @@
 
 use crate::csg::{CsgError, combine_grids};
 use glam::{Mat3, Vec3};
-use isokit_field::{Aabb, Field, Grid};
+use isokit_field::{Aabb, DistanceBox, Field, Grid};
 
 /// What can go wrong when morphing.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -202,6 +202,34 @@ impl<A: Field, B: Field> Field for LinearMorph<A, B> {
                 self.from.hessian(p) * wa + self.to.hessian(p) * wb
             }
         }
+    }
+    /// At `t = 0` and `t = 1` the operand's; in between the union of both (a convex
+    /// combination is at least the smaller of two lower bounds); `None` when extrapolating.
+    fn distance_box(&self) -> Option<DistanceBox> {
+        match self.t {
+            0.0 => self.from.distance_box(),
+            1.0 => self.to.distance_box(),
+            t if (0.0..=1.0).contains(&t) => {
+                Some(self.from.distance_box()?.union(&self.to.distance_box()?))
+            }
+            _ => None,
+        }
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        let lb = match self.t {
+            0.0 => self.from.lower_bound(p),
+            1.0 => self.to.lower_bound(p),
+            t if (0.0..=1.0).contains(&t) => {
+                (1.0 - t) * self.from.lower_bound(p) + t * self.to.lower_bound(p)
+            }
+            _ => f32::NEG_INFINITY,
+        };
+        if lb.is_nan() { f32::NEG_INFINITY } else { lb }
+    }
+    /// A blend can cancel large values of opposite sign, so the operands are evaluated in
+    /// full (the morph's own lower bound still prunes, in [`isokit_field::value_clamped`]).
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        self.value(p).clamp(-cap, cap)
     }
 }
 

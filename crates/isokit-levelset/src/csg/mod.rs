@@ -59,7 +59,7 @@
 //! ```
 
 use glam::{Mat3, Vec3};
-use isokit_field::{Aabb, BrickGrid, Field, FieldError, Grid};
+use isokit_field::{Aabb, BrickGrid, DistanceBox, Field, FieldError, Grid, value_clamped};
 use rayon::prelude::*;
 use std::fmt;
 
@@ -388,6 +388,12 @@ impl<A: Field, B: Field> Field for Union<A, B> {
             self.b.hessian(p)
         }
     }
+    fn distance_box(&self) -> Option<DistanceBox> {
+        Some(self.a.distance_box()?.union(&self.b.distance_box()?))
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        self.a.lower_bound(p).min(self.b.lower_bound(p))
+    }
 }
 
 impl<A: Field, B: Field> Field for Intersection<A, B> {
@@ -420,6 +426,9 @@ impl<A: Field, B: Field> Field for Intersection<A, B> {
             self.b.hessian(p)
         }
     }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        self.a.lower_bound(p).max(self.b.lower_bound(p))
+    }
 }
 
 impl<A: Field, B: Field> Field for Difference<A, B> {
@@ -451,6 +460,12 @@ impl<A: Field, B: Field> Field for Difference<A, B> {
         } else {
             -self.b.hessian(p)
         }
+    }
+    fn distance_box(&self) -> Option<DistanceBox> {
+        self.a.distance_box()
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        self.a.lower_bound(p)
     }
 }
 
@@ -508,6 +523,9 @@ impl<A: Field> Field for Complement<A> {
     }
     fn hessian(&self, p: Vec3) -> Mat3 {
         -self.a.hessian(p)
+    }
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        complement(value_clamped(&self.a, p, cap))
     }
 }
 
@@ -581,6 +599,19 @@ impl<A: Field> Field for Offset<A> {
     }
     fn hessian(&self, p: Vec3) -> Mat3 {
         self.a.hessian(p)
+    }
+    fn distance_box(&self) -> Option<DistanceBox> {
+        self.a.distance_box().map(|d| DistanceBox {
+            slack: d.slack + self.r,
+            ..d
+        })
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        let lb = self.a.lower_bound(p) - self.r;
+        if lb.is_nan() { f32::NEG_INFINITY } else { lb }
+    }
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        (value_clamped(&self.a, p, cap + self.r.abs()) - self.r).clamp(-cap, cap)
     }
 }
 
@@ -771,253 +802,9 @@ smooth_type! {
 
 // ---------------------------------------------------------------- n-ary combinators
 
-/// Union of any number of fields: `min_i f_i`.
-///
-/// Same exactness as [`Union`] (exact outside with exact operands, a bound inside). Bounds:
-/// the union of the operands' boxes. Lipschitz: the largest of the operands'. Gradient and
-/// Hessian: those of the first operand that attains the minimum. Equal to the left fold of
-/// [`Union`], value for value.
-#[derive(Clone, Debug)]
-pub struct UnionN<F = Box<dyn Field>> {
-    children: Vec<F>,
-}
-
-/// Intersection of any number of fields: `max_i f_i`.
-///
-/// Same exactness as [`Intersection`] (exact inside with exact operands, a bound outside).
-/// Bounds: the intersection of the operands' boxes. Lipschitz: the largest of the operands'.
-/// Gradient and Hessian: those of the first operand that attains the maximum.
-#[derive(Clone, Debug)]
-pub struct IntersectionN<F = Box<dyn Field>> {
-    children: Vec<F>,
-}
-
-fn check_nonempty<F>(children: &[F], op: &'static str) -> Result<(), CsgError> {
-    if children.is_empty() {
-        Err(CsgError::NoOperands { op })
-    } else {
-        Ok(())
-    }
-}
-
-/// Index of the first child attaining the extremum (`better(x, best)` true means `x` wins).
-fn arg_extreme<F: Field>(children: &[F], p: Vec3, better: impl Fn(f32, f32) -> bool) -> usize {
-    let mut best = (0, children[0].value(p));
-    for (i, c) in children.iter().enumerate().skip(1) {
-        let v = c.value(p);
-        if better(v, best.1) {
-            best = (i, v);
-        }
-    }
-    best.0
-}
-
-/// Batch evaluation folding the children's own `values`.
-fn fold_values<F: Field>(
-    children: &[F],
-    points: &[Vec3],
-    out: &mut [f32],
-    op: impl Fn(f32, f32) -> f32 + Sync,
-) {
-    let n = points.len().min(out.len());
-    let (points, out) = (&points[..n], &mut out[..n]);
-    children[0].values(points, out);
-    let mut tmp = vec![0.0; n];
-    for c in &children[1..] {
-        c.values(points, &mut tmp);
-        out.par_iter_mut()
-            .zip(tmp.par_iter())
-            .for_each(|(o, &v)| *o = op(*o, v));
-    }
-}
-
-fn lip_of<F: Field>(children: &[F]) -> f32 {
-    children.iter().fold(0.0, |l, c| lip_max(l, c.lipschitz()))
-}
-
-fn fd_step_of<F: Field>(children: &[F], p: Vec3) -> f32 {
-    children
-        .iter()
-        .map(|c| c.fd_step(p))
-        .fold(f32::INFINITY, f32::min)
-}
-
-impl<F: Field> UnionN<F> {
-    /// The union of `children` ([`CsgError::NoOperands`] when there are none: the empty
-    /// union would be `+∞` everywhere).
-    pub fn new(children: Vec<F>) -> Result<Self, CsgError> {
-        check_nonempty(&children, "union")?;
-        Ok(Self { children })
-    }
-    /// The operands.
-    pub fn children(&self) -> &[F] {
-        &self.children
-    }
-    /// Takes the operands back.
-    pub fn into_children(self) -> Vec<F> {
-        self.children
-    }
-}
-
-impl<F: Field> Field for UnionN<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        self.children
-            .iter()
-            .map(|c| c.value(p))
-            .reduce(union)
-            .unwrap_or(f32::INFINITY)
-    }
-    fn values(&self, points: &[Vec3], out: &mut [f32]) {
-        fold_values(&self.children, points, out, union);
-    }
-    fn bounds(&self) -> Aabb {
-        self.children
-            .iter()
-            .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()))
-    }
-    fn lipschitz(&self) -> f32 {
-        lip_of(&self.children)
-    }
-    fn fd_step(&self, p: Vec3) -> f32 {
-        fd_step_of(&self.children, p)
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        let i = arg_extreme(&self.children, p, |x, best| x < best || best.is_nan());
-        self.children[i].gradient(p)
-    }
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        let i = arg_extreme(&self.children, p, |x, best| x < best || best.is_nan());
-        self.children[i].hessian(p)
-    }
-}
-
-impl<F: Field> IntersectionN<F> {
-    /// The intersection of `children` ([`CsgError::NoOperands`] when there are none: the
-    /// empty intersection would be all of space).
-    pub fn new(children: Vec<F>) -> Result<Self, CsgError> {
-        check_nonempty(&children, "intersection")?;
-        Ok(Self { children })
-    }
-    /// The operands.
-    pub fn children(&self) -> &[F] {
-        &self.children
-    }
-    /// Takes the operands back.
-    pub fn into_children(self) -> Vec<F> {
-        self.children
-    }
-}
-
-impl<F: Field> Field for IntersectionN<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        self.children
-            .iter()
-            .map(|c| c.value(p))
-            .reduce(intersection)
-            .unwrap_or(f32::NEG_INFINITY)
-    }
-    fn values(&self, points: &[Vec3], out: &mut [f32]) {
-        fold_values(&self.children, points, out, intersection);
-    }
-    fn bounds(&self) -> Aabb {
-        self.children
-            .iter()
-            .fold(Aabb::INFINITE, |b, c| b.intersection(&c.bounds()))
-    }
-    fn lipschitz(&self) -> f32 {
-        lip_of(&self.children)
-    }
-    fn fd_step(&self, p: Vec3) -> f32 {
-        fd_step_of(&self.children, p)
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        let i = arg_extreme(&self.children, p, |x, best| x > best || best.is_nan());
-        self.children[i].gradient(p)
-    }
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        let i = arg_extreme(&self.children, p, |x, best| x > best || best.is_nan());
-        self.children[i].hessian(p)
-    }
-}
-
-/// A base field with any number of fields cut out of it: `max(f0, −f1, −f2, …)`.
-///
-/// Same exactness as [`Difference`] (exact inside with exact operands, a bound outside).
-/// Bounds: the base's box. Lipschitz: the largest of all operands'. With nothing to subtract
-/// it is the base itself. Gradient and Hessian: those of the active term.
-#[derive(Clone, Debug)]
-pub struct DifferenceN<A, F = Box<dyn Field>> {
-    base: A,
-    subtract: Vec<F>,
-}
-
-impl<A: Field, F: Field> DifferenceN<A, F> {
-    /// `base` minus every field of `subtract` (which may be empty).
-    pub fn new(base: A, subtract: Vec<F>) -> Self {
-        Self { base, subtract }
-    }
-    /// The base.
-    pub fn base(&self) -> &A {
-        &self.base
-    }
-    /// The fields cut out of the base.
-    pub fn subtracted(&self) -> &[F] {
-        &self.subtract
-    }
-
-    /// `None` when the base is active, else the index of the first active subtracted field.
-    fn active(&self, p: Vec3) -> Option<usize> {
-        let mut best = (None, self.base.value(p));
-        for (i, c) in self.subtract.iter().enumerate() {
-            let v = -c.value(p);
-            if v > best.1 || best.1.is_nan() {
-                best = (Some(i), v);
-            }
-        }
-        best.0
-    }
-}
-
-impl<A: Field, F: Field> Field for DifferenceN<A, F> {
-    fn value(&self, p: Vec3) -> f32 {
-        self.subtract
-            .iter()
-            .fold(self.base.value(p), |v, c| difference(v, c.value(p)))
-    }
-    fn values(&self, points: &[Vec3], out: &mut [f32]) {
-        let n = points.len().min(out.len());
-        let (points, out) = (&points[..n], &mut out[..n]);
-        self.base.values(points, out);
-        let mut tmp = vec![0.0; n];
-        for c in &self.subtract {
-            c.values(points, &mut tmp);
-            out.par_iter_mut()
-                .zip(tmp.par_iter())
-                .for_each(|(o, &v)| *o = difference(*o, v));
-        }
-    }
-    fn bounds(&self) -> Aabb {
-        self.base.bounds()
-    }
-    fn lipschitz(&self) -> f32 {
-        lip_max(self.base.lipschitz(), lip_of(&self.subtract))
-    }
-    fn fd_step(&self, p: Vec3) -> f32 {
-        self.base.fd_step(p).min(fd_step_of(&self.subtract, p))
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        match self.active(p) {
-            None => self.base.gradient(p),
-            Some(i) => -self.subtract[i].gradient(p),
-        }
-    }
-    fn hessian(&self, p: Vec3) -> Mat3 {
-        match self.active(p) {
-            None => self.base.hessian(p),
-            Some(i) => -self.subtract[i].hessian(p),
-        }
-    }
-}
+mod bvh;
+mod nary;
+pub use nary::{DifferenceN, IntersectionN, Shell, SmoothKind, SmoothN, UnionN};
 
 // ---------------------------------------------------------------- dense grids
 
