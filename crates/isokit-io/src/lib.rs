@@ -66,6 +66,13 @@ mod stl;
 mod util;
 mod volume;
 
+/// Building blocks for readers of formats that live in other crates (molecules in
+/// `isokit-molecule`): a whole-file read, bounded gzip inflation and the byte excerpts
+/// that messages show, so that those readers report errors as this crate's own do.
+pub mod reader {
+    pub use crate::util::{gunzip, read_file, show};
+}
+
 pub use atomic::atomic_write;
 pub use error::IoError;
 pub use image::{
