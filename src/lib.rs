@@ -9,6 +9,7 @@
 //! | --- | --- | --- |
 //! | [`field`] | `isokit-field` | bounds, dense and brick grids, the [`Field`] trait, analytic primitives, filters, curvature, camera |
 //! | [`io`] | `isokit-io` | meshes, point clouds, volumes, images; atomic writes |
+//! | [`molecule`] | `isokit-molecule` | molecules: PDB and mmCIF readers, elements (radii, CPK colours), bond inference, ball-and-stick and space-filling quadric scenes |
 //! | [`kdtree`] | `isokit-kdtree` | exact signed distance to triangle meshes: kd-tree with overlapping siblings, pseudonormal and winding-number signs |
 //! | [`octree`] | `isokit-octree` | adaptively sampled fields in a hashed octree (and the linked octree it is measured against) |
 //! | [`points`] | `isokit-points` | point cloud → signed distance: normal estimation, partition of unity of linear fields, sparse solve, far-field blend |
@@ -50,12 +51,37 @@
 //! println!("{}", mesh.validate());
 //! isokit::io::write_mesh("torus.stl".as_ref(), &mesh).unwrap();
 //! ```
+//!
+//! ## Molecules
+//! Atoms and bonds from a PDB or mmCIF file, as quadrics for the splatter:
+//!
+//! ```
+//! use isokit::molecule::{
+//!     MoleculeFormat, MoleculeOptions, framing_camera, molecule_scene, read_molecule_bytes,
+//! };
+//! use isokit::render::splat::{SplatOptions, splat};
+//!
+//! let water = b"\
+//! HETATM    1  O   HOH A   1       0.000   0.000   0.000  1.00  0.00           O
+//! HETATM    2  H1  HOH A   1       0.757   0.586   0.000  1.00  0.00           H
+//! HETATM    3  H2  HOH A   1      -0.757   0.586   0.000  1.00  0.00           H
+//! END
+//! ";
+//! let m = read_molecule_bytes(water, "water.pdb", MoleculeFormat::Pdb).unwrap();
+//! assert_eq!(m.bonds.len(), 2); // inferred from covalent radii: two O–H, no H–H
+//! let scene = molecule_scene(&m, &MoleculeOptions::default()).unwrap();
+//! assert_eq!(scene.len(), 3 + 2 * 2); // ball-and-stick: 3 balls, 2 half-bonds per bond
+//! let camera = framing_camera(&scene, 64, 48).unwrap();
+//! let frame = splat(&scene, &camera, &SplatOptions::default()).unwrap();
+//! assert!(frame.gbuffer.hit_count() > 0);
+//! ```
 #![warn(missing_docs)]
 
 pub use isokit_field as field;
 pub use isokit_io as io;
 pub use isokit_kdtree as kdtree;
 pub use isokit_levelset as levelset;
+pub use isokit_molecule as molecule;
 pub use isokit_octree as octree;
 pub use isokit_points as points;
 pub use isokit_prism as prism;

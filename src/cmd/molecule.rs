@@ -5,8 +5,9 @@
 use super::check_output;
 use super::render::{Backend, backend_name, open_backend};
 use anyhow::{Context, Result, bail};
-use isokit_io::read_molecule;
-use isokit_render::molecule::{MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene};
+use isokit_molecule::{
+    MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene, read_molecule,
+};
 use isokit_render::splat::{
     OutlineOptions, ShadowOptions, SplatOptions, SplatShading, shade_splat, splat,
 };

@@ -75,13 +75,16 @@ pub enum IoError {
 }
 
 impl IoError {
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+    /// [`IoError::Io`] for `path`.
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
         IoError::Io {
             path: path.to_path_buf(),
             source,
         }
     }
-    pub(crate) fn malformed(path: &Path, msg: impl Into<String>) -> Self {
+    /// [`IoError::Malformed`] for `path`: `msg` says what is wrong, and where when known
+    /// (`"line 57: …"`).
+    pub fn malformed(path: &Path, msg: impl Into<String>) -> Self {
         IoError::Malformed {
             path: path.to_path_buf(),
             msg: msg.into(),

@@ -8,7 +8,6 @@
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
 //! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY, NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
-//! | molecules (atoms, bonds, elements) | [`Molecule`] | [`read_molecule`]: PDB (`.pdb`, `.ent`), mmCIF (`.cif`, `.mmcif`), also `.gz` | — |
 //! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
 //!
 //! It is *not* a general mesh-processing or imaging library: it reads geometry into
@@ -16,6 +15,8 @@
 //! animations and colours are ignored on read. Mesh *repair* is not done here either;
 //! [`TriMesh::validate`] only reports (boundary, non-manifold and duplicate elements,
 //! orientation, components, Euler characteristic) so that a caller can decide.
+//! Molecules (PDB, mmCIF) are read by the `isokit-molecule` crate, with this crate's
+//! [`IoError`] and the helpers in [`reader`].
 //!
 //! ## Choosing
 //! - Pick the function for the *kind* of data ([`read_mesh`], [`read_points`],
@@ -53,7 +54,6 @@ mod gltf_read;
 mod image;
 mod kind;
 mod mesh;
-pub mod molecule;
 mod nifti;
 mod npy;
 mod nrrd;
@@ -64,6 +64,13 @@ mod points;
 mod stl;
 mod util;
 mod volume;
+
+/// Building blocks for readers of formats that live in other crates (molecules in
+/// `isokit-molecule`): a whole-file read, bounded gzip inflation and the byte excerpts
+/// that messages show, so that those readers report errors as this crate's own do.
+pub mod reader {
+    pub use crate::util::{gunzip, read_file, show};
+}
 
 pub use atomic::atomic_write;
 pub use error::IoError;
@@ -76,7 +83,6 @@ pub use kind::{FileKind, detect_kind};
 pub use mesh::{
     MeshFormat, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_stl_ascii,
 };
-pub use molecule::{Atom, Element, Molecule, MoleculeFormat, read_molecule, read_molecule_bytes};
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};
 pub use volume::{

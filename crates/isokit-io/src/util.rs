@@ -6,8 +6,8 @@ use std::path::Path;
 
 use crate::IoError;
 
-/// Reads a whole file, naming it in the error.
-pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
+/// Reads a whole file; an operating-system failure becomes [`IoError::Io`] naming the file.
+pub fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
     std::fs::read(path).map_err(|e| IoError::io(path, e))
 }
 
@@ -171,13 +171,14 @@ pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
 
 /// Decompresses gzip data (one or more members), discarding the first `skip` output bytes
 /// and keeping at most `limit` after them, so a small file cannot claim unbounded memory.
-/// Returns the kept bytes and the number actually skipped.
+/// Returns the kept bytes and the number actually skipped; corrupt data is
+/// [`IoError::Malformed`] naming `path`.
 ///
-/// Callers pass the size the header claims, already checked against
-/// [`isokit_field::MAX_SAMPLES`] by `checked_len`. Nothing is allocated up front: the buffer
-/// grows with the bytes actually inflated, so memory follows the real data, never the
-/// claim.
-pub(crate) fn gunzip(
+/// Callers pass the size they expect (for volumes the size the header claims, already
+/// checked against [`isokit_field::MAX_SAMPLES`]), or a cap plus one to detect data that
+/// inflates past the cap. Nothing is allocated up front: the buffer grows with the bytes
+/// actually inflated, so memory follows the real data, never the claim.
+pub fn gunzip(
     data: &[u8],
     skip: u64,
     limit: usize,
@@ -193,8 +194,8 @@ pub(crate) fn gunzip(
     Ok((out, skipped))
 }
 
-/// Bytes shown in messages (lossy, shortened).
-pub(crate) fn show(bytes: &[u8]) -> String {
+/// Bytes as shown in error messages: UTF-8 decoded lossily, cut after 60 bytes with `…`.
+pub fn show(bytes: &[u8]) -> String {
     let s = String::from_utf8_lossy(&bytes[..bytes.len().min(60)]).into_owned();
     if bytes.len() > 60 {
         format!("{s}…")

@@ -81,7 +81,6 @@ mod error;
 mod gbuffer;
 pub mod gpu;
 pub mod kernel;
-pub mod molecule;
 pub mod quadric;
 mod render;
 pub mod setup;

@@ -253,7 +253,7 @@ impl Element {
     /// [`Element::Unknown`].
     ///
     /// ```
-    /// use isokit_io::Element;
+    /// use isokit_molecule::Element;
     /// assert_eq!(Element::from_symbol("FE"), Element::Fe);
     /// assert_eq!(Element::from_symbol(" c"), Element::C);
     /// assert_eq!(Element::from_symbol("Xx"), Element::Unknown);
@@ -282,12 +282,12 @@ impl Element {
     }
 
     /// Jmol's CPK colour (see [`Element`]) converted from sRGB to *linear* RGB in 0..=1,
-    /// ready for lighting and blending (write it out through [`crate::linear_to_srgb8`]
+    /// ready for lighting and blending (write it out through [`isokit_io::linear_to_srgb8`]
     /// to get Jmol's 8-bit value back). Carbon is about `[0.279, 0.279, 0.279]` here,
     /// `0x90 / 255 = 0.565` in sRGB; use [`Element::cpk_color_srgb8`] for the values as
     /// Jmol lists them.
     pub fn cpk_color(self) -> [f32; 3] {
-        self.cpk_color_srgb8().map(crate::srgb8_to_linear)
+        self.cpk_color_srgb8().map(isokit_io::srgb8_to_linear)
     }
 }
 

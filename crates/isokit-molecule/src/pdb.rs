@@ -6,8 +6,8 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::{AltLocFilter, Atom, Element, Molecule, bonds, line_error};
-use crate::IoError;
-use crate::util::show;
+use isokit_io::IoError;
+use isokit_io::reader::show;
 
 /// Decodes a hybrid-36 number of `width` digits (5 for atom serial numbers, 4 for residue
 /// sequence numbers), as written by the PDB format for values that do not fit in decimal:
@@ -18,7 +18,7 @@ use crate::util::show;
 /// See <https://cci.lbl.gov/hybrid_36/> (R. W. Grosse-Kunstleve, cctbx).
 ///
 /// ```
-/// use isokit_io::molecule::hybrid36_decode;
+/// use isokit_molecule::hybrid36_decode;
 /// assert_eq!(hybrid36_decode(5, "   42"), Some(42));
 /// assert_eq!(hybrid36_decode(5, "A0000"), Some(100_000));
 /// assert_eq!(hybrid36_decode(5, "a0000"), Some(43_770_016));

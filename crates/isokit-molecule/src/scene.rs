@@ -1,37 +1,24 @@
-//! Molecules as quadric scenes (002 Sec. 7.3): ball-and-stick and space-filling models from
-//! an [`isokit_io::Molecule`], in CPK colours, and a camera that frames them.
-//!
-//! | style | atoms | bonds |
-//! | --- | --- | --- |
-//! | [`MoleculeStyle::Balls`] | spheres of `ball_scale` × van der Waals radius | two cylinders of `bond_radius` per bond, each half in its atom's colour |
-//! | [`MoleculeStyle::Spacefill`] | spheres of the van der Waals radius | none |
-//!
-//! Radii and colours come from [`isokit_io::Element`] (Bondi / Mantina / Alvarez van der
-//! Waals radii, Jmol's CPK colours, converted to linear RGB there).
-//!
-//! ```
-//! use isokit_io::{Atom, Element, Molecule};
-//! use isokit_render::molecule::{MoleculeOptions, MoleculeStyle, molecule_scene};
-//! use glam::Vec3;
-//! let mut water = Molecule::default();
-//! water.atoms.push(Atom::new(Element::O, Vec3::ZERO));
-//! water.atoms.push(Atom::new(Element::H, Vec3::new(0.757, 0.586, 0.0)));
-//! water.atoms.push(Atom::new(Element::H, Vec3::new(-0.757, 0.586, 0.0)));
-//! water.infer_bonds(isokit_io::molecule::DEFAULT_BOND_TOLERANCE);
-//! let scene = molecule_scene(&water, &MoleculeOptions::default()).unwrap();
-//! assert_eq!(scene.len(), 3 + 2 * 2); // 3 balls, 2 bonds of 2 half-sticks
-//! let filled = molecule_scene(&water, &MoleculeOptions {
-//!     style: MoleculeStyle::Spacefill, ..Default::default() }).unwrap();
-//! assert_eq!(filled.len(), 3);
-//! ```
+//! Molecules as quadric scenes (002 Sec. 7.3): ball-and-stick and space-filling models of a
+//! [`Molecule`] in CPK colours, and a camera that frames them. Radii and colours come from
+//! [`crate::Element`] (Bondi / Mantina / Alvarez van der Waals radii, Jmol's CPK colours,
+//! converted to linear RGB there).
 
 use glam::Vec3;
 use isokit_field::{Aabb, Camera, Projection};
-use isokit_io::Molecule;
+use isokit_render::RenderError;
+use isokit_render::quadric::Quadric;
+use isokit_render::splat::{MAX_QUADRICS, SplatScene};
 
-use crate::RenderError;
-use crate::quadric::Quadric;
-use crate::splat::{MAX_QUADRICS, SplatScene};
+use crate::Molecule;
+
+/// [`RenderError::BadParameter`] for a value out of range.
+fn bad(name: &'static str, value: impl ToString, why: &'static str) -> RenderError {
+    RenderError::BadParameter {
+        name,
+        value: value.to_string(),
+        why,
+    }
+}
 
 /// Largest coordinate magnitude (Å) [`molecule_scene`] accepts: at 1e5 Å an f32 still
 /// resolves 0.01 Å; PDB files cannot exceed ±1e4.
@@ -82,32 +69,44 @@ impl Default for MoleculeOptions {
 }
 
 /// The quadrics of a molecule: first the atoms (quadric `i` is atom `i`), then for
-/// ball-and-stick two half-bonds per bond. Errors for an empty molecule, bad sizes, a bond
-/// naming a missing atom, or more quadrics than [`MAX_QUADRICS`].
+/// ball-and-stick two half-bonds per bond, each a cylinder from its atom to the bond's
+/// midpoint in that atom's colour (bonds between coincident atoms are left out). Errors
+/// for an empty molecule, bad sizes, atoms beyond [`MAX_COORDINATE`], a bond naming a
+/// missing atom, or more quadrics than [`MAX_QUADRICS`].
+///
+/// ```
+/// use isokit_molecule::{
+///     Atom, DEFAULT_BOND_TOLERANCE, Element, Molecule, MoleculeOptions, MoleculeStyle,
+///     molecule_scene,
+/// };
+/// use glam::Vec3;
+/// let mut water = Molecule::default();
+/// water.atoms.push(Atom::new(Element::O, Vec3::ZERO));
+/// water.atoms.push(Atom::new(Element::H, Vec3::new(0.757, 0.586, 0.0)));
+/// water.atoms.push(Atom::new(Element::H, Vec3::new(-0.757, 0.586, 0.0)));
+/// water.infer_bonds(DEFAULT_BOND_TOLERANCE);
+/// let scene = molecule_scene(&water, &MoleculeOptions::default()).unwrap();
+/// assert_eq!(scene.len(), 3 + 2 * 2); // 3 balls, 2 bonds of 2 half-sticks
+/// let filled = molecule_scene(&water, &MoleculeOptions {
+///     style: MoleculeStyle::Spacefill, ..Default::default() }).unwrap();
+/// assert_eq!(filled.len(), 3);
+/// ```
 pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatScene, RenderError> {
     if mol.atoms.is_empty() {
-        return Err(RenderError::bad("molecule", &mol.name, "has no atoms"));
+        return Err(bad("molecule", &mol.name, "has no atoms"));
     }
     if !(opts.ball_scale.is_finite() && opts.ball_scale > 0.0 && opts.ball_scale <= 2.0) {
-        return Err(RenderError::bad(
-            "ball scale",
-            opts.ball_scale,
-            "must be in (0, 2]",
-        ));
+        return Err(bad("ball scale", opts.ball_scale, "must be in (0, 2]"));
     }
     if !(opts.bond_radius.is_finite() && opts.bond_radius > 0.0 && opts.bond_radius <= 2.0) {
-        return Err(RenderError::bad(
-            "bond radius",
-            opts.bond_radius,
-            "must be in (0, 2] Å",
-        ));
+        return Err(bad("bond radius", opts.bond_radius, "must be in (0, 2] Å"));
     }
     if let Some(a) = mol
         .atoms
         .iter()
         .find(|a| !(a.position.is_finite() && a.position.abs().max_element() <= MAX_COORDINATE))
     {
-        return Err(RenderError::bad(
+        return Err(bad(
             "atom position",
             a.position,
             "must be finite and within ±100,000 Å (beyond it f32 rendering loses the atoms)",
@@ -116,7 +115,7 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
     let sticks = opts.style == MoleculeStyle::Balls;
     let total = mol.atoms.len() + if sticks { 2 * mol.bonds.len() } else { 0 };
     if total > MAX_QUADRICS {
-        return Err(RenderError::bad(
+        return Err(bad(
             "molecule",
             format!("{} atoms and {} bonds", mol.atoms.len(), mol.bonds.len()),
             "needs more than 16,777,216 quadrics",
@@ -137,7 +136,7 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
         let rb = f64::from(opts.bond_radius);
         for &[i, j] in &mol.bonds {
             let (Some(a), Some(b)) = (mol.atoms.get(i as usize), mol.atoms.get(j as usize)) else {
-                return Err(RenderError::bad(
+                return Err(bad(
                     "bond",
                     format!("{i}-{j}"),
                     "names an atom the molecule does not have",
@@ -165,7 +164,7 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
 pub fn framing_camera(scene: &SplatScene, width: u32, height: u32) -> Result<Camera, RenderError> {
     let (lo, hi) = scene
         .bounds()
-        .ok_or_else(|| RenderError::bad("scene", "empty", "nothing to frame"))?;
+        .ok_or_else(|| bad("scene", "empty", "nothing to frame"))?;
     let centre = 0.5 * (lo + hi);
     let radius = scene
         .quadrics

@@ -1,29 +1,58 @@
-//! Molecules: atoms and bonds from PDB and mmCIF files.
+//! # isokit-molecule: molecules as isokit geometry
 //!
-//! [`read_molecule`] reads a structure into a [`Molecule`]: its [`Atom`]s (element,
-//! position in Å, names and numbering as the file gives them) and its bonds, from the
-//! file's `CONECT` records where a PDB file has them and otherwise inferred from
-//! distances ([`Molecule::infer_bonds`]). [`Element`] carries the covalent and van der
-//! Waals radii and CPK colours that surface builders and renderers need.
+//! Molecular structures for isokit's pipeline: atoms and bonds read from PDB and mmCIF
+//! files, the per-element data geometry needs (covalent and van der Waals radii, CPK
+//! colours), bond inference from distances, and molecules turned into quadric scenes for
+//! `isokit-render`'s splatter (002 Sec. 7.3), with a camera that frames them.
 //!
-//! Only what geometry needs is read: no secondary structure, no symmetry or unit cell, no
-//! biological assemblies, no anisotropic B-factors, no charges. Coordinates are kept
-//! exactly as the file gives them (f32, Å).
+//! It is *not* a chemistry toolkit: only what geometry needs is read — no secondary
+//! structure, no symmetry or unit cell, no biological assemblies, no anisotropic
+//! B-factors, no charges, no bond orders — and nothing is written. Coordinates are kept
+//! exactly as the file gives them (f32, Å). Nor does it render: a scene from
+//! [`molecule_scene`] is an ordinary [`SplatScene`](isokit_render::splat::SplatScene) for
+//! `isokit_render::splat` (CPU) or `isokit_render::gpu` (GPU).
+//!
+//! ## Choosing
+//! - [`read_molecule`] reads a file, choosing the format by extension
+//!   ([`MoleculeFormat::from_path`]: PDB `.pdb`/`.ent`, mmCIF `.cif`/`.mmcif`, each also
+//!   gzip-compressed); [`read_molecule_bytes`] reads the same from memory. Errors are
+//!   isokit-io's [`IoError`], naming the file, the line and the problem.
+//! - A [`Molecule`] is its [`Atom`]s (element, position in Å, names and numbering as the
+//!   file gives them) and its bonds as pairs of atom indices: from the file's `CONECT`
+//!   records where a PDB file has them, otherwise inferred from distances
+//!   ([`Molecule::infer_bonds`] with [`DEFAULT_BOND_TOLERANCE`]). Build one in code from
+//!   [`Atom::new`].
+//! - [`Element`] holds the radii and colours (Cordero covalent radii, Bondi / Mantina /
+//!   Alvarez van der Waals radii, Jmol's CPK colours).
+//! - [`molecule_scene`] turns a molecule into quadrics in a [`MoleculeStyle`] with the
+//!   sizes of [`MoleculeOptions`]; [`framing_camera`] frames the result:
+//!
+//! | style | atoms | bonds |
+//! | --- | --- | --- |
+//! | [`MoleculeStyle::Balls`] | spheres of `ball_scale` × van der Waals radius | two cylinders of `bond_radius` per bond, each half in its atom's colour |
+//! | [`MoleculeStyle::Spacefill`] | spheres of the van der Waals radius | none |
 //!
 //! ```no_run
 //! use std::path::Path;
-//! use isokit_io::read_molecule;
+//! use isokit_molecule::{MoleculeOptions, framing_camera, molecule_scene, read_molecule};
+//! use isokit_render::splat::{SplatOptions, splat};
 //!
 //! let m = read_molecule(Path::new("data/molecules/1a8o.pdb.gz"))?;
 //! let (lo, hi) = m.bounds().expect("a molecule has atoms");
 //! println!("{}: {} atoms, {} bonds, {lo} .. {hi}", m.name, m.atoms.len(), m.bonds.len());
-//! # Ok::<(), isokit_io::IoError>(())
+//! let scene = molecule_scene(&m, &MoleculeOptions::default())?;
+//! let camera = framing_camera(&scene, 640, 480)?;
+//! let frame = splat(&scene, &camera, &SplatOptions::default())?;
+//! println!("{} pixels show an atom or a bond", frame.gbuffer.hit_count());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+#![warn(missing_docs)]
 
 mod bonds;
 mod cif;
 mod element;
 mod pdb;
+mod scene;
 #[cfg(test)]
 mod tests;
 
@@ -32,14 +61,15 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::IoError;
-use crate::util::{gunzip, read_file};
+use isokit_io::IoError;
+use isokit_io::reader::{gunzip, read_file};
 
 pub use bonds::{
     MAX_HH_BOND_DISTANCE, MAX_INFERRED_BONDS_PER_ATOM, MAX_TOLERANCE, MIN_BOND_DISTANCE,
 };
 pub use element::{Element, UNKNOWN_COVALENT_RADIUS, UNKNOWN_VDW_RADIUS};
 pub use pdb::{element_from_atom_name, hybrid36_decode};
+pub use scene::{MAX_COORDINATE, MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene};
 
 /// The readers refuse structures with more atoms than this (50 million), before the atom
 /// list grows past it.
@@ -264,7 +294,7 @@ pub fn read_molecule(path: &Path) -> Result<Molecule, IoError> {
 /// none. The rules are [`read_molecule`]'s.
 ///
 /// ```
-/// use isokit_io::{Element, MoleculeFormat, read_molecule_bytes};
+/// use isokit_molecule::{Element, MoleculeFormat, read_molecule_bytes};
 ///
 /// let water = b"\
 /// HETATM    1  O   HOH A   1       0.000   0.000   0.000  1.00  0.00           O
@@ -332,7 +362,7 @@ pub(crate) fn read_with_limit(
     }
 }
 
-/// `path: line N: msg`, the shape of every parse error of this module.
+/// `path: line N: msg`, the shape of every parse error of this crate.
 pub(crate) fn line_error(path: &Path, line: usize, msg: impl std::fmt::Display) -> IoError {
     IoError::malformed(path, format!("line {line}: {msg}"))
 }

@@ -6,8 +6,8 @@ use glam::Vec3;
 
 use super::pdb::element_from_atom_name;
 use super::{AltLocFilter, Atom, Element, Molecule, bonds, line_error};
-use crate::IoError;
-use crate::util::show;
+use isokit_io::IoError;
+use isokit_io::reader::show;
 
 /// One CIF token: its text (without quotes or `;` delimiters), whether it was quoted or a
 /// text field (so that `'?'` is a value while `?` is "unknown"), and its line.
