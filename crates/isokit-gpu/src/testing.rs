@@ -1,8 +1,20 @@
 //! Helpers for GPU tests: skip with a printed reason where no adapter exists, fail instead
 //! where the environment requires a GPU (`ISOKIT_REQUIRE_GPU=1`, set by CI, whose machines
-//! have Mesa's lavapipe).
+//! have Mesa's lavapipe); and the layout check of shared structs as a test assertion.
 
-use crate::{Gpu, GpuError, GpuOptions};
+use crate::{Gpu, GpuError, GpuOptions, ShaderSource, WgslStruct, check_wgsl_layout};
+
+/// Asserts that the struct `T` shares in `shader` has `T`'s layout member by member
+/// ([`check_wgsl_layout`]).
+///
+/// # Panics
+/// With the program's label and every difference found.
+#[track_caller]
+pub fn assert_wgsl_layout<T: WgslStruct>(shader: &ShaderSource) {
+    if let Err(e) = check_wgsl_layout::<T>(shader.text()) {
+        panic!("{}: {e}", shader.label());
+    }
+}
 
 /// Whether `ISOKIT_REQUIRE_GPU` asks for GPU tests to fail rather than skip.
 pub fn gpu_required() -> bool {
