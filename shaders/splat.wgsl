@@ -3,12 +3,12 @@
 // ray–quadric intersection; the depth test keeps the nearest hit (`Less`, instances drawn in
 // scene order: ties go to the lower index, as on the CPU).
 // Prepended by Rust (isokit_render::gpu::splat): const ID_*, MIN_GRADIENT, F32_MAX, NO_DIR1;
-// raycast_common.wgsl (Uniforms, subpixel_ray, normalize_or_zero, is_finite, signum); the
-// curvature section of raycast.wgsl (any_orthonormal, hypot, Curvature, curvature); and
+// raycast_common.wgsl (Uniforms, subpixel_ray, normalize_or_zero, is_finite, signum);
+// common/curvature.wgsl (any_orthonormal, hypot, Curvature, curvature); and
 // `count_hit` (an atomic add on binding 3, or nothing where fragment shaders cannot write
 // storage).
 // CPU twin: crates/isokit-render/src/quadric.rs (intersect and its helpers) and
-// crates/isokit-render/src/splat.rs (fragment, resolve, ShadowMap::render), function by
+// crates/isokit-render/src/splat/cpu.rs (fragment, resolve, ShadowMap::render), function by
 // function in the same order of operations.
 
 // Rust: isokit_render::quadric::QuadricSetup (#[repr(C)], 144 bytes).
@@ -26,7 +26,7 @@ struct QuadricSetup {
     object: u32,       // index in the scene
 }
 
-// Rust: gpu::splat::SplatParams (16 bytes).
+// Rust: splat/gpu.rs SplatParams (16 bytes).
 struct SplatParams {
     near: f32, // near plane along forward (View::near as f32)
     far: f32,  // frag_depth = t / far, far above every visible t
@@ -212,7 +212,7 @@ fn intersect(s: QuadricSetup, ortho_offset: vec3<f32>, d: vec3<f32>, t_near: f32
     return no_hit();
 }
 
-// splat.rs: fragment. The ray of pixel (px, py) against one quadric.
+// splat/cpu.rs: fragment. The ray of pixel (px, py) against one quadric.
 fn fragment(s: QuadricSetup, ray: Ray) -> QuadricHit {
     var offset = vec3<f32>(0.0);
     var t_near = P.near;
@@ -224,8 +224,8 @@ fn fragment(s: QuadricSetup, ray: Ray) -> QuadricHit {
     return intersect(s, offset, ray.d, t_near);
 }
 
-// The tangent basis (u, v) of a unit normal that raycast.wgsl's `curvature` uses (Duff et
-// al.); the host rebuilds dir1 from its angle in this basis (gpu/splat.rs: tangent_basis).
+// The tangent basis (u, v) of a unit normal that common/curvature.wgsl's `curvature` uses (Duff et
+// al.); the host rebuilds dir1 from its angle in this basis (splat/gpu.rs: tangent_basis).
 fn tangent_u(n: vec3<f32>) -> vec3<f32> {
     let sgn = signum(n.z);
     let a = -1.0 / (sgn + n.z);
@@ -253,7 +253,7 @@ fn vs_splat(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) ->
     let right = vi == 1u || vi == 4u || vi == 5u;
     let bottom = vi == 2u || vi == 3u || vi == 5u;
     // One pixel beyond the box, so that the rasterizer's sub-pixel precision can never drop
-    // a covered pixel; `in_box` then keeps exactly the CPU's pixels (splat.rs: pixel_range).
+    // a covered pixel; `in_box` then keeps exactly the CPU's pixels (splat/cpu.rs: pixel_range).
     let x = select(b.x - 1.0, b.z + 1.0, right);
     let y = select(b.y - 1.0, b.w + 1.0, bottom);
     let ndc = vec2<f32>(2.0 * x / f32(U.width) - 1.0, 1.0 - 2.0 * y / f32(U.height));
@@ -263,14 +263,14 @@ fn vs_splat(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) ->
 // The G-buffer sample of a hit, in two colour targets (32 bytes per pixel, the WebGPU
 // default limit): (N.xyz, Z) as rgba32float and (K1, K2, θ, object | id << 24) as rgba32uint
 // (float bits), θ the angle of dir1 in the tangent basis of N, or NO_DIR1 where there is no
-// principal direction. Position comes from the ray and Z on the host (splat.rs: resolve).
+// principal direction. Position comes from the ray and Z on the host (splat/cpu.rs: resolve).
 struct GOut {
     @location(0) nz: vec4<f32>,
     @location(1) kid: vec4<u32>,
     @builtin(frag_depth) depth: f32,
 }
 
-// splat.rs: pixel_range — the pixels whose centres lie in the box, the same f32 operations.
+// splat/cpu.rs: pixel_range — the pixels whose centres lie in the box, the same f32 operations.
 fn in_box(b: vec4<f32>, px: u32, py: u32) -> bool {
     let size = vec2<f32>(f32(U.width), f32(U.height));
     let lo = clamp(ceil(b.xy - 0.5), vec2<f32>(0.0), size);
@@ -293,7 +293,7 @@ fn fs_gbuffer(in: VOut) -> GOut {
         discard;
     }
     count_hit();
-    // splat.rs: resolve.
+    // splat/cpu.rs: resolve.
     var normal = hit.normal;
     var id = ID_CAP;
     var k1 = 0.0;
@@ -317,7 +317,7 @@ fn fs_gbuffer(in: VOut) -> GOut {
     return out;
 }
 
-// The shadow map (splat.rs: ShadowMap::render): depth along the light's axis.
+// The shadow map (splat/cpu.rs: ShadowMap::render): depth along the light's axis.
 struct ShadowOut {
     @location(0) depth_along: f32,
     @builtin(frag_depth) depth: f32,

@@ -10,7 +10,7 @@
 //!
 //! What it is not for: it holds no kernels of its own. The kernels (prism scan conversion,
 //! the ray caster, quadric splatting) live in their crates, beside a CPU twin each; their
-//! WGSL is in `shaders/` at the repository root.
+//! WGSL is in `shaders/` at the repository root, embedded by the `isokit-shaders` crate.
 //!
 //! ## Choosing a path
 //! [`BackendChoice`] is the user's request (`--backend cpu|gpu|auto`, or the environment

@@ -42,7 +42,8 @@ impl ShaderSource {
         self
     }
 
-    /// Appends a piece of WGSL (typically a file of `shaders/`).
+    /// Appends a piece of WGSL (typically a file of `shaders/`, one of the `isokit-shaders`
+    /// crate's constants).
     pub fn piece(mut self, wgsl: &str) -> Self {
         self.text.push_str(wgsl);
         if !wgsl.ends_with('\n') {

@@ -1,4 +1,6 @@
-//! The GPU path: compute scan conversion of slabs with wgpu (`shaders/prism_scan.wgsl`).
+//! The GPU path: compute scan conversion of slabs with wgpu, the host code of
+//! `shaders/prism_scan.wgsl` (with `shaders/common/prism.wgsl`); the CPU twin is
+//! `scan/cpu.rs` ([`crate::scan::scan_slab`]).
 //!
 //! ## Why compute, not the render pipeline
 //! 002 Sec. 4.2.4 rasterizes each prism's slice polygon with the depth test keeping the
@@ -33,8 +35,8 @@ pub const WORKGROUP: u32 = 64;
 pub fn scan_shader() -> ShaderSource {
     ShaderSource::new("prism_scan")
         .constant_u32("WORKGROUP", WORKGROUP)
-        .piece(include_str!("../../../shaders/common/prism.wgsl"))
-        .piece(include_str!("../../../shaders/prism_scan.wgsl"))
+        .piece(isokit_shaders::common::PRISM)
+        .piece(isokit_shaders::PRISM_SCAN)
 }
 
 /// `Params` in `prism_scan.wgsl`.
@@ -157,11 +159,7 @@ mod tests {
         let src = scan_shader();
         src.validate().unwrap();
         // The common piece on its own, too (it is shared with future kernels).
-        isokit_gpu::validate_wgsl(
-            "common/prism",
-            include_str!("../../../shaders/common/prism.wgsl"),
-        )
-        .unwrap();
+        isokit_gpu::validate_wgsl("common/prism", isokit_shaders::common::PRISM).unwrap();
     }
 
     #[test]
