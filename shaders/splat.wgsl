@@ -13,9 +13,7 @@
 
 // Rust: isokit_render::quadric::QuadricSetup (#[repr(C)], 144 bytes).
 struct QuadricSetup {
-    inv0: vec4<f32>,   // columns of the linear part of T⁻¹, w 0
-    inv1: vec4<f32>,
-    inv2: vec4<f32>,
+    inv: array<vec4<f32>, 3>, // columns of the linear part of T⁻¹, w 0
     eye_p: vec4<f32>,  // T⁻¹ eye, w 1
     diag: vec4<f32>,   // D
     hess_a: vec4<f32>, // world Hessian (xx, yy, zz, xy)
@@ -91,9 +89,9 @@ fn quad_form(d: vec4<f32>, x: vec4<f32>, y: vec4<f32>) -> f32 {
 // The linear part of T⁻¹ applied to a world vector (quadric.rs: the closure `m`).
 fn to_param(s: QuadricSetup, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(
-        s.inv0.x * v.x + s.inv1.x * v.y + s.inv2.x * v.z,
-        s.inv0.y * v.x + s.inv1.y * v.y + s.inv2.y * v.z,
-        s.inv0.z * v.x + s.inv1.z * v.y + s.inv2.z * v.z,
+        s.inv[0].x * v.x + s.inv[1].x * v.y + s.inv[2].x * v.z,
+        s.inv[0].y * v.x + s.inv[1].y * v.y + s.inv[2].y * v.z,
+        s.inv[0].z * v.x + s.inv[1].z * v.y + s.inv[2].z * v.z,
     );
 }
 
@@ -101,15 +99,15 @@ fn to_param(s: QuadricSetup, v: vec3<f32>) -> vec3<f32> {
 fn surface_gradient(s: QuadricSetup, x: vec3<f32>) -> vec3<f32> {
     let g = vec3<f32>(s.diag.x * x.x, s.diag.y * x.y, s.diag.z * x.z);
     return vec3<f32>(
-        s.inv0.x * g.x + s.inv0.y * g.y + s.inv0.z * g.z,
-        s.inv1.x * g.x + s.inv1.y * g.y + s.inv1.z * g.z,
-        s.inv2.x * g.x + s.inv2.y * g.y + s.inv2.z * g.z,
+        s.inv[0].x * g.x + s.inv[0].y * g.y + s.inv[0].z * g.z,
+        s.inv[1].x * g.x + s.inv[1].y * g.y + s.inv[1].z * g.z,
+        s.inv[2].x * g.x + s.inv[2].y * g.y + s.inv[2].z * g.z,
     );
 }
 
 // quadric.rs: cap_normal.
 fn cap_normal(s: QuadricSetup, sign: f32) -> vec3<f32> {
-    return vec3<f32>(s.inv0.z, s.inv1.z, s.inv2.z) * sign;
+    return vec3<f32>(s.inv[0].z, s.inv[1].z, s.inv[2].z) * sign;
 }
 
 // quadric.rs: setup_hessian.

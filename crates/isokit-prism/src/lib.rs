@@ -38,7 +38,8 @@
 //! to f32 rounding (identical on lavapipe); the CPU code mirrors the shader line by line.
 //! Both sides of the kernel sit together in [`scan`], named after it: `scan/cpu.rs` (the CPU
 //! twin, re-exported by [`scan`]) and `scan/gpu.rs` (the host code, [`gpu`]); the distance in
-//! a triangle's frame that `common/prism.wgsl` shares is [`local`].
+//! a triangle's frame that `common/prism.wgsl` shares is [`local`], and the prism record
+//! uploaded to the GPU, [`GpuPrism`], is checked member by member against its WGSL twin.
 //!
 //! Output: a dense [`Grid`] ([`PrismSdf::grid`], [`PrismSdf::fill_grid`]) or a
 //! [`BrickGrid`] holding only the bricks the band touches ([`PrismSdf::brick_grid`]).

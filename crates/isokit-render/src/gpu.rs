@@ -322,6 +322,21 @@ pub(crate) fn every_shader() -> Vec<ShaderSource> {
     ]
 }
 
+/// Checks `T` member by member against its WGSL twin in every program that declares it
+/// (and that at least one does).
+#[cfg(test)]
+#[track_caller]
+pub(crate) fn check_layout_everywhere<T: isokit_gpu::WgslStruct>() {
+    let mut found = 0;
+    for src in every_shader() {
+        if isokit_gpu::wgsl_struct_size(src.text(), T::WGSL_NAME).is_some() {
+            isokit_gpu::testing::assert_wgsl_layout::<T>(&src);
+            found += 1;
+        }
+    }
+    assert!(found > 0, "no program declares struct {}", T::WGSL_NAME);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

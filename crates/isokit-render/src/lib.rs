@@ -15,7 +15,8 @@
 //!
 //! ## Where the code of each shader is
 //! Each kernel's CPU twin sits beside its host code, named after the shader (paths under
-//! `src/`):
+//! `src/`; every struct shared with the GPU has a member-by-member table next to its Rust
+//! type, `isokit_gpu::wgsl_layout!`, checked against the WGSL in the host code's tests):
 //!
 //! | WGSL (`shaders/`) | CPU twin | GPU host code |
 //! | --- | --- | --- |

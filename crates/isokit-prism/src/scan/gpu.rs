@@ -47,6 +47,11 @@ pub(crate) struct Params {
     counts: [u32; 4],
 }
 
+isokit_gpu::wgsl_layout!(Params {
+    slab: "vec4<i32>",
+    counts: "vec4<u32>",
+});
+
 /// A GPU ready to scan prisms: the device and the compiled kernel.
 #[derive(Debug)]
 pub struct PrismGpu {
@@ -173,5 +178,18 @@ mod tests {
             isokit_gpu::wgsl_struct_size(src.text(), "Params"),
             Some(size_of::<Params>() as u32)
         );
+    }
+
+    #[test]
+    fn gpu_structs_match_their_rust_twins_member_by_member() {
+        let src = scan_shader();
+        isokit_gpu::testing::assert_wgsl_layout::<GpuPrism>(&src);
+        isokit_gpu::testing::assert_wgsl_layout::<Params>(&src);
+        // Every file of the scan conversion is part of the program validated above.
+        for (path, piece) in isokit_shaders::ALL {
+            if path.contains("prism") {
+                assert!(src.text().contains(piece), "{path}");
+            }
+        }
     }
 }

@@ -19,6 +19,13 @@ pub(crate) struct FlowParams {
     pub(crate) stride: u32,
 }
 
+isokit_gpu::wgsl_layout!(FlowParams {
+    width: "u32",
+    height: "u32",
+    count: "u32",
+    stride: "u32",
+});
+
 /// Runs the `flow` mode's LIC pass over the whole (single-view) G-buffer; returns the
 /// buffer of one f32 per pixel that the shading pass binds.
 pub(crate) fn flow_pass(
@@ -64,4 +71,14 @@ pub fn flow_shader() -> ShaderSource {
         .constant_u32("ID_MISS", ID_MISS)
         .constant_u32("FLOW_STEPS", crate::flow::cpu::FLOW_STEPS)
         .piece(FLOW)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flow_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<FlowParams>();
+    }
 }

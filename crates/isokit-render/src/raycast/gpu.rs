@@ -34,6 +34,17 @@ pub(crate) struct Params {
     used: u32,
 }
 
+isokit_gpu::wgsl_layout!(Params {
+    count: "u32",
+    stride: "u32",
+    fresh: "u32",
+    src: "u32",
+    dst: "u32",
+    ray_base: "u32",
+    requests: "u32",
+    used: "u32",
+});
+
 /// Size of `RayState` in `raycast.wgsl` (cell, t, first flag, samples, padding).
 pub(crate) const RAY_STATE_BYTES: usize = 32;
 
@@ -258,6 +269,19 @@ pub(crate) struct GpuPixel {
     pad: f32,
 }
 
+isokit_gpu::wgsl_layout!(GpuPixel as "GPixel" {
+    position: "vec3<f32>",
+    depth: "f32",
+    normal: "vec3<f32>",
+    hit: "f32",
+    k1: "f32",
+    k2: "f32",
+    id: "u32",
+    samples: "u32",
+    dir1: "vec3<f32>",
+    pad: "f32",
+});
+
 impl GpuPixel {
     pub(crate) fn from_sample(s: &GSample) -> Self {
         Self {
@@ -459,6 +483,21 @@ mod tests {
     use super::*;
     use crate::kernel::ID_SURFACE;
     use glam::Vec3;
+
+    #[test]
+    fn uniforms_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<Uniforms>();
+    }
+
+    #[test]
+    fn pixel_matches_its_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<GpuPixel>();
+    }
+
+    #[test]
+    fn params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<Params>();
+    }
 
     #[test]
     fn pixels_round_trip() {

@@ -35,8 +35,27 @@ pub(crate) struct ShadeParams {
     pub(crate) pixel_base: u32,
     pub(crate) count: u32,
     pub(crate) stride: u32,
-    pub(crate) pad: [u32; 2],
+    pub(crate) pad0: u32,
+    pub(crate) pad1: u32,
 }
+
+isokit_gpu::wgsl_layout!(ShadeParams {
+    color: "vec3<f32>",
+    mode: "u32",
+    background: "vec4<f32>",
+    ambient: "f32",
+    specular: "f32",
+    shininess: "f32",
+    curvature_scale: "f32",
+    contour_pixels: "f32",
+    lights: "u32",
+    pixel_angle: "f32",
+    pixel_base: "u32",
+    count: "u32",
+    stride: "u32",
+    pad0: "u32",
+    pad1: "u32",
+});
 
 impl ShadeParams {
     /// The parameters of one dispatch of a shading pass: `sh` with `lights` lights for the
@@ -63,7 +82,8 @@ impl ShadeParams {
             pixel_base: base as u32,
             count: len as u32,
             stride,
-            pad: [0; 2],
+            pad0: 0,
+            pad1: 0,
         }
     }
 }
@@ -77,6 +97,13 @@ pub(crate) struct GpuLight {
     pub(crate) color: [f32; 3],
     pub(crate) pad: f32,
 }
+
+isokit_gpu::wgsl_layout!(GpuLight as "Light" {
+    dir: "vec3<f32>",
+    point: "u32",
+    color: "vec3<f32>",
+    pad: "f32",
+});
 
 impl GpuLight {
     /// What `light_at` in `shade/cpu.rs` computes that does not depend on the pixel, computed
@@ -215,6 +242,16 @@ impl GpuRenderer {
 mod tests {
     use super::*;
     use isokit_shaders::common::SHADE_FUNCTIONS;
+
+    #[test]
+    fn shade_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<ShadeParams>();
+    }
+
+    #[test]
+    fn lights_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<GpuLight>();
+    }
 
     #[test]
     fn shading_mode_codes_follow_the_list() {

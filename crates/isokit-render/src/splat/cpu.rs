@@ -642,6 +642,19 @@ pub struct ShadowParams {
     pub bias: f32,
 }
 
+// The WGSL twin, member by member (`ShadowParams` in `shaders/splat_shade.wgsl`; checked by
+// the GPU host code's unit tests).
+isokit_gpu::wgsl_layout!(ShadowParams {
+    eye: "vec3<f32>",
+    resolution: "u32",
+    right: "vec3<f32>",
+    half_height: "f32",
+    up: "vec3<f32>",
+    softness: "f32",
+    forward: "vec3<f32>",
+    bias: "f32",
+});
+
 /// A shadow map: depth along the light's axis of the nearest solid per texel (+∞ where
 /// none), rendered by the splatter from the spot light's view.
 #[derive(Clone, Debug, PartialEq)]

@@ -141,6 +141,13 @@ pub(crate) struct SplatParams {
     pad: f32,
 }
 
+isokit_gpu::wgsl_layout!(SplatParams {
+    near: "f32",
+    far: "f32",
+    inf: "f32",
+    pad: "f32",
+});
+
 /// `SplatShadeParams` in `splat_shade.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -156,6 +163,19 @@ pub(crate) struct SplatShadeParams {
     shadow_stride: u32,
     pad: u32,
 }
+
+isokit_gpu::wgsl_layout!(SplatShadeParams {
+    shade: "ShadeParams",
+    shadow: "ShadowParams",
+    outline_color: "vec3<f32>",
+    outlines: "u32",
+    depth_ramp: "vec2<f32>",
+    crease_ramp: "vec2<f32>",
+    shadows: "u32",
+    colors: "u32",
+    shadow_stride: "u32",
+    pad: "u32",
+});
 
 /// The splatter's pipelines, compiled on first use.
 #[derive(Debug)]
@@ -1120,6 +1140,26 @@ enum Outline {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn setups_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<QuadricSetup>();
+    }
+
+    #[test]
+    fn splat_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<SplatParams>();
+    }
+
+    #[test]
+    fn shadow_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<ShadowParams>();
+    }
+
+    #[test]
+    fn splat_shade_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<SplatShadeParams>();
+    }
 
     #[test]
     fn splat_shaders_validate_with_naga() {
