@@ -2,10 +2,10 @@
 // noise along the screen-space direction field of the `flow` shading mode, one invocation
 // per pixel over the whole image; the shading pass (shade.wgsl) then reads the result.
 // Prepended by Rust (isokit_render::gpu::flow_shader): const WORKGROUP, ID_MISS, FLOW_STEPS.
-// CPU twin: crates/isokit-render/src/shade.rs (flow_hash, flow_noise, flow_lic); the field
-// itself is computed on the host by shade.rs's flow_field (bit-identical input).
+// CPU twin: crates/isokit-render/src/flow/cpu.rs (flow_hash, flow_noise, flow_lic); the field
+// itself is computed on the host by flow/cpu.rs's flow_field (bit-identical input).
 
-// Rust: gpu::shade::FlowParams (16 bytes).
+// Rust: flow/gpu.rs FlowParams (16 bytes).
 struct FlowParams {
     width: u32,
     height: u32,
@@ -18,7 +18,7 @@ struct FlowParams {
 @group(0) @binding(2) var<storage, read> keys: array<u32>;       // id, or ID_MISS: no flow
 @group(0) @binding(3) var<storage, read_write> lic: array<f32>;
 
-// shade.rs: flow_hash (lowbias32 of a mix of the coordinates; u32 arithmetic wraps).
+// flow/cpu.rs: flow_hash (lowbias32 of a mix of the coordinates; u32 arithmetic wraps).
 fn flow_hash(x: u32, y: u32) -> u32 {
     var h = (x * 0x8da6b343u) ^ (y * 0xd8163841u);
     h ^= h >> 16u;
@@ -29,12 +29,12 @@ fn flow_hash(x: u32, y: u32) -> u32 {
     return h;
 }
 
-// shade.rs: flow_noise (16 bits: the sums below are exact).
+// flow/cpu.rs: flow_noise (16 bits: the sums below are exact).
 fn flow_noise(x: u32, y: u32) -> f32 {
     return f32(flow_hash(x, y) >> 16u) * (1.0 / 65536.0);
 }
 
-// shade.rs: flow_lic. −1 where the pixel has no flow.
+// flow/cpu.rs: flow_lic. −1 where the pixel has no flow.
 fn flow_lic(x: u32, y: u32) -> f32 {
     let key = keys[x + y * F.width];
     if (key == ID_MISS) {

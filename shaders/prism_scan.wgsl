@@ -2,8 +2,9 @@
 // One workgroup per active prism; its threads share the prism's rows (j, k) in the slab and
 // walk each row's span, keeping the smallest packed key per sample with atomicMin.
 // Prepended by Rust: const WORKGROUP: u32; the contents of common/prism.wgsl.
-// CPU twin: crates/isokit-prism/src/scan.rs (scan_slab).
+// CPU twin: crates/isokit-prism/src/scan/cpu.rs (scan_slab); host code: src/scan/gpu.rs.
 
+// Rust: scan/gpu.rs Params (32 bytes).
 struct Params {
     slab: vec4<i32>,   // first slice, last slice, nx, ny
     counts: vec4<u32>, // active prisms, signed (0/1), workgroups along x, unused

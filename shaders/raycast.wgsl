@@ -1,14 +1,15 @@
 // Isosurface ray caster, one pass over the pending rays (002 Sec. 6.3, block-level ray
-// casting with a 3D DDA; see the module docs of kernel.rs). One invocation is one ray: it
+// casting with a 3D DDA; see the module docs of raycast/cpu.rs). One invocation is one ray: it
 // runs to its hit (written to the G-buffer) or to an active block whose brick is not
 // resident, where it asks for the brick, saves where to resume and appends itself to the
 // next pass's list.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
 // ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT, HALF_RESOLUTION,
-// RANGE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl.
-// CPU twin: crates/isokit-render/src/kernel.rs, function by function in the same order.
+// RANGE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl and common/curvature.wgsl
+// (curvature, used by surface_sample; any_orthonormal).
+// CPU twin: crates/isokit-render/src/raycast/cpu.rs, function by function in the same order.
 
-// Rust: gpu::trace::Params (32 bytes).
+// Rust: raycast/gpu.rs Params (32 bytes).
 struct Params {
     count: u32,    // rays in this pass
     stride: u32,   // invocations per row of the dispatch grid
@@ -20,7 +21,7 @@ struct Params {
     used: u32,     // offset of the per-brick used flags in `counters`
 }
 
-// Where a waiting ray resumes (kernel.rs: Resume) and what it has cost so far.
+// Where a waiting ray resumes (raycast/cpu.rs: Resume) and what it has cost so far.
 struct RayState {
     cell: vec3<i32>,
     t: f32,
@@ -41,7 +42,7 @@ struct RayState {
 @group(0) @binding(7) var<storage, read_write> states: array<RayState>;
 @group(0) @binding(8) var<storage, read_write> gbuf: array<GPixel>;
 
-// Field evaluations of this invocation's ray (kernel.rs: the `samples` counters).
+// Field evaluations of this invocation's ray (raycast/cpu.rs: the `samples` counters).
 var<private> samples: u32;
 
 fn residual(f: f32) -> f32 {
@@ -147,7 +148,7 @@ fn locate(slot: u32, cell: vec3<i32>, p: vec3<f32>) -> Located {
     return Located(slot * channels() * side * side * side, c - first, q - vec3<f32>(c), q, side, 0u);
 }
 
-// `locate` in a brick stored at half resolution (kernel.rs: locate_half).
+// `locate` in a brick stored at half resolution (raycast/cpu.rs: locate_half).
 fn locate_half(slot: u32, cell: vec3<i32>, lo: vec3<i32>, hi: vec3<i32>, q: vec3<f32>) -> Located {
     let corner = cell / i32(U.brick / U.block) * i32(U.brick);
     let pc = (q - vec3<f32>(corner)) * 0.5;
@@ -159,12 +160,12 @@ fn locate_half(slot: u32, cell: vec3<i32>, lo: vec3<i32>, hi: vec3<i32>, q: vec3
     return Located(base, c + vec3<i32>(1), pc - vec3<f32>(c), q, side, 1u);
 }
 
-// Fields per brick slot: 1, or 2 when a second field is combined (kernel.rs: channels).
+// Fields per brick slot: 1, or 2 when a second field is combined (raycast/cpu.rs: channels).
 fn channels() -> u32 {
     return select(2u, 1u, U.combine == COMBINE_NONE);
 }
 
-// The same point in channel B of its slot (kernel.rs: channel_b).
+// The same point in channel B of its slot (raycast/cpu.rs: channel_b).
 fn channel_b(l: Located) -> Located {
     let side = l.side;
     return Located(l.base + side * side * side, l.cell, l.frac, l.p, l.side, l.half);
@@ -268,7 +269,7 @@ fn sample_at(i: u32, side: u32, dx: u32, dy: u32, dz: u32) -> f32 {
 }
 
 // For a brick stored at half resolution the coarse derivatives are scaled back to grid
-// units (kernel.rs: gradient_hessian_at).
+// units (raycast/cpu.rs: gradient_hessian_at).
 fn gradient_hessian_at(filter_code: u32, l: Located) -> GradHess {
     let gh = stored_gradient_hessian(filter_code, l);
     if (l.half != 0u) {
@@ -337,7 +338,7 @@ fn stored_gradient_hessian(filter_code: u32, l: Located) -> GradHess {
     return GradHess(g, h);
 }
 
-// A ray inside one resident block (kernel.rs: SegmentRay).
+// A ray inside one resident block (raycast/cpu.rs: SegmentRay).
 struct SegmentRay {
     o: vec3<f32>,
     d: vec3<f32>,
@@ -345,7 +346,7 @@ struct SegmentRay {
     slot: u32,
 }
 
-// Combines the residuals of the two fields (kernel.rs: combine); ties go to A.
+// Combines the residuals of the two fields (raycast/cpu.rs: combine); ties go to A.
 fn combine(a: f32, b: f32) -> f32 {
     switch (U.combine) {
         case COMBINE_UNION: {
@@ -366,7 +367,7 @@ fn combine(a: f32, b: f32) -> f32 {
     }
 }
 
-// True when B attains the combination: the object map (kernel.rs: owner_is_b).
+// True when B attains the combination: the object map (raycast/cpu.rs: owner_is_b).
 fn owner_is_b(a: f32, b: f32) -> bool {
     switch (U.combine) {
         case COMBINE_UNION: {
@@ -384,7 +385,7 @@ fn owner_is_b(a: f32, b: f32) -> bool {
     }
 }
 
-// The residual of the (combined) field (kernel.rs: combined_residual).
+// The residual of the (combined) field (raycast/cpu.rs: combined_residual).
 fn combined_residual(filter_code: u32, l: Located) -> f32 {
     let a = residual(value_at(filter_code, l));
     if (U.combine == COMBINE_NONE) {
@@ -412,7 +413,7 @@ struct Segment {
     rb: f32,
 }
 
-// The first crossing from outside to inside in [t0, t1] (kernel.rs: march_segment).
+// The first crossing from outside to inside in [t0, t1] (raycast/cpu.rs: march_segment).
 fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segment {
     var ta = t0;
     var ra = residual_at(ray, t0);
@@ -466,7 +467,7 @@ fn secant(ta: f32, ra: f32, tb: f32, rb: f32) -> f32 {
     return 0.5 * (ta + tb);
 }
 
-// Bisection or Illinois secant steps keeping the bracket, then Eq. 6.4 (kernel.rs: refine).
+// Bisection or Illinois secant steps keeping the bracket, then Eq. 6.4 (raycast/cpu.rs: refine).
 fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
     var ta = ta0;
     var ra = ra0;
@@ -504,70 +505,6 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
     return secant(ta, ra, tb, rb);
 }
 
-// glam's Vec3::any_orthonormal_vector (Pixar's basis).
-fn any_orthonormal(n: vec3<f32>) -> vec3<f32> {
-    let sgn = signum(n.z);
-    let a = -1.0 / (sgn + n.z);
-    let b = n.x * n.y * a;
-    return vec3<f32>(b, sgn + n.y * n.y * a, -n.y);
-}
-
-fn hypot(x: f32, y: f32) -> f32 {
-    let m = max(abs(x), abs(y));
-    if (m == 0.0) {
-        return 0.0;
-    }
-    let a = x / m;
-    let b = y / m;
-    return m * sqrt(a * a + b * b);
-}
-
-struct Curvature {
-    normal: vec3<f32>,
-    k1: f32,
-    k2: f32,
-    dir1: vec3<f32>,
-    ok: bool,
-}
-
-// isokit_field::curvature::curvature_with in f32 (the CPU twin works in f64): the shape
-// operator in the tangent basis of Duff et al., Eq. 6.6, closed-form eigenvalues and the
-// eigenvector of k1.
-fn curvature(g_in: vec3<f32>, h_in: mat3x3<f32>) -> Curvature {
-    let none = Curvature(vec3<f32>(0.0), 0.0, 0.0, vec3<f32>(0.0), false);
-    if (!(is_finite3(g_in) && is_finite3(h_in[0]) && is_finite3(h_in[1]) && is_finite3(h_in[2]))) {
-        return none;
-    }
-    let s = U.inside_sign;
-    let g = g_in * s;
-    let hs = h_in * s;
-    let h = (hs + transpose(hs)) * 0.5;
-    let len = hypot(hypot(g.x, g.y), g.z);
-    if (!(len > MIN_GRADIENT)) {
-        return none;
-    }
-    let n = g / len;
-    // Tangent basis (u, v) with u × v = n.
-    let sgn = signum(n.z);
-    let a = -1.0 / (sgn + n.z);
-    let b = n.x * n.y * a;
-    let u = vec3<f32>(1.0 + sgn * n.x * n.x * a, sgn * b, -sgn * n.x);
-    let v = vec3<f32>(b, sgn + n.y * n.y * a, -n.y);
-    let hu = h * u;
-    let hv = h * v;
-    let a11 = dot(u, hu) / len;
-    let a22 = dot(v, hv) / len;
-    let a12 = 0.5 * (dot(u, hv) + dot(v, hu)) / len;
-    let t = a11 + a22;
-    let disc = hypot(a11 - a22, 2.0 * a12);
-    let k1 = 0.5 * (t + disc);
-    let k2 = 0.5 * (t - disc);
-    let theta = 0.5 * atan2(2.0 * a12, a11 - a22);
-    let dir1 = normalize3(u * cos(theta) + v * sin(theta));
-    let ok = is_finite(k1) && is_finite(k2) && is_finite(t) && is_finite(k1 * k2) && is_finite3(dir1);
-    return Curvature(n, k1, k2, dir1, ok);
-}
-
 fn miss_pixel() -> GPixel {
     return GPixel(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, 0.0, 0.0, ID_MISS, 0u, vec3<f32>(0.0), 0.0);
 }
@@ -578,7 +515,7 @@ struct Owned {
     id: u32,
 }
 
-// Gradient, Hessian and id of the operand owning a hit (kernel.rs: owner_gradient_hessian).
+// Gradient, Hessian and id of the operand owning a hit (raycast/cpu.rs: owner_gradient_hessian).
 fn owner_gradient_hessian(l: Located) -> Owned {
     if (U.combine == COMBINE_NONE) {
         let gh = gradient_hessian_at(U.shading_filter, l);
@@ -605,7 +542,7 @@ fn owner_gradient_hessian(l: Located) -> Owned {
     return Owned(gh.g, gh.h, ID_SURFACE_B);
 }
 
-// The G-buffer sample at ray parameter t (kernel.rs: surface_sample).
+// The G-buffer sample at ray parameter t (raycast/cpu.rs: surface_sample).
 fn surface_sample(ray: SegmentRay, t: f32) -> GPixel {
     let l = locate(ray.slot, ray.cell, ray.o + t * ray.d);
     let gh = owner_gradient_hessian(l);
@@ -640,7 +577,7 @@ fn finished(p: GPixel) -> Traced {
 }
 
 // Traces the ray of subpixel `sub` of pixel (px, py) from its start or from `resume`
-// (kernel.rs: trace_pixel).
+// (raycast/cpu.rs: trace_pixel).
 fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> Traced {
     let r = subpixel_ray(px, py, sub);
     let d = r.d;

@@ -3,7 +3,7 @@
 // Prepended by Rust (isokit_render::gpu): the constants ID_*, FILTER_*, FLAG_*, COMBINE_*,
 // F32_MAX.
 // Each kernel declares `U` (var<uniform> Uniforms) at group 0, binding 0.
-// CPU twin: crates/isokit-render/src/kernel.rs (Uniforms, subpixel_ray, view_index),
+// CPU twin: crates/isokit-render/src/raycast/cpu.rs (Uniforms, subpixel_ray, view_index),
 // written to be read side by side with this file.
 
 // Rust: isokit_render::Uniforms (#[repr(C)], 208 bytes, 13 rows of 16).
@@ -46,7 +46,7 @@ struct Uniforms {
     lens_offset: f32,
 }
 
-// One G-buffer pixel, the four rgba32f rows of the GPU layout (Rust: gpu::GpuPixel, 64 bytes):
+// One G-buffer pixel, the four rgba32f rows of the GPU layout (Rust: raycast/gpu.rs GpuPixel, 64 bytes):
 // (P.xyz, Z), (N.xyz, A), (K1, K2, id, samples), (dir1.xyz, 0). A miss is all zeros.
 struct GPixel {
     position: vec3<f32>,
@@ -94,7 +94,7 @@ fn signum(x: f32) -> f32 {
     return select(1.0, -1.0, (bitcast<u32>(x) & 0x80000000u) != 0u);
 }
 
-// The view that subpixel `sub` of pixel (px, py) shows (kernel.rs: view_index).
+// The view that subpixel `sub` of pixel (px, py) shows (raycast/cpu.rs: view_index).
 fn view_index(px: u32, py: u32, sub: u32) -> u32 {
     if (U.view >= 0) {
         return u32(U.view);
@@ -105,7 +105,7 @@ fn view_index(px: u32, py: u32, sub: u32) -> u32 {
 }
 
 // The ray of subpixel `sub` of pixel (px, py): world origin, unit direction
-// (kernel.rs: subpixel_ray).
+// (raycast/cpu.rs: subpixel_ray).
 fn subpixel_ray(px: u32, py: u32, sub: u32) -> Ray {
     let h = U.half_height;
     let sx = (2.0 * (f32(px) + 0.5) / f32(U.width) - 1.0) * h * U.aspect;

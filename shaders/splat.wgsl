@@ -3,19 +3,17 @@
 // ray–quadric intersection; the depth test keeps the nearest hit (`Less`, instances drawn in
 // scene order: ties go to the lower index, as on the CPU).
 // Prepended by Rust (isokit_render::gpu::splat): const ID_*, MIN_GRADIENT, F32_MAX, NO_DIR1;
-// raycast_common.wgsl (Uniforms, subpixel_ray, normalize_or_zero, is_finite, signum); the
-// curvature section of raycast.wgsl (any_orthonormal, hypot, Curvature, curvature); and
+// raycast_common.wgsl (Uniforms, subpixel_ray, normalize_or_zero, is_finite, signum);
+// common/curvature.wgsl (any_orthonormal, hypot, Curvature, curvature); and
 // `count_hit` (an atomic add on binding 3, or nothing where fragment shaders cannot write
 // storage).
 // CPU twin: crates/isokit-render/src/quadric.rs (intersect and its helpers) and
-// crates/isokit-render/src/splat.rs (fragment, resolve, ShadowMap::render), function by
+// crates/isokit-render/src/splat/cpu.rs (fragment, resolve, ShadowMap::render), function by
 // function in the same order of operations.
 
 // Rust: isokit_render::quadric::QuadricSetup (#[repr(C)], 144 bytes).
 struct QuadricSetup {
-    inv0: vec4<f32>,   // columns of the linear part of T⁻¹, w 0
-    inv1: vec4<f32>,
-    inv2: vec4<f32>,
+    inv: array<vec4<f32>, 3>, // columns of the linear part of T⁻¹, w 0
     eye_p: vec4<f32>,  // T⁻¹ eye, w 1
     diag: vec4<f32>,   // D
     hess_a: vec4<f32>, // world Hessian (xx, yy, zz, xy)
@@ -26,7 +24,7 @@ struct QuadricSetup {
     object: u32,       // index in the scene
 }
 
-// Rust: gpu::splat::SplatParams (16 bytes).
+// Rust: splat/gpu.rs SplatParams (16 bytes).
 struct SplatParams {
     near: f32, // near plane along forward (View::near as f32)
     far: f32,  // frag_depth = t / far, far above every visible t
@@ -91,9 +89,9 @@ fn quad_form(d: vec4<f32>, x: vec4<f32>, y: vec4<f32>) -> f32 {
 // The linear part of T⁻¹ applied to a world vector (quadric.rs: the closure `m`).
 fn to_param(s: QuadricSetup, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(
-        s.inv0.x * v.x + s.inv1.x * v.y + s.inv2.x * v.z,
-        s.inv0.y * v.x + s.inv1.y * v.y + s.inv2.y * v.z,
-        s.inv0.z * v.x + s.inv1.z * v.y + s.inv2.z * v.z,
+        s.inv[0].x * v.x + s.inv[1].x * v.y + s.inv[2].x * v.z,
+        s.inv[0].y * v.x + s.inv[1].y * v.y + s.inv[2].y * v.z,
+        s.inv[0].z * v.x + s.inv[1].z * v.y + s.inv[2].z * v.z,
     );
 }
 
@@ -101,15 +99,15 @@ fn to_param(s: QuadricSetup, v: vec3<f32>) -> vec3<f32> {
 fn surface_gradient(s: QuadricSetup, x: vec3<f32>) -> vec3<f32> {
     let g = vec3<f32>(s.diag.x * x.x, s.diag.y * x.y, s.diag.z * x.z);
     return vec3<f32>(
-        s.inv0.x * g.x + s.inv0.y * g.y + s.inv0.z * g.z,
-        s.inv1.x * g.x + s.inv1.y * g.y + s.inv1.z * g.z,
-        s.inv2.x * g.x + s.inv2.y * g.y + s.inv2.z * g.z,
+        s.inv[0].x * g.x + s.inv[0].y * g.y + s.inv[0].z * g.z,
+        s.inv[1].x * g.x + s.inv[1].y * g.y + s.inv[1].z * g.z,
+        s.inv[2].x * g.x + s.inv[2].y * g.y + s.inv[2].z * g.z,
     );
 }
 
 // quadric.rs: cap_normal.
 fn cap_normal(s: QuadricSetup, sign: f32) -> vec3<f32> {
-    return vec3<f32>(s.inv0.z, s.inv1.z, s.inv2.z) * sign;
+    return vec3<f32>(s.inv[0].z, s.inv[1].z, s.inv[2].z) * sign;
 }
 
 // quadric.rs: setup_hessian.
@@ -212,7 +210,7 @@ fn intersect(s: QuadricSetup, ortho_offset: vec3<f32>, d: vec3<f32>, t_near: f32
     return no_hit();
 }
 
-// splat.rs: fragment. The ray of pixel (px, py) against one quadric.
+// splat/cpu.rs: fragment. The ray of pixel (px, py) against one quadric.
 fn fragment(s: QuadricSetup, ray: Ray) -> QuadricHit {
     var offset = vec3<f32>(0.0);
     var t_near = P.near;
@@ -224,8 +222,8 @@ fn fragment(s: QuadricSetup, ray: Ray) -> QuadricHit {
     return intersect(s, offset, ray.d, t_near);
 }
 
-// The tangent basis (u, v) of a unit normal that raycast.wgsl's `curvature` uses (Duff et
-// al.); the host rebuilds dir1 from its angle in this basis (gpu/splat.rs: tangent_basis).
+// The tangent basis (u, v) of a unit normal that common/curvature.wgsl's `curvature` uses (Duff et
+// al.); the host rebuilds dir1 from its angle in this basis (splat/gpu.rs: tangent_basis).
 fn tangent_u(n: vec3<f32>) -> vec3<f32> {
     let sgn = signum(n.z);
     let a = -1.0 / (sgn + n.z);
@@ -253,7 +251,7 @@ fn vs_splat(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) ->
     let right = vi == 1u || vi == 4u || vi == 5u;
     let bottom = vi == 2u || vi == 3u || vi == 5u;
     // One pixel beyond the box, so that the rasterizer's sub-pixel precision can never drop
-    // a covered pixel; `in_box` then keeps exactly the CPU's pixels (splat.rs: pixel_range).
+    // a covered pixel; `in_box` then keeps exactly the CPU's pixels (splat/cpu.rs: pixel_range).
     let x = select(b.x - 1.0, b.z + 1.0, right);
     let y = select(b.y - 1.0, b.w + 1.0, bottom);
     let ndc = vec2<f32>(2.0 * x / f32(U.width) - 1.0, 1.0 - 2.0 * y / f32(U.height));
@@ -263,14 +261,14 @@ fn vs_splat(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) ->
 // The G-buffer sample of a hit, in two colour targets (32 bytes per pixel, the WebGPU
 // default limit): (N.xyz, Z) as rgba32float and (K1, K2, θ, object | id << 24) as rgba32uint
 // (float bits), θ the angle of dir1 in the tangent basis of N, or NO_DIR1 where there is no
-// principal direction. Position comes from the ray and Z on the host (splat.rs: resolve).
+// principal direction. Position comes from the ray and Z on the host (splat/cpu.rs: resolve).
 struct GOut {
     @location(0) nz: vec4<f32>,
     @location(1) kid: vec4<u32>,
     @builtin(frag_depth) depth: f32,
 }
 
-// splat.rs: pixel_range — the pixels whose centres lie in the box, the same f32 operations.
+// splat/cpu.rs: pixel_range — the pixels whose centres lie in the box, the same f32 operations.
 fn in_box(b: vec4<f32>, px: u32, py: u32) -> bool {
     let size = vec2<f32>(f32(U.width), f32(U.height));
     let lo = clamp(ceil(b.xy - 0.5), vec2<f32>(0.0), size);
@@ -293,7 +291,7 @@ fn fs_gbuffer(in: VOut) -> GOut {
         discard;
     }
     count_hit();
-    // splat.rs: resolve.
+    // splat/cpu.rs: resolve.
     var normal = hit.normal;
     var id = ID_CAP;
     var k1 = 0.0;
@@ -317,7 +315,7 @@ fn fs_gbuffer(in: VOut) -> GOut {
     return out;
 }
 
-// The shadow map (splat.rs: ShadowMap::render): depth along the light's axis.
+// The shadow map (splat/cpu.rs: ShadowMap::render): depth along the light's axis.
 struct ShadowOut {
     @location(0) depth_along: f32,
     @builtin(frag_depth) depth: f32,

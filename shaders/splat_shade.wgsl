@@ -5,11 +5,12 @@
 // One invocation per output pixel. Two entry points that differ only in how the four corner
 // fetches are made: `shade_splat_filtered` takes them as real bilinear fetches of an
 // rgba32float texture (needs FLOAT32_FILTERABLE), `shade_splat_loads` as the means of 2x2
-// loads from a storage buffer (exactly splat.rs: corner_fetches).
+// loads from a storage buffer (exactly splat/cpu.rs: corner_fetches).
 // Prepended by Rust (isokit_render::gpu::splat): const WORKGROUP, ID_*, F32_MAX, MODE_*;
-// raycast_common.wgsl; the structs of shade.wgsl (ShadeParams, Light) and its shading
-// functions (light_at … shade_pixel), which read the globals `S` and `lights` declared here.
-// CPU twin: crates/isokit-render/src/splat.rs (shade_splat, shadow_factor, shadow_sample,
+// raycast_common.wgsl; common/shade_structs.wgsl (ShadeParams, Light) and
+// common/shade_functions.wgsl (light_at … shade_pixel), which read the globals `S` and
+// `lights` declared here.
+// CPU twin: crates/isokit-render/src/splat/cpu.rs (shade_splat, shadow_factor, shadow_sample,
 // hash_u32, corner_fetches, sobel4, outline_weight), in the same order of operations.
 
 // Rust: isokit_render::splat::ShadowParams (64 bytes).
@@ -24,7 +25,7 @@ struct ShadowParams {
     bias: f32,
 }
 
-// Rust: gpu::splat::SplatShadeParams (192 bytes).
+// Rust: splat/gpu.rs SplatShadeParams (192 bytes).
 struct SplatShadeParams {
     shade: ShadeParams,        // mode, terms, background; `color` is the fallback colour
     shadow: ShadowParams,
@@ -53,18 +54,18 @@ struct SplatShadeParams {
 @group(0) @binding(10) var outline_sampler: sampler;
 @group(0) @binding(11) var<storage, read> outline_buf: array<vec4<f32>>;
 
-// What shade.wgsl's functions read as `S`: the uniform's ShadeParams with the pixel's
+// What common/shade_functions.wgsl reads as `S`: the uniform's ShadeParams with the pixel's
 // object colour as `color`.
 var<private> S: ShadeParams;
 
-// splat.rs: hash_u32 (u32 arithmetic wraps, as Rust's wrapping ops).
+// splat/cpu.rs: hash_u32 (u32 arithmetic wraps, as Rust's wrapping ops).
 fn hash_u32(x: u32) -> u32 {
     let s = x * 747796405u + 2891336453u;
     let w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
     return (w >> 22u) ^ w;
 }
 
-// splat.rs: shadow_sample.
+// splat/cpu.rs: shadow_sample.
 fn shadow_sample(k: u32, px: u32, py: u32) -> vec2<f32> {
     let ring = 7u - k / 8u;
     let angle = k % 8u;
@@ -82,7 +83,7 @@ struct ShadowPoint {
     limit: f32,
 }
 
-// 1 when shadow-map sample k of the pixel sees the light (splat.rs: the closure `lit`).
+// 1 when shadow-map sample k of the pixel sees the light (splat/cpu.rs: the closure `lit`).
 fn lit(sp: ShadowPoint, k: u32, px: u32, py: u32) -> u32 {
     let res = f32(P.shadow.resolution);
     let o = shadow_sample(k, px, py);
@@ -100,7 +101,7 @@ struct ShadowFactor {
     samples: u32,
 }
 
-// splat.rs: shadow_factor.
+// splat/cpu.rs: shadow_factor.
 fn shadow_factor(p: vec3<f32>, n: vec3<f32>, px: u32, py: u32) -> ShadowFactor {
     let sp = P.shadow;
     let d = p - sp.eye;
@@ -133,7 +134,7 @@ fn shadow_factor(p: vec3<f32>, n: vec3<f32>, px: u32, py: u32) -> ShadowFactor {
     return ShadowFactor(f32(count) / 64.0, 64u);
 }
 
-// splat.rs: corner_fetches over the storage buffer: the mean of each 2x2 block at the
+// splat/cpu.rs: corner_fetches over the storage buffer: the mean of each 2x2 block at the
 // corners (−−, +−, −+, ++), edge pixels repeated.
 fn outline_at(x: i32, y: i32) -> vec4<f32> {
     let xx = clamp(x, 0, i32(U.width) - 1);
@@ -161,7 +162,7 @@ fn ramp(v: f32, r: vec2<f32>) -> f32 {
     return clamp((v - r.x) / max(r.y - r.x, 1e-12), 0.0, 1.0);
 }
 
-// splat.rs: outline_weight from the pixel's own (N, Z) and its four corner fetches
+// splat/cpu.rs: outline_weight from the pixel's own (N, Z) and its four corner fetches
 // (−−, +−, −+, ++), with sobel4 for the normals.
 fn outline_weight(centre: vec4<f32>, mm: vec4<f32>, pm: vec4<f32>, mp: vec4<f32>, pp: vec4<f32>) -> f32 {
     let z = centre.w;
@@ -174,7 +175,7 @@ fn outline_weight(centre: vec4<f32>, mm: vec4<f32>, pm: vec4<f32>, mp: vec4<f32>
     return max(ramp(sil, P.depth_ramp), ramp(crease, P.crease_ramp));
 }
 
-// splat.rs: shade_splat, one pixel, before the outline; returns the colour and writes the
+// splat/cpu.rs: shade_splat, one pixel, before the outline; returns the colour and writes the
 // shadow samples taken.
 fn shade_one(k: u32, px: u32, py: u32) -> vec4<f32> {
     S = P.shade;

@@ -1,5 +1,5 @@
 // Prism scan conversion: the prism record and the distance in a triangle's local frame.
-// CPU twin: crates/isokit-prism/src/local.rs (distance2) and src/scan.rs (row_span,
+// CPU twin: crates/isokit-prism/src/local.rs (distance2) and src/scan/cpu.rs (row_span,
 // sample_key), written to be read side by side with this file.
 
 // One triangle's bounding polyhedron on the grid (Rust: isokit_prism::GpuPrism, 320 bytes).

@@ -2,13 +2,15 @@
 //!
 //! The GPU plumbing every isokit kernel shares: one policy for finding an adapter and opening
 //! a device (headless, wgpu 30), one error type, buffer upload and read-back, compute
-//! pipelines built from WGSL under an error scope, WGSL validation with naga for unit tests,
-//! and the test helper that skips a GPU test with a printed reason when no adapter exists (or
-//! fails it when `ISOKIT_REQUIRE_GPU=1`).
+//! pipelines built from WGSL under an error scope, WGSL assembly from pieces and validation
+//! with naga for unit tests ([`ShaderSource`]), the member-by-member check of every struct
+//! shared with WGSL against its `#[repr(C)]` Rust twin ([`layout`], [`wgsl_layout!`]), and the
+//! test helper that skips a GPU test with a printed reason when no adapter exists (or fails
+//! it when `ISOKIT_REQUIRE_GPU=1`).
 //!
 //! What it is not for: it holds no kernels of its own. The kernels (prism scan conversion,
-//! the ray caster, quadric splatting) live in their crates, with their WGSL in `shaders/` at
-//! the repository root and a CPU twin beside each.
+//! the ray caster, quadric splatting) live in their crates, beside a CPU twin each; their
+//! WGSL is in `shaders/` at the repository root, embedded by the `isokit-shaders` crate.
 //!
 //! ## Choosing a path
 //! [`BackendChoice`] is the user's request (`--backend cpu|gpu|auto`, or the environment
@@ -33,10 +35,14 @@
 #![warn(missing_docs)]
 
 mod error;
+pub mod layout;
 pub mod shader;
 pub mod testing;
 
 pub use error::GpuError;
+pub use layout::{
+    GpuField, WgslMember, WgslStruct, WgslType, check_wgsl_layout, wgsl_struct_layout,
+};
 pub use shader::{ShaderSource, validate_wgsl, wgsl_struct_size};
 pub use wgpu;
 

@@ -42,7 +42,8 @@ impl ShaderSource {
         self
     }
 
-    /// Appends a piece of WGSL (typically an `include_str!` of a file in `shaders/`).
+    /// Appends a piece of WGSL (typically a file of `shaders/`, one of the `isokit-shaders`
+    /// crate's constants).
     pub fn piece(mut self, wgsl: &str) -> Self {
         self.text.push_str(wgsl);
         if !wgsl.ends_with('\n') {
@@ -103,7 +104,8 @@ pub fn validate_wgsl(
 
 /// The size in bytes of the WGSL struct `name` in `source` as naga lays it out (storage
 /// buffer rules), to check it against `size_of` of its `#[repr(C)]` Rust twin. `None` when the
-/// source does not parse or has no such struct.
+/// source does not parse or has no such struct. Equal sizes do not make equal layouts: see
+/// [`crate::check_wgsl_layout`] for the member-by-member check.
 pub fn wgsl_struct_size(source: &str, name: &str) -> Option<u32> {
     let module = naga::front::wgsl::parse_str(source).ok()?;
     let mut layouter = naga::proc::Layouter::default();

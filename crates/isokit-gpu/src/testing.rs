@@ -1,6 +1,6 @@
 //! Helpers for GPU tests: skip with a printed reason where no adapter exists, fail instead
 //! where the environment requires a GPU (`ISOKIT_REQUIRE_GPU=1`, set by `.ci/run`, whose
-//! machines have Mesa's lavapipe).
+//! machines have Mesa's lavapipe); and the layout check of shared structs as a test assertion.
 //!
 //! Every GPU test reports its outcome through [`ran`] or [`skipped`] (the helpers below do it
 //! for the tests that open a device through them). When `ISOKIT_GPU_TEST_LOG` names a file,
@@ -8,8 +8,20 @@
 //! count the GPU tests that really ran (tests run in many processes; each line is one
 //! `O_APPEND` write).
 
-use crate::{Gpu, GpuError, GpuOptions};
+use crate::{Gpu, GpuError, GpuOptions, ShaderSource, WgslStruct, check_wgsl_layout};
 use std::io::Write;
+
+/// Asserts that the struct `T` shares in `shader` has `T`'s layout member by member
+/// ([`check_wgsl_layout`]).
+///
+/// # Panics
+/// With the program's label and every difference found.
+#[track_caller]
+pub fn assert_wgsl_layout<T: WgslStruct>(shader: &ShaderSource) {
+    if let Err(e) = check_wgsl_layout::<T>(shader.text()) {
+        panic!("{}: {e}", shader.label());
+    }
+}
 
 /// Whether `ISOKIT_REQUIRE_GPU` asks for GPU tests to fail rather than skip.
 pub fn gpu_required() -> bool {

@@ -33,9 +33,13 @@
 //!    number once. Bands of at most half a spacing take the winding number per sample.
 //!
 //! CPU ([`Engine::Cpu`], rayon over slabs) and GPU ([`Engine::Gpu`], a wgpu compute kernel in
-//! `shaders/prism_scan.wgsl`; [`gpu`] says why compute rather than the render pipeline)
-//! give the same keys up to f32 rounding (identical on lavapipe); the CPU code mirrors the
-//! shader line by line ([`scan`]).
+//! `shaders/prism_scan.wgsl` with `shaders/common/prism.wgsl`, from the `isokit-shaders`
+//! crate; [`gpu`] says why compute rather than the render pipeline) give the same keys up
+//! to f32 rounding (identical on lavapipe); the CPU code mirrors the shader line by line.
+//! Both sides of the kernel sit together in [`scan`], named after it: `scan/cpu.rs` (the CPU
+//! twin, re-exported by [`scan`]) and `scan/gpu.rs` (the host code, [`gpu`]); the distance in
+//! a triangle's frame that `common/prism.wgsl` shares is [`local`], and the prism record
+//! uploaded to the GPU, [`GpuPrism`], is checked member by member against its WGSL twin.
 //!
 //! Output: a dense [`Grid`] ([`PrismSdf::grid`], [`PrismSdf::fill_grid`]) or a
 //! [`BrickGrid`] holding only the bricks the band touches ([`PrismSdf::brick_grid`]).
@@ -59,11 +63,13 @@
 #![warn(missing_docs)]
 
 mod build;
-pub mod gpu;
 pub mod local;
 mod placed;
 pub mod scan;
 mod sign;
+
+/// The GPU host code of the scan conversion (the same module as [`scan::gpu`]).
+pub use scan::gpu;
 
 pub use build::{CoverReport, SideRule};
 pub use gpu::PrismGpu;

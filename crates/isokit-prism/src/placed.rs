@@ -54,6 +54,22 @@ pub struct GpuPrism {
     pub hi: [i32; 4],
 }
 
+// The WGSL twin, member by member (`Prism` in `shaders/common/prism.wgsl`; checked by the
+// GPU host code's unit tests).
+isokit_gpu::wgsl_layout!(GpuPrism as "Prism" {
+    planes: "array<vec4<f32>, 5>",
+    base: "vec4<i32>",
+    frac: "vec4<f32>",
+    axis_r: "vec4<f32>",
+    axis_s: "vec4<f32>",
+    axis_t: "vec4<f32>",
+    shape: "vec4<f32>",
+    inv: "vec4<f32>",
+    normals: "array<vec4<f32>, 6>",
+    lo: "vec4<i32>",
+    hi: "vec4<i32>",
+});
+
 impl GpuPrism {
     /// Whether the prism touches slices `k0..=k1`.
     pub fn spans(&self, k0: i32, k1: i32) -> bool {

@@ -5,12 +5,28 @@
 //! G-buffer, and every shading effect is computed from it per pixel.
 //!
 //! This crate holds the **CPU twin** (rayon) and the **GPU twin** ([`gpu::GpuRenderer`],
-//! wgpu compute, WGSL in `shaders/raycast*.wgsl` and `shaders/shade.wgsl`). The CPU's
+//! wgpu compute, WGSL from the `isokit-shaders` crate: `shaders/raycast*.wgsl`,
+//! `shaders/shade.wgsl` and the pieces they share in `shaders/common/`). The CPU's
 //! per-pixel logic ([`kernel`], [`shade::shade_pixel`]) is written over flat data — the
 //! brick pool, the reference index, the block ranges, the [`Uniforms`] — and the WGSL
 //! mirrors it function by function; both render the same [`GBuffer`] and image, the GPU's
 //! to rounding. It does not open windows or sample fields: scenes are sampled by
 //! `isokit-levelset`, volumes read by `isokit-io`.
+//!
+//! ## Where the code of each shader is
+//! Each kernel's CPU twin sits beside its host code, named after the shader (paths under
+//! `src/`; every struct shared with the GPU has a member-by-member table next to its Rust
+//! type, `isokit_gpu::wgsl_layout!`, checked against the WGSL in the host code's tests):
+//!
+//! | WGSL (`shaders/`) | CPU twin | GPU host code |
+//! | --- | --- | --- |
+//! | `raycast.wgsl`, `raycast_common.wgsl`, `common/curvature.wgsl` | `raycast/cpu.rs` ([`kernel`]); the passes in `raycast/render.rs` ([`render`]) | `raycast/gpu.rs` ([`gpu::GpuRenderer::render`]) |
+//! | `shade.wgsl`, `common/shade_structs.wgsl`, `common/shade_functions.wgsl` | `shade/cpu.rs` ([`shade()`]) | `shade/gpu.rs` ([`gpu::GpuRenderer::shade`]) |
+//! | `flow.wgsl` | `flow/cpu.rs` ([`shade::flow_image`]) | `flow/gpu.rs` |
+//! | `splat.wgsl`, `splat_shade.wgsl` | `splat/cpu.rs` ([`splat`]), `quadric.rs` ([`quadric::intersect`]) | `splat/gpu.rs` ([`splat::gpu`], also [`gpu::splat`]) |
+//!
+//! `gpu.rs` holds what the GPU host code shares (the device and pipelines, the constants
+//! prepended from Rust, the backend choice).
 //!
 //! Choosing: [`render`] and [`shade()`] run everywhere; [`gpu::GpuRenderer`] needs a wgpu
 //! adapter (Vulkan or GLES 3.1 with compute); [`gpu::select_backend`] resolves a user's
@@ -78,22 +94,26 @@
 
 mod cache;
 mod error;
+mod flow;
 mod gbuffer;
 pub mod gpu;
-pub mod kernel;
 pub mod quadric;
-mod render;
+mod raycast;
 pub mod setup;
 pub mod shade;
 pub mod splat;
 mod volume;
+
+/// The ray caster's per-pixel kernel, the CPU twin of `shaders/raycast.wgsl` (the module
+/// `raycast/cpu.rs`).
+pub use raycast::cpu as kernel;
 
 pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, HALF_RESOLUTION, NOT_RESIDENT};
 pub use error::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};
 pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
-pub use render::{
+pub use raycast::render::{
     CachePolicy, Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats,
     camera_uniforms, estimate_gradient_scale, render, render_multiview, render_view, uniforms,
 };

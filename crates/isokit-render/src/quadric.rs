@@ -564,6 +564,20 @@ pub struct QuadricSetup {
     pub object: u32,
 }
 
+// The WGSL twin, member by member (`QuadricSetup` in `shaders/splat.wgsl`; checked by the
+// GPU host code's unit tests).
+isokit_gpu::wgsl_layout!(QuadricSetup {
+    inv: "array<vec4<f32>, 3>",
+    eye_p: "vec4<f32>",
+    diag: "vec4<f32>",
+    hess_a: "vec4<f32>",
+    hess_b: "vec4<f32>",
+    bbox: "vec4<f32>",
+    clip: "vec2<f32>",
+    kind: "u32",
+    object: "u32",
+});
+
 /// Which part of the solid a ray hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HitKind {

@@ -1,5 +1,6 @@
-//! The CPU twin of `shaders/prism_scan.wgsl` and `shaders/common/prism.wgsl`: the same row
-//! spans, the same f32 arithmetic in the same order, the same packed keys.
+//! The CPU twin of `shaders/prism_scan.wgsl` ([`scan_slab`]) and of the row spans and keys of
+//! `shaders/common/prism.wgsl` ([`row_span`], [`sample_key`]): the same f32 arithmetic in
+//! the same order, the same packed keys. Re-exported by [`crate::scan`].
 
 use crate::local::distance2;
 use crate::placed::GpuPrism;

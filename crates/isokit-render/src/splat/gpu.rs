@@ -23,8 +23,8 @@
 //! the curvature, Duff et al.), or [`NO_DIR1`]; depth `Depth32Float`, cleared to 1. The
 //! position is `o + Z d` on the host with the CPU's ray ([`crate::kernel::pixel_ray`]), as
 //! [`crate::splat::resolve`] computes it. The principal curvatures come from
-//! `raycast.wgsl`'s `curvature` (f32; the CPU's is f64 and rounds once), which this shader
-//! reuses as text; it reads `inside_sign`, which the splat's own copy of the uniforms sets to
+//! `common/curvature.wgsl`'s `curvature`, shared with `raycast.wgsl` (f32; the CPU's is f64
+//! and rounds once); it reads `inside_sign`, which the splat's own copy of the uniforms sets to
 //! +1 (the CPU's `curvature`, inside below).
 //!
 //! Set-ups that exceed the device's largest storage binding are drawn in chunks; the depth
@@ -38,8 +38,8 @@
 //! storage buffer on the GPU (rows padded to 256 bytes).
 //!
 //! ## Shading
-//! One invocation per pixel runs `shade.wgsl`'s `shade_pixel` (reused as text, with the
-//! object's colour in place of the uniform colour), [`crate::splat::shadow_factor`] with the
+//! One invocation per pixel runs `common/shade_functions.wgsl`'s `shade_pixel` (shared with
+//! `shade.wgsl`, with the object's colour in place of the uniform colour), [`crate::splat::shadow_factor`] with the
 //! same jittered samples ([`crate::splat::hash_u32`]: WGSL's u32 arithmetic wraps), and
 //! [`crate::splat::outline_weight`]. The four corner fetches of the outline filter are real
 //! bilinear fetches (a clamp-to-edge linear sampler at the pixel corners) of an
@@ -64,13 +64,11 @@
 //! shader reads the set-ups from a storage buffer, which GL adapters without vertex-stage
 //! storage cannot do: pipeline creation then fails with [`RenderError::Gpu`].
 
-use super::shade::{GpuLight, ShadeParams};
-use super::{
-    GpuPixel, GpuRenderer, RAYCAST, RAYCAST_COMMON, SHADE, check_fits, constants, mode_code, scoped,
-};
-use crate::gpu::dispatch_grid;
+use crate::gpu::{GpuRenderer, check_fits, constants, dispatch_grid, scoped};
 use crate::kernel::{self, GSample, Uniforms};
 use crate::quadric::{QuadricSetup, View};
+use crate::raycast::gpu::GpuPixel;
+use crate::shade::gpu::{GpuLight, ShadeParams, mode_code};
 use crate::splat::{
     NO_OBJECT, ShadeStats, ShadowMap, ShadowOptions, ShadowParams, SplatFrame, SplatOptions,
     SplatScene, SplatShading, SplatStats, camera_uniforms, default_spot, miss_depth, pixel_range,
@@ -81,11 +79,10 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use isokit_field::Camera;
 use isokit_gpu::{Gpu, GpuError, ShaderSource, wgpu};
+use isokit_shaders::common::{CURVATURE, SHADE_FUNCTIONS, SHADE_STRUCTS};
+use isokit_shaders::{RAYCAST_COMMON, SPLAT, SPLAT_SHADE};
 use rayon::prelude::*;
 use std::time::Instant;
-
-const SPLAT: &str = include_str!("../../../../shaders/splat.wgsl");
-const SPLAT_SHADE: &str = include_str!("../../../../shaders/splat_shade.wgsl");
 
 /// The θ word of a G-buffer pixel without a principal direction (caps, near cuts, flat or
 /// failed curvature): a NaN pattern no `atan2` returns.
@@ -99,40 +96,8 @@ pub const SETUP_BYTES: usize = size_of::<QuadricSetup>();
 const OBJECT_BITS: u32 = 24;
 const _: () = assert!(crate::splat::MAX_QUADRICS <= 1 << OBJECT_BITS);
 
-/// The part of `src` from the first `from` up to (not including) the next `to`; empty when
-/// a marker is missing (the assembled shader then fails naga's validation in the unit tests
-/// and pipeline creation at run time, with an error, not a panic).
-fn section<'a>(src: &'a str, from: &str, to: &str) -> &'a str {
-    let Some(a) = src.find(from) else { return "" };
-    match src[a..].find(to) {
-        Some(b) => &src[a..a + b],
-        None => "",
-    }
-}
-
-/// `raycast.wgsl`'s curvature and its helpers (`any_orthonormal`, `hypot`, `Curvature`,
-/// `curvature`), reused by the splatter as text.
-fn curvature_section() -> &'static str {
-    section(
-        RAYCAST,
-        "// glam's Vec3::any_orthonormal_vector",
-        "fn miss_pixel(",
-    )
-}
-
-/// `shade.wgsl`'s structs (`ShadeParams`, `Light`), before its bindings.
-fn shade_structs() -> &'static str {
-    section(SHADE, "// Rust: gpu::shade::ShadeParams", "@group(0)")
-}
-
-/// `shade.wgsl`'s shading functions (`light_at` … `shade_pixel`), which read the globals
-/// `S` and `lights`.
-fn shade_functions() -> &'static str {
-    section(SHADE, "struct LightAt {", "fn color_of(")
-}
-
-/// The splatter's WGSL, assembled: constants from Rust, `raycast_common.wgsl`, the curvature
-/// section of `raycast.wgsl`, the hit counter (`count_hits`: an atomic add on binding 3; else
+/// The splatter's WGSL, assembled: constants from Rust, `raycast_common.wgsl`,
+/// `common/curvature.wgsl`, the hit counter (`count_hits`: an atomic add on binding 3; else
 /// nothing), `splat.wgsl` (entry points `vs_splat`, `fs_gbuffer`, `fs_shadow`).
 pub fn splat_shader(count_hits: bool) -> ShaderSource {
     let counter = if count_hits {
@@ -144,13 +109,13 @@ pub fn splat_shader(count_hits: bool) -> ShaderSource {
     constants("splat")
         .constant_u32("NO_DIR1", NO_DIR1)
         .piece(RAYCAST_COMMON)
-        .piece(curvature_section())
+        .piece(CURVATURE)
         .piece(counter)
         .piece(SPLAT)
 }
 
 /// The splat shading kernel's WGSL, assembled: constants from Rust (with `MODE_*`),
-/// `raycast_common.wgsl`, the structs and shading functions of `shade.wgsl`,
+/// `raycast_common.wgsl`, `common/shade_structs.wgsl`, `common/shade_functions.wgsl`,
 /// `splat_shade.wgsl` (entry points `shade_splat_filtered`, `shade_splat_loads`).
 pub fn splat_shade_shader() -> ShaderSource {
     let mut src = constants("splat_shade");
@@ -161,8 +126,8 @@ pub fn splat_shade_shader() -> ShaderSource {
         );
     }
     src.piece(RAYCAST_COMMON)
-        .piece(shade_structs())
-        .piece(shade_functions())
+        .piece(SHADE_STRUCTS)
+        .piece(SHADE_FUNCTIONS)
         .piece(SPLAT_SHADE)
 }
 
@@ -175,6 +140,13 @@ pub(crate) struct SplatParams {
     inf: f32,
     pad: f32,
 }
+
+isokit_gpu::wgsl_layout!(SplatParams {
+    near: "f32",
+    far: "f32",
+    inf: "f32",
+    pad: "f32",
+});
 
 /// `SplatShadeParams` in `splat_shade.wgsl`.
 #[repr(C)]
@@ -191,6 +163,19 @@ pub(crate) struct SplatShadeParams {
     shadow_stride: u32,
     pad: u32,
 }
+
+isokit_gpu::wgsl_layout!(SplatShadeParams {
+    shade: "ShadeParams",
+    shadow: "ShadowParams",
+    outline_color: "vec3<f32>",
+    outlines: "u32",
+    depth_ramp: "vec2<f32>",
+    crease_ramp: "vec2<f32>",
+    shadows: "u32",
+    colors: "u32",
+    shadow_stride: "u32",
+    pad: "u32",
+});
 
 /// The splatter's pipelines, compiled on first use.
 #[derive(Debug)]
@@ -1157,6 +1142,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn setups_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<QuadricSetup>();
+    }
+
+    #[test]
+    fn splat_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<SplatParams>();
+    }
+
+    #[test]
+    fn shadow_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<ShadowParams>();
+    }
+
+    #[test]
+    fn splat_shade_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<SplatShadeParams>();
+    }
+
+    #[test]
     fn splat_shaders_validate_with_naga() {
         splat_shader(true).validate().unwrap();
         splat_shader(false).validate().unwrap();
@@ -1165,14 +1170,24 @@ mod tests {
 
     #[test]
     fn reused_sections_are_found() {
-        assert!(curvature_section().contains("fn curvature("));
-        assert!(curvature_section().contains("fn hypot("));
-        assert!(shade_structs().contains("struct ShadeParams"));
-        assert!(shade_structs().contains("struct Light"));
-        assert!(!shade_structs().contains("@group"));
-        assert!(shade_functions().contains("fn shade_pixel("));
-        assert!(!shade_functions().contains("@group"));
-        assert_eq!(section("abc", "x", "c"), "");
+        // The pieces shared with the ray caster's kernels are files of their own, joined by
+        // the loader (no text is cut out of another kernel).
+        assert!(CURVATURE.contains("fn curvature("));
+        assert!(CURVATURE.contains("fn hypot("));
+        assert!(SHADE_STRUCTS.contains("struct ShadeParams"));
+        assert!(SHADE_STRUCTS.contains("struct Light"));
+        assert!(!SHADE_STRUCTS.contains("@group"));
+        assert!(SHADE_FUNCTIONS.contains("fn shade_pixel("));
+        assert!(!SHADE_FUNCTIONS.contains("@group"));
+        // Each kernel gets each piece once.
+        for (src, piece) in [
+            (splat_shader(true), CURVATURE),
+            (splat_shader(false), CURVATURE),
+            (splat_shade_shader(), SHADE_STRUCTS),
+            (splat_shade_shader(), SHADE_FUNCTIONS),
+        ] {
+            assert_eq!(src.text().matches(piece).count(), 1);
+        }
     }
 
     #[test]

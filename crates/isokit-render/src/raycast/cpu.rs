@@ -179,6 +179,47 @@ pub struct Uniforms {
     pub lens_offset: f32,
 }
 
+// The WGSL twin, member by member (`Uniforms` in `shaders/raycast_common.wgsl`; checked by
+// the GPU host code's unit tests).
+isokit_gpu::wgsl_layout!(Uniforms {
+    eye: "vec3<f32>",
+    ortho: "u32",
+    right: "vec3<f32>",
+    half_height: "f32",
+    up: "vec3<f32>",
+    aspect: "f32",
+    forward: "vec3<f32>",
+    width: "u32",
+    origin: "vec3<f32>",
+    spacing: "f32",
+    dims: "vec3<u32>",
+    block: "u32",
+    block_dims: "vec3<u32>",
+    brick: "u32",
+    brick_dims: "vec3<u32>",
+    brick_side: "u32",
+    iso: "f32",
+    inside_sign: "f32",
+    r0: "f32",
+    fine: "u32",
+    delta: "f32",
+    refine_steps: "u32",
+    flags: "u32",
+    filter as "search_filter": "u32",
+    shading_filter: "u32",
+    combine: "u32",
+    morph_t: "f32",
+    height: "u32",
+    views: "u32",
+    view: "i32",
+    subpixels: "u32",
+    view_separation: "f32",
+    window_distance: "f32",
+    lens_pitch: "f32",
+    lens_slant: "f32",
+    lens_offset: "f32",
+});
+
 /// The flat buffers one trace pass reads and writes (GPU: storage buffers and textures).
 #[derive(Clone, Copy, Debug)]
 pub struct TraceData<'a> {

@@ -1,4 +1,6 @@
-//! The GPU path: compute scan conversion of slabs with wgpu (`shaders/prism_scan.wgsl`).
+//! The GPU path: compute scan conversion of slabs with wgpu, the host code of
+//! `shaders/prism_scan.wgsl` (with `shaders/common/prism.wgsl`); the CPU twin is
+//! `scan/cpu.rs` ([`crate::scan::scan_slab`]).
 //!
 //! ## Why compute, not the render pipeline
 //! 002 Sec. 4.2.4 rasterizes each prism's slice polygon with the depth test keeping the
@@ -33,8 +35,8 @@ pub const WORKGROUP: u32 = 64;
 pub fn scan_shader() -> ShaderSource {
     ShaderSource::new("prism_scan")
         .constant_u32("WORKGROUP", WORKGROUP)
-        .piece(include_str!("../../../shaders/common/prism.wgsl"))
-        .piece(include_str!("../../../shaders/prism_scan.wgsl"))
+        .piece(isokit_shaders::common::PRISM)
+        .piece(isokit_shaders::PRISM_SCAN)
 }
 
 /// `Params` in `prism_scan.wgsl`.
@@ -44,6 +46,11 @@ pub(crate) struct Params {
     slab: [i32; 4],
     counts: [u32; 4],
 }
+
+isokit_gpu::wgsl_layout!(Params {
+    slab: "vec4<i32>",
+    counts: "vec4<u32>",
+});
 
 /// A GPU ready to scan prisms: the device and the compiled kernel.
 #[derive(Debug)]
@@ -157,11 +164,7 @@ mod tests {
         let src = scan_shader();
         src.validate().unwrap();
         // The common piece on its own, too (it is shared with future kernels).
-        isokit_gpu::validate_wgsl(
-            "common/prism",
-            include_str!("../../../shaders/common/prism.wgsl"),
-        )
-        .unwrap();
+        isokit_gpu::validate_wgsl("common/prism", isokit_shaders::common::PRISM).unwrap();
     }
 
     #[test]
@@ -175,5 +178,18 @@ mod tests {
             isokit_gpu::wgsl_struct_size(src.text(), "Params"),
             Some(size_of::<Params>() as u32)
         );
+    }
+
+    #[test]
+    fn gpu_structs_match_their_rust_twins_member_by_member() {
+        let src = scan_shader();
+        isokit_gpu::testing::assert_wgsl_layout::<GpuPrism>(&src);
+        isokit_gpu::testing::assert_wgsl_layout::<Params>(&src);
+        // Every file of the scan conversion is part of the program validated above.
+        for (path, piece) in isokit_shaders::ALL {
+            if path.contains("prism") {
+                assert!(src.text().contains(piece), "{path}");
+            }
+        }
     }
 }

@@ -1,28 +1,7 @@
-//! Quadric splatting, the CPU twin (002 Ch. 7): quadrics into the shared [`GBuffer`], a
-//! shadow map from a spot light with 64-sample soft shadows and the 8-sample penumbra test
-//! (Sec. 7.3.2), Sobel silhouettes and creases with the 4-fetch trick (Sec. 7.3.3), and
-//! deferred shading with a colour per object.
-//!
-//! ## Pipeline
-//! 1. **Set-up** ([`setups`]): per quadric, in f64 on the host, its tight screen box and the
-//!    f32 data of [`QuadricSetup`] (see [`crate::quadric`]). Quadrics wholly behind the
-//!    near plane or off screen are culled.
-//! 2. **Splat** ([`splat`]): every pixel whose centre lies in a quadric's box runs
-//!    [`crate::quadric::intersect`] (a *fragment*); the nearest hit along the ray wins (ties:
-//!    the lower index, as a GPU depth test `Less` over instances drawn in order). The CPU
-//!    bins boxes into 16x16 tiles and runs tiles in parallel. The winner's G-buffer sample
-//!    (position, normal, distance `Z`, principal curvatures, id) and object index are
-//!    stored: [`SplatFrame`].
-//! 3. **Shadow map** ([`ShadowMap::render`]): the same splat from the spot light's view,
-//!    keeping the depth along the light's axis.
-//! 4. **Shading** ([`shade_splat`]): per pixel, the ray caster's deferred modes with the
-//!    object's colour ([`crate::shade::shade_pixel_color`]), darkened toward the ambient
-//!    term by the filtered shadow ([`shadow_factor`]), and blended with the outline colour by
-//!    [`outline_weight`].
-//!
-//! The per-pixel functions ([`fragment`], [`shadow_factor`], [`outline_weight`]) are plain
-//! f32 functions over flat data, mirrored by `shaders/splat.wgsl` and
-//! `shaders/splat_shade.wgsl`.
+//! The CPU twin of `shaders/splat.wgsl` ([`fragment`], [`resolve`], [`ShadowMap::render`],
+//! with [`crate::quadric::intersect`]) and of `shaders/splat_shade.wgsl` ([`shade_splat`],
+//! [`shadow_factor`], [`outline_weight`] and their helpers), with the scene, options and
+//! frame types both twins share. Documented in [`crate::splat`], which re-exports it all.
 
 use glam::{DVec3, Vec3};
 use isokit_field::curvature::curvature;
@@ -158,7 +137,7 @@ pub struct SplatFrame {
     pub stats: SplatStats,
 }
 
-pub use crate::render::camera_uniforms;
+pub use crate::camera_uniforms;
 
 /// The view of `u` with the near plane of `opts` for `scene`.
 pub fn view_for(
@@ -662,6 +641,19 @@ pub struct ShadowParams {
     /// Depth bias, relative to the depth.
     pub bias: f32,
 }
+
+// The WGSL twin, member by member (`ShadowParams` in `shaders/splat_shade.wgsl`; checked by
+// the GPU host code's unit tests).
+isokit_gpu::wgsl_layout!(ShadowParams {
+    eye: "vec3<f32>",
+    resolution: "u32",
+    right: "vec3<f32>",
+    half_height: "f32",
+    up: "vec3<f32>",
+    softness: "f32",
+    forward: "vec3<f32>",
+    bias: "f32",
+});
 
 /// A shadow map: depth along the light's axis of the nearest solid per texel (+∞ where
 /// none), rendered by the splatter from the spot light's view.

@@ -1,20 +1,24 @@
-//! The host side of GPU deferred shading (the twin of [`crate::shade()`]).
+//! The host code of `shaders/shade.wgsl` (with `shaders/common/shade_structs.wgsl` and
+//! `shaders/common/shade_functions.wgsl`): GPU deferred shading, the twin of
+//! [`crate::shade()`], whose CPU side is `shade/cpu.rs`.
 //!
-//! The `flow` mode adds a pass before the chunked shading: the host projects the
-//! direction field ([`crate::shade::flow_field`], the CPU twin's own function, so both
+//! The `flow` mode adds a pass before the chunked shading (`flow/gpu.rs`): the host projects
+//! the direction field ([`crate::shade::flow_field`], the CPU twin's own function, so both
 //! twins start from the same bits), uploads it whole (8 bytes of direction and 4 of key
 //! per pixel; refused when it exceeds the largest storage binding), and `flow.wgsl`
 //! writes the LIC value of every pixel into a buffer the shading pass reads.
 
-use super::{GpuPixel, GpuRenderer, check_fits, mode_code, scoped};
-use crate::gpu::dispatch_grid;
+use crate::flow::gpu::flow_pass;
+use crate::gpu::{GpuRenderer, check_fits, constants, dispatch_grid, scoped};
 use crate::kernel::Uniforms;
-use crate::shade::{check_flow, flow_field};
+use crate::raycast::gpu::GpuPixel;
 use crate::{GBuffer, Image, Light, RenderError, Shading, ShadingMode};
 use bytemuck::{Pod, Zeroable};
-use isokit_gpu::wgpu;
+use isokit_gpu::{ShaderSource, wgpu};
+use isokit_shaders::common::{SHADE_FUNCTIONS, SHADE_STRUCTS};
+use isokit_shaders::{RAYCAST_COMMON, SHADE};
 
-/// `ShadeParams` in `shade.wgsl`.
+/// `ShadeParams` in `common/shade_structs.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub(crate) struct ShadeParams {
@@ -31,8 +35,27 @@ pub(crate) struct ShadeParams {
     pub(crate) pixel_base: u32,
     pub(crate) count: u32,
     pub(crate) stride: u32,
-    pub(crate) pad: [u32; 2],
+    pub(crate) pad0: u32,
+    pub(crate) pad1: u32,
 }
+
+isokit_gpu::wgsl_layout!(ShadeParams {
+    color: "vec3<f32>",
+    mode: "u32",
+    background: "vec4<f32>",
+    ambient: "f32",
+    specular: "f32",
+    shininess: "f32",
+    curvature_scale: "f32",
+    contour_pixels: "f32",
+    lights: "u32",
+    pixel_angle: "f32",
+    pixel_base: "u32",
+    count: "u32",
+    stride: "u32",
+    pad0: "u32",
+    pad1: "u32",
+});
 
 impl ShadeParams {
     /// The parameters of one dispatch of a shading pass: `sh` with `lights` lights for the
@@ -59,59 +82,13 @@ impl ShadeParams {
             pixel_base: base as u32,
             count: len as u32,
             stride,
-            pad: [0; 2],
+            pad0: 0,
+            pad1: 0,
         }
     }
 }
 
-/// `FlowParams` in `flow.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub(crate) struct FlowParams {
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) count: u32,
-    pub(crate) stride: u32,
-}
-
-/// Runs the `flow` mode's LIC pass over the whole (single-view) G-buffer; returns the
-/// buffer of one f32 per pixel that the shading pass binds.
-fn flow_pass(
-    r: &GpuRenderer,
-    gbuffer: &GBuffer,
-    u: &Uniforms,
-    sh: &Shading,
-) -> Result<wgpu::Buffer, RenderError> {
-    check_flow(u)?;
-    let gpu = &r.gpu;
-    let total = u.width as usize * u.height as usize;
-    check_fits(gpu, "the flow direction field", 8 * total as u64)?;
-    let field = flow_field(gbuffer, u, sh);
-    let dirs: Vec<[f32; 2]> = field.iter().map(|f| f.dir).collect();
-    let keys: Vec<u32> = field.iter().map(|f| f.key).collect();
-    drop(field);
-    let (flow_groups, stride) = dispatch_grid(gpu, total);
-    let params = FlowParams {
-        width: u.width,
-        height: u.height,
-        count: total as u32,
-        stride,
-    };
-    let storage = wgpu::BufferUsages::STORAGE;
-    // The parameters and the field are only read through the bind group.
-    let (_pbuf, _dbuf, _kbuf, lic, bind) = scoped(gpu, "allocating the flow buffers", || {
-        let pbuf = gpu.upload("flow params", &[params], wgpu::BufferUsages::UNIFORM);
-        let dbuf = gpu.upload("flow directions", &dirs, storage);
-        let kbuf = gpu.upload("flow keys", &keys, storage);
-        let lic = gpu.buffer("flow lic", 4 * total as u64, storage);
-        let bind = gpu.bind_buffers("flow", &r.flow, &[&pbuf, &dbuf, &kbuf, &lic]);
-        (pbuf, dbuf, kbuf, lic, bind)
-    })?;
-    gpu.dispatch("flow", &r.flow, &bind, flow_groups)?;
-    Ok(lic)
-}
-
-/// `Light` in `shade.wgsl`.
+/// `Light` in `common/shade_structs.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub(crate) struct GpuLight {
@@ -121,8 +98,15 @@ pub(crate) struct GpuLight {
     pub(crate) pad: f32,
 }
 
+isokit_gpu::wgsl_layout!(GpuLight as "Light" {
+    dir: "vec3<f32>",
+    point: "u32",
+    color: "vec3<f32>",
+    pad: "f32",
+});
+
 impl GpuLight {
-    /// What `light_at` in `shade.rs` computes that does not depend on the pixel, computed
+    /// What `light_at` in `shade/cpu.rs` computes that does not depend on the pixel, computed
     /// here the same way: a directional light's direction toward the light and every
     /// light's colour times intensity.
     pub(crate) fn new(l: &Light) -> Self {
@@ -212,4 +196,73 @@ pub(crate) fn shade(
         height: u.height,
         pixels,
     })
+}
+
+/// The shading kernel's WGSL, assembled: constants from Rust (with `MODE_*`, the shading
+/// modes in the order of [`ShadingMode::ALL`]), `raycast_common.wgsl`,
+/// `common/shade_structs.wgsl`, `common/shade_functions.wgsl`, `shade.wgsl` (entry point
+/// `shade`).
+pub fn shade_shader() -> ShaderSource {
+    let mut src = constants("shade");
+    for (name, mode) in ShadingMode::ALL {
+        src = src.constant_u32(
+            &format!("MODE_{}", name.to_ascii_uppercase()),
+            mode_code(mode),
+        );
+    }
+    src.constant_f32("FLOW_CONTRAST", crate::shade::FLOW_CONTRAST)
+        .piece(RAYCAST_COMMON)
+        .piece(SHADE_STRUCTS)
+        .piece(SHADE_FUNCTIONS)
+        .piece(SHADE)
+}
+
+/// The code of a shading mode in the kernel: its index in [`ShadingMode::ALL`].
+pub(crate) fn mode_code(mode: ShadingMode) -> u32 {
+    ShadingMode::ALL
+        .iter()
+        .position(|(_, m)| *m == mode)
+        .unwrap_or(0) as u32
+}
+
+impl GpuRenderer {
+    /// Shades a G-buffer traced with uniforms `u` into an image on the GPU: the GPU twin of
+    /// [`crate::shade()`] (any G-buffer, from either twin).
+    pub fn shade(
+        &self,
+        gbuffer: &GBuffer,
+        u: &Uniforms,
+        sh: &Shading,
+    ) -> Result<Image, RenderError> {
+        shade(self, gbuffer, u, sh)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use isokit_shaders::common::SHADE_FUNCTIONS;
+
+    #[test]
+    fn shade_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<ShadeParams>();
+    }
+
+    #[test]
+    fn lights_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<GpuLight>();
+    }
+
+    #[test]
+    fn shading_mode_codes_follow_the_list() {
+        let src = shade_shader();
+        assert!(src.text().contains("const MODE_PHONG: u32 = 0u;"));
+        assert!(src.text().contains("const MODE_TEXTURE: u32 = 12u;"));
+        assert!(src.text().contains("const MODE_FLOW: u32 = 13u;"));
+        // Every mode has a case in the kernel (`shade_pixel`, in the shared piece).
+        for (name, _) in ShadingMode::ALL {
+            let case = format!("case MODE_{}:", name.to_ascii_uppercase());
+            assert!(SHADE_FUNCTIONS.contains(&case), "{case}");
+        }
+    }
 }

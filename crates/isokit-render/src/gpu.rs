@@ -1,6 +1,16 @@
 //! The GPU twin of the ray caster and of deferred shading (wgpu compute, WGSL in
-//! `shaders/raycast_common.wgsl`, `shaders/raycast.wgsl`, `shaders/shade.wgsl` and, for
-//! the `flow` mode's LIC pass, `shaders/flow.wgsl`).
+//! `shaders/raycast_common.wgsl`, `shaders/common/curvature.wgsl`, `shaders/raycast.wgsl`,
+//! `shaders/common/shade_structs.wgsl`, `shaders/common/shade_functions.wgsl`,
+//! `shaders/shade.wgsl` and, for the `flow` mode's LIC pass, `shaders/flow.wgsl`), and of
+//! quadric splatting ([`splat`]).
+//!
+//! The host code of each kernel sits beside its CPU twin, named after its shader
+//! (`crates/isokit-render/src/`): `raycast/gpu.rs` (`raycast.wgsl`; CPU twin
+//! `raycast/cpu.rs`, public as [`crate::kernel`]), `shade/gpu.rs` (`shade.wgsl`;
+//! `shade/cpu.rs`), `flow/gpu.rs` (`flow.wgsl`; `flow/cpu.rs`), `splat/gpu.rs`
+//! (`splat.wgsl`, `splat_shade.wgsl`; `splat/cpu.rs`). This module holds what they share:
+//! the device and its pipelines ([`GpuRenderer`]), the constants generated from Rust, the
+//! backend choice ([`select_backend`]).
 //!
 //! [`GpuRenderer`] renders the same [`GBuffer`] as [`crate::render`] and shades it as
 //! [`crate::shade()`] does: the kernels mirror [`crate::kernel`] and
@@ -23,7 +33,7 @@
 //!   `(P.xyz, Z), (N.xyz, A), (K1, K2, id, samples), (dir1.xyz, 0)`.
 //!
 //! ## The passes
-//! The host runs the same loop as the CPU twin (`render.rs`): the active bricks are
+//! The host runs the same loop as the CPU twin (`raycast/render.rs`): the active bricks are
 //! prefetched nearest first into the pool; a pass traces every pending ray; a ray that
 //! reaches an active brick that is not resident asks for it (atomic add), saves where to
 //! resume and appends itself to the next pass's list; the host reads back the counters,
@@ -46,23 +56,23 @@
 //! `asin` and `sin`, which GPUs compute with looser error bounds).
 //!
 //! [`curvature_with`]: isokit_field::curvature::curvature_with
+//! [`GBuffer`]: crate::GBuffer
+//! [`Uniforms`]: crate::Uniforms
+//! [`Volume::trace_ranges`]: crate::Volume::trace_ranges
 
-mod shade;
-pub mod splat;
-mod trace;
+pub use crate::flow::gpu::flow_shader;
+pub use crate::raycast::gpu::raycast_shader;
+pub use crate::shade::gpu::shade_shader;
+/// The GPU twin of quadric splatting (the same module as [`crate::splat::gpu`]).
+pub use crate::splat::gpu as splat;
 
 use crate::kernel::{
     COMBINE_DIFFERENCE, COMBINE_INTERSECTION, COMBINE_MORPH, COMBINE_NONE, COMBINE_UNION,
-    FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_SECANT, FLAG_SKIP_EMPTY, GSample, ID_CAP,
-    ID_MISS, ID_SURFACE, ID_SURFACE_B, RANGE_MARGIN, Uniforms,
+    FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_SECANT, FLAG_SKIP_EMPTY, ID_CAP, ID_MISS,
+    ID_SURFACE, ID_SURFACE_B, RANGE_MARGIN,
 };
-use crate::{
-    BrickCache, CacheStats, DEFAULT_CACHE_BYTES, Frame, GBuffer, Image, MultiView, NOT_RESIDENT,
-    RenderError, RenderOptions, Shading, ShadingMode, Volume,
-};
-use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
-use isokit_field::Camera;
+use crate::raycast::gpu::{GpuPixel, Resident};
+use crate::{DEFAULT_CACHE_BYTES, NOT_RESIDENT, RenderError};
 use isokit_field::curvature::DEFAULT_MIN_GRADIENT;
 pub use isokit_gpu::{BackendChoice, Gpu, GpuError, GpuOptions, testing};
 use isokit_gpu::{ShaderSource, wgpu};
@@ -73,11 +83,6 @@ pub const WORKGROUP: u32 = 64;
 /// Rays traced per dispatch unless [`GpuRenderer::set_max_rays_per_dispatch`] says otherwise
 /// (and the device's buffer limits allow): 2²⁰, 64 MiB of G-buffer.
 pub const DEFAULT_MAX_RAYS_PER_DISPATCH: usize = 1 << 20;
-
-const RAYCAST_COMMON: &str = include_str!("../../../../shaders/raycast_common.wgsl");
-const RAYCAST: &str = include_str!("../../../../shaders/raycast.wgsl");
-const SHADE: &str = include_str!("../../../../shaders/shade.wgsl");
-const FLOW: &str = include_str!("../../../../shaders/flow.wgsl");
 
 /// Runs `f` (buffer allocations, bind groups) under out-of-memory and validation error
 /// scopes, so that what wgpu reports comes back as an error instead of reaching its default
@@ -118,8 +123,8 @@ pub(crate) fn check_fits(gpu: &Gpu, what: &str, bytes: u64) -> Result<(), GpuErr
     Ok(())
 }
 
-/// The constants both kernels share, generated from Rust (the single source of truth).
-fn constants(label: &str) -> ShaderSource {
+/// The constants the ray caster's and the splatter's kernels share, generated from Rust (the single source of truth).
+pub(crate) fn constants(label: &str) -> ShaderSource {
     ShaderSource::new(label)
         .constant_u32("WORKGROUP", WORKGROUP)
         .constant_u32("ID_MISS", ID_MISS)
@@ -143,112 +148,8 @@ fn constants(label: &str) -> ShaderSource {
         .constant_f32("F32_MAX", f32::MAX)
 }
 
-/// The trace kernel's WGSL, assembled: constants from Rust, `raycast_common.wgsl`,
-/// `raycast.wgsl` (entry point `trace`).
-pub fn raycast_shader() -> ShaderSource {
-    constants("raycast").piece(RAYCAST_COMMON).piece(RAYCAST)
-}
-
-/// The shading kernel's WGSL, assembled: constants from Rust (with `MODE_*`, the shading
-/// modes in the order of [`ShadingMode::ALL`]), `raycast_common.wgsl`, `shade.wgsl` (entry
-/// point `shade`).
-pub fn shade_shader() -> ShaderSource {
-    let mut src = constants("shade");
-    for (name, mode) in ShadingMode::ALL {
-        src = src.constant_u32(
-            &format!("MODE_{}", name.to_ascii_uppercase()),
-            mode_code(mode),
-        );
-    }
-    src.constant_f32("FLOW_CONTRAST", crate::shade::FLOW_CONTRAST)
-        .piece(RAYCAST_COMMON)
-        .piece(SHADE)
-}
-
-/// The `flow` shading mode's LIC kernel, assembled: `WORKGROUP`, `ID_MISS`, `FLOW_STEPS`
-/// from Rust, `flow.wgsl` (entry point `flow`).
-pub fn flow_shader() -> ShaderSource {
-    ShaderSource::new("flow")
-        .constant_u32("WORKGROUP", WORKGROUP)
-        .constant_u32("ID_MISS", ID_MISS)
-        .constant_u32("FLOW_STEPS", crate::shade::FLOW_STEPS)
-        .piece(FLOW)
-}
-
-/// The code of a shading mode in the kernel: its index in [`ShadingMode::ALL`].
-fn mode_code(mode: ShadingMode) -> u32 {
-    ShadingMode::ALL
-        .iter()
-        .position(|(_, m)| *m == mode)
-        .unwrap_or(0) as u32
-}
-
-/// One G-buffer pixel as the kernels store it (`GPixel` in `raycast_common.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub(crate) struct GpuPixel {
-    position: [f32; 3],
-    depth: f32,
-    normal: [f32; 3],
-    hit: f32,
-    k1: f32,
-    k2: f32,
-    id: u32,
-    samples: u32,
-    dir1: [f32; 3],
-    pad: f32,
-}
-
-impl GpuPixel {
-    pub(crate) fn from_sample(s: &GSample) -> Self {
-        Self {
-            position: s.position.to_array(),
-            depth: s.depth,
-            normal: s.normal.to_array(),
-            hit: if s.is_hit() { 1.0 } else { 0.0 },
-            k1: s.k1,
-            k2: s.k2,
-            id: s.id,
-            samples: 0,
-            dir1: s.dir1.to_array(),
-            pad: 0.0,
-        }
-    }
-
-    pub(crate) fn sample(&self) -> GSample {
-        GSample {
-            position: Vec3::from_array(self.position),
-            depth: self.depth,
-            normal: Vec3::from_array(self.normal),
-            k1: self.k1,
-            k2: self.k2,
-            dir1: Vec3::from_array(self.dir1),
-            id: self.id,
-        }
-    }
-
-    pub(crate) fn samples(&self) -> u32 {
-        self.samples
-    }
-}
-
-/// The brick cache of the bound volume, on the GPU: the bookkeeping on the host (slots,
-/// reference index, LRU), the samples only in the GPU's pool.
-#[derive(Debug)]
-pub(crate) struct Resident {
-    pub(crate) volume_id: u64,
-    pub(crate) cache: BrickCache,
-    pub(crate) pool: wgpu::Buffer,
-    pub(crate) reference: wgpu::Buffer,
-    pub(crate) block_range: wgpu::Buffer,
-    pub(crate) brick_samples: usize,
-    /// True while `block_range` holds a downsampled assignment's ranges instead of the
-    /// volume's own (restored by the next frame that does not use them).
-    pub(crate) ranges_modified: bool,
-}
-
 /// The GPU ray caster and shader: a device, the two compiled kernels, and the brick cache
-/// of the last volume rendered (kept across frames, as the CPU's [`BrickCache`]).
+/// of the last volume rendered (kept across frames, as the CPU's [`crate::BrickCache`]).
 ///
 /// ```no_run
 /// use isokit_field::{Grid, sample_into, primitives::Sphere, Camera, Projection};
@@ -268,18 +169,21 @@ pub(crate) struct Resident {
 /// ```
 #[derive(Debug)]
 pub struct GpuRenderer {
-    gpu: Gpu,
-    trace: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
-    /// The `flow` mode's LIC pass.
-    flow: wgpu::ComputePipeline,
+    pub(crate) gpu: Gpu,
+    /// `raycast.wgsl` (host code in `raycast/gpu.rs`).
+    pub(crate) trace: wgpu::ComputePipeline,
+    /// `shade.wgsl` (host code in `shade/gpu.rs`).
+    pub(crate) shade: wgpu::ComputePipeline,
+    /// The `flow` mode's LIC pass, `flow.wgsl` (host code in `flow/gpu.rs`).
+    pub(crate) flow: wgpu::ComputePipeline,
     /// Brick slots asked for (the pool is bounded by the device's limits, too).
-    cache_bricks: Option<usize>,
-    cache_bytes: usize,
-    max_rays: usize,
-    resident: Option<Resident>,
-    /// The splatter's pipelines, compiled on first use.
-    splat: std::sync::OnceLock<splat::SplatPipelines>,
+    pub(crate) cache_bricks: Option<usize>,
+    pub(crate) cache_bytes: usize,
+    pub(crate) max_rays: usize,
+    pub(crate) resident: Option<Resident>,
+    /// The splatter's pipelines (`splat.wgsl`, `splat_shade.wgsl`; host code in
+    /// `splat/gpu.rs`), compiled on first use.
+    pub(crate) splat: std::sync::OnceLock<splat::SplatPipelines>,
 }
 
 impl GpuRenderer {
@@ -336,29 +240,6 @@ impl GpuRenderer {
         self.gpu.adapter_info().device_type == wgpu::DeviceType::Cpu
     }
 
-    /// Limits the brick cache to `bricks` slots (at least 1); drops the bricks held. A cache
-    /// smaller than the active bricks renders the same image in several passes.
-    pub fn set_cache_bricks(&mut self, bricks: usize) -> Result<(), RenderError> {
-        if bricks == 0 {
-            return Err(RenderError::bad(
-                "cache capacity",
-                bricks,
-                "must hold at least one brick",
-            ));
-        }
-        self.cache_bricks = Some(bricks);
-        self.resident = None;
-        Ok(())
-    }
-
-    /// Limits the brick cache to `bytes` of samples (at least one brick); drops the bricks
-    /// held.
-    pub fn set_cache_bytes(&mut self, bytes: usize) {
-        self.cache_bricks = None;
-        self.cache_bytes = bytes;
-        self.resident = None;
-    }
-
     /// Rays traced per dispatch at most (default [`DEFAULT_MAX_RAYS_PER_DISPATCH`], at least
     /// 1): larger images are traced in chunks, each with its own passes (which
     /// [`crate::RenderStats::passes`] adds up). Bounds the G-buffer and ray-state buffers (104
@@ -373,140 +254,6 @@ impl GpuRenderer {
         let by_limit = (self.gpu.max_storage_bytes() / size_of::<GpuPixel>() as u64) as usize;
         self.max_rays.min(by_limit).max(1)
     }
-
-    /// Counters of the brick cache of the volume last rendered (`None` before the first
-    /// frame).
-    pub fn cache_stats(&self) -> Option<CacheStats> {
-        self.resident.as_ref().map(|r| r.cache.stats())
-    }
-
-    /// Slots of the brick cache of the volume last rendered (`None` before the first frame).
-    pub fn cache_capacity(&self) -> Option<usize> {
-        self.resident.as_ref().map(|r| r.cache.capacity())
-    }
-
-    /// Ray casts `volume` from `camera` into a G-buffer: the GPU twin of [`crate::render`].
-    pub fn render(
-        &mut self,
-        volume: &Volume,
-        camera: &Camera,
-        opts: &RenderOptions,
-    ) -> Result<Frame, RenderError> {
-        let u = crate::uniforms(volume, camera, opts)?;
-        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
-    }
-
-    /// The geometric pass for a multi-view display: the GPU twin of
-    /// [`crate::render_multiview`].
-    pub fn render_multiview(
-        &mut self,
-        volume: &Volume,
-        camera: &Camera,
-        opts: &RenderOptions,
-        mv: &MultiView,
-    ) -> Result<Frame, RenderError> {
-        let u = mv.uniforms(volume, camera, opts, None)?;
-        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
-    }
-
-    /// One view of a multi-view display rendered alone: the GPU twin of
-    /// [`crate::render_view`].
-    pub fn render_view(
-        &mut self,
-        volume: &Volume,
-        camera: &Camera,
-        opts: &RenderOptions,
-        mv: &MultiView,
-        view: u32,
-    ) -> Result<Frame, RenderError> {
-        let u = mv.uniforms(volume, camera, opts, Some(view))?;
-        trace::trace_frame(self, volume, camera, u, opts.cache_policy)
-    }
-
-    /// Shades a G-buffer traced with uniforms `u` into an image on the GPU: the GPU twin of
-    /// [`crate::shade()`] (any G-buffer, from either twin).
-    pub fn shade(
-        &self,
-        gbuffer: &GBuffer,
-        u: &Uniforms,
-        sh: &Shading,
-    ) -> Result<Image, RenderError> {
-        shade::shade(self, gbuffer, u, sh)
-    }
-
-    /// Makes the brick cache for `volume` (and allocates its buffers) when the volume
-    /// changed.
-    fn bind(&mut self, volume: &Volume) -> Result<(), RenderError> {
-        if self
-            .resident
-            .as_ref()
-            .is_none_or(|r| r.volume_id != volume.id())
-        {
-            self.resident = None;
-            let brick_samples = volume.slot_samples();
-            let brick_bytes = (brick_samples * size_of::<f32>()) as u64;
-            let limit = self.gpu.max_storage_bytes();
-            let fit = (limit / brick_bytes) as usize;
-            if fit == 0 {
-                return Err(GpuError::TooLarge(format!(
-                    "a brick of {brick_bytes} bytes exceeds the device's largest storage buffer ({limit} bytes); use smaller bricks"
-                ))
-                .into());
-            }
-            let asked = self
-                .cache_bricks
-                .unwrap_or(self.cache_bytes / brick_bytes as usize)
-                .max(1);
-            let capacity = asked.min(fit).min(volume.brick_count());
-            let cache = BrickCache::bookkeeping(volume, capacity)?;
-            let ranges = gpu_ranges(volume.block_ranges());
-            check_fits(
-                &self.gpu,
-                "the block ranges",
-                std::mem::size_of_val(ranges.as_slice()) as u64,
-            )?;
-            // The counters of a pass: one, then two per brick.
-            check_fits(
-                &self.gpu,
-                "the brick counters",
-                4 * (1 + 2 * volume.brick_count() as u64),
-            )?;
-            let storage = wgpu::BufferUsages::STORAGE;
-            let gpu = &self.gpu;
-            let (pool, reference, block_range) = scoped(gpu, "allocating the brick cache", || {
-                (
-                    gpu.buffer("brick pool", capacity as u64 * brick_bytes, storage),
-                    gpu.upload("brick reference", cache.reference(), storage),
-                    gpu.upload("block ranges", &ranges, storage),
-                )
-            })?;
-            self.resident = Some(Resident {
-                volume_id: volume.id(),
-                cache,
-                pool,
-                reference,
-                block_range,
-                brick_samples,
-                ranges_modified: false,
-            });
-        }
-        Ok(())
-    }
-}
-
-/// Block ranges as the kernel reads them: `[f32::MAX, −f32::MAX]` for a block without
-/// finite samples.
-pub(crate) fn gpu_ranges(ranges: &[[f32; 2]]) -> Vec<[f32; 2]> {
-    ranges
-        .iter()
-        .map(|r| {
-            if r[0] <= r[1] {
-                *r
-            } else {
-                [f32::MAX, -f32::MAX]
-            }
-        })
-        .collect()
 }
 
 /// What `--backend` (or `ISOKIT_BACKEND`) resolved to.
@@ -562,15 +309,63 @@ pub fn select_backend(choice: BackendChoice) -> Result<Selected, RenderError> {
     }
 }
 
+/// Every program the renderer builds, in every variant, for the tests.
+#[cfg(test)]
+pub(crate) fn every_shader() -> Vec<ShaderSource> {
+    vec![
+        raycast_shader(),
+        shade_shader(),
+        flow_shader(),
+        splat::splat_shader(true),
+        splat::splat_shader(false),
+        splat::splat_shade_shader(),
+    ]
+}
+
+/// Checks `T` member by member against its WGSL twin in every program that declares it
+/// (and that at least one does).
+#[cfg(test)]
+#[track_caller]
+pub(crate) fn check_layout_everywhere<T: isokit_gpu::WgslStruct>() {
+    let mut found = 0;
+    for src in every_shader() {
+        if isokit_gpu::wgsl_struct_size(src.text(), T::WGSL_NAME).is_some() {
+            isokit_gpu::testing::assert_wgsl_layout::<T>(&src);
+            found += 1;
+        }
+    }
+    assert!(found > 0, "no program declares struct {}", T::WGSL_NAME);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kernel::Uniforms;
 
     #[test]
     fn every_shader_validates_with_naga() {
         raycast_shader().validate().unwrap();
         shade_shader().validate().unwrap();
         flow_shader().validate().unwrap();
+        for src in every_shader() {
+            src.validate().unwrap();
+        }
+    }
+
+    #[test]
+    fn every_file_of_the_renderer_is_in_a_validated_program() {
+        // Every WGSL file except the prism scan conversion's (validated by isokit-prism) is
+        // a piece of at least one program validated above.
+        let programs = every_shader();
+        for (path, src) in isokit_shaders::ALL {
+            if path.contains("prism") {
+                continue;
+            }
+            assert!(
+                programs.iter().any(|p| p.text().contains(src)),
+                "{path} is part of no program"
+            );
+        }
     }
 
     #[test]
@@ -582,49 +377,26 @@ mod tests {
         assert!(t.text().contains("morph_t: f32"));
         assert_eq!(size(&t, "GPixel"), Some(size_of::<GpuPixel>() as u32));
         assert_eq!(size_of::<GpuPixel>(), 64);
-        assert_eq!(size(&t, "Params"), Some(size_of::<trace::Params>() as u32));
-        assert_eq!(size(&t, "RayState"), Some(trace::RAY_STATE_BYTES as u32));
+        assert_eq!(
+            size(&t, "Params"),
+            Some(size_of::<crate::raycast::gpu::Params>() as u32)
+        );
+        assert_eq!(
+            size(&t, "RayState"),
+            Some(crate::raycast::gpu::RAY_STATE_BYTES as u32)
+        );
         let s = shade_shader();
         assert_eq!(
             size(&s, "ShadeParams"),
-            Some(size_of::<shade::ShadeParams>() as u32)
+            Some(size_of::<crate::shade::gpu::ShadeParams>() as u32)
         );
-        assert_eq!(size(&s, "Light"), Some(size_of::<shade::GpuLight>() as u32));
+        assert_eq!(
+            size(&s, "Light"),
+            Some(size_of::<crate::shade::gpu::GpuLight>() as u32)
+        );
         assert_eq!(
             size(&flow_shader(), "FlowParams"),
-            Some(size_of::<shade::FlowParams>() as u32)
+            Some(size_of::<crate::flow::gpu::FlowParams>() as u32)
         );
-    }
-
-    #[test]
-    fn shading_mode_codes_follow_the_list() {
-        let src = shade_shader();
-        assert!(src.text().contains("const MODE_PHONG: u32 = 0u;"));
-        assert!(src.text().contains("const MODE_TEXTURE: u32 = 12u;"));
-        assert!(src.text().contains("const MODE_FLOW: u32 = 13u;"));
-        // Every mode has a case in the kernel.
-        for (name, _) in ShadingMode::ALL {
-            let case = format!("case MODE_{}:", name.to_ascii_uppercase());
-            assert!(SHADE.contains(&case), "{case}");
-        }
-    }
-
-    #[test]
-    fn pixels_round_trip() {
-        let s = GSample {
-            position: Vec3::new(1.0, 2.0, 3.0),
-            depth: 4.0,
-            normal: Vec3::Y,
-            k1: 0.5,
-            k2: -0.25,
-            dir1: Vec3::X,
-            id: ID_SURFACE,
-        };
-        assert_eq!(GpuPixel::from_sample(&s).sample(), s);
-        let px = GpuPixel::from_sample(&s);
-        let bytes: &[u8] = bytemuck::bytes_of(&px);
-        // (P.xyz, Z), (N.xyz, A), (K1, K2, id, samples), (dir1.xyz, 0).
-        let f = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().unwrap());
-        assert_eq!([f(3), f(7), f(8), f(9)], [4.0, 1.0, 0.5, -0.25]);
     }
 }
