@@ -7,18 +7,14 @@
 use anyhow::{Result, ensure};
 use isokit::field::{Field, rng::SplitMix64};
 use isokit::levelset::meshing::{MeshOptions, mesh_brick_grid};
-use isokit::levelset::scene::schema::{Node, SceneFile};
-use isokit::levelset::scene::{SampleOptions, Scene};
+use isokit::scene::{Node, SceneFile};
+use isokit::scene::{SampleOptions, Scene};
 use std::path::{Path, PathBuf};
 
 /// The part: a rounded plate with a boss blended on by a smooth union, drilled through the
 /// boss and at the four corners.
 fn part() -> Node {
-    let plate = Node::RoundedBox {
-        half: [1.2, 0.2, 0.8],
-        radius: 0.05,
-        center: [0.0; 3],
-    };
+    let plate = Node::rounded_box([1.2, 0.2, 0.8], 0.05, [0.0; 3]);
     let boss = Node::cylinder([0.0, 0.0, 0.0], [0.0, 0.7, 0.0], 0.4);
     let mut cuts = vec![
         Node::smooth_union(0.15, vec![plate, boss]),

@@ -13,7 +13,8 @@
 //! | [`kdtree`] | `isokit-kdtree` | exact signed distance to triangle meshes: kd-tree with overlapping siblings, pseudonormal and winding-number signs |
 //! | [`octree`] | `isokit-octree` | adaptively sampled fields in a hashed octree (and the linked octree it is measured against) |
 //! | [`points`] | `isokit-points` | point cloud → signed distance: normal estimation, partition of unity of linear fields, sparse solve, far-field blend |
-//! | [`levelset`] | `isokit-levelset` | CSG, morph, offset, level-set evolution and reinitialization, scene files evaluated lazily, watertight meshing |
+//! | [`levelset`] | `isokit-levelset` | CSG (with pruned evaluation), morph, offset, level-set evolution and reinitialization, watertight meshing |
+//! | [`scene`] | `isokit-scene` | the scene layer and pipeline: typed nodes, scene files (JSON/TOML, JSON Schema), sources from files or memory, lazy band sampling, meshing, one `Renderer` for CPU and GPU |
 //! | [`prism`] | `isokit-prism` | mesh → narrow-band signed distance by prism scan conversion, CPU (rayon) and GPU (wgpu compute), saddle-gap repair, dense or brick output |
 //! | [`render`] | `isokit-render` | isosurface ray casting (blocks and bricks, empty-space skipping, adaptive sampling, refinement, tricubic curvature), G-buffer, deferred shading |
 //!
@@ -86,6 +87,7 @@ pub use isokit_octree as octree;
 pub use isokit_points as points;
 pub use isokit_prism as prism;
 pub use isokit_render as render;
+pub use isokit_scene as scene;
 
 pub use isokit_field::{Aabb, BrickGrid, Field, Grid};
 

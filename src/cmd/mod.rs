@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod args;
 pub mod bench;
 pub mod convert;
 pub mod demo;
@@ -13,6 +14,7 @@ pub mod progress;
 pub mod query;
 pub mod render;
 pub mod sample;
+pub mod sample_options;
 pub mod scene;
 pub mod sdf;
 
@@ -68,9 +70,9 @@ pub fn padded_grid(
     Ok(isokit_field::Grid::covering(bounds, res, pad)?)
 }
 
-/// Fills `grid` one z-slice per parallel task, with a progress line labelled `label`:
-/// `slice(k, positions, values)` receives the f64 positions of slice `k` (x fastest) and
-/// writes the values; the per-slice results are combined with `merge`.
+/// Fills `grid` one z-slice per parallel task, reporting progress labelled `label` on
+/// stderr: `slice(k, positions, values)` receives the f64 positions of slice `k` (x fastest)
+/// and writes the values; the per-slice results are combined with `merge`.
 pub fn fill_slices<S: Send + Default>(
     grid: &mut isokit_field::Grid,
     label: &'static str,
@@ -80,9 +82,9 @@ pub fn fill_slices<S: Send + Default>(
     use rayon::prelude::*;
     let [nx, ny, _] = grid.dims();
     let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
-    let progress = progress::Progress::new(label, grid.len() as u64);
-    let out = grid
-        .data_mut()
+    let job = progress::job();
+    let progress = job.counter(label, grid.len() as u64);
+    grid.data_mut()
         .par_chunks_mut(nx * ny)
         .enumerate()
         .map(|(k, values)| {
@@ -92,13 +94,20 @@ pub fn fill_slices<S: Send + Default>(
             progress.advance(values.len() as u64);
             s
         })
-        .reduce(S::default, &merge);
-    progress.finish();
-    out
+        .reduce(S::default, &merge)
 }
 
-/// Clamps a band field to ±`w`: lazily sampled bricks hold exact values a little beyond the
-/// band, and the files read "exact within W, ±W beyond" everywhere.
-pub fn clamp_to_band(grid: &mut isokit_field::Grid, w: f32) {
-    grid.data_mut().iter_mut().for_each(|v| *v = v.clamp(-w, w));
+/// A volume file as a uniform grid (anisotropic volumes resampled, with a note).
+pub fn read_grid(path: &std::path::Path) -> anyhow::Result<isokit_field::Grid> {
+    let v = isokit_io::read_volume(path)?;
+    Ok(if v.is_uniform() {
+        v.into_grid()?
+    } else {
+        let h = v.spacing.min_element();
+        eprintln!(
+            "note: resampling the anisotropic volume (spacing {}) to a uniform spacing {h}",
+            v.spacing
+        );
+        v.resample_uniform(h)?
+    })
 }

@@ -2,16 +2,13 @@
 //! (ball-and-stick or space-filling, CPK colours), with soft shadows and outlines on
 //! request.
 
+use super::args::{Backend, open_renderer, shading_names};
 use super::check_output;
-use super::render::{Backend, backend_name, open_backend};
 use anyhow::{Context, Result, bail};
-use isokit_molecule::{
-    MoleculeOptions, MoleculeStyle, framing_camera, molecule_scene, read_molecule,
-};
-use isokit_render::splat::{
-    OutlineOptions, ShadowOptions, SplatOptions, SplatShading, shade_splat, splat,
-};
-use isokit_render::{Shading, ShadingMode, check_image_size};
+use isokit_molecule::{MoleculeOptions, MoleculeStyle, read_molecule};
+use isokit_render::check_image_size;
+use isokit_render::splat::ShadowOptions;
+use isokit_scene::MoleculeSettings;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -56,8 +53,8 @@ pub struct Args {
     /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
     #[arg(long)]
     pub gbuffer: Option<PathBuf>,
-    /// Shading mode of the ray caster's deferred shading (phong, tone, normal, curvature, …).
-    #[arg(long, default_value = "phong")]
+    /// Shading mode of the ray caster's deferred shading.
+    #[arg(long, default_value = "phong", value_parser = shading_names())]
     pub shading: String,
     /// Ball radius as a fraction of the van der Waals radius (ball-and-stick).
     #[arg(long, default_value_t = 0.25)]
@@ -83,7 +80,7 @@ pub fn run(a: Args) -> Result<()> {
         check_output(g, &[".exr"])?;
     }
     let (width, height) = check_image_size(a.width, a.height)?;
-    let mode: ShadingMode = a.shading.parse().map_err(anyhow::Error::msg)?;
+    let mode = super::args::shading_mode(&a.shading)?;
     // Refuse bad shadow knobs before the work (ShadowMap checks them again).
     if a.shadows {
         if !(16..=8192).contains(&a.shadow_map) {
@@ -96,100 +93,77 @@ pub fn run(a: Args) -> Result<()> {
     let t0 = Instant::now();
     let mol = read_molecule(&a.input)?;
     let read_seconds = t0.elapsed().as_secs_f64();
-    let opts = MoleculeOptions {
-        style: match a.style {
-            Style::Balls => MoleculeStyle::Balls,
-            Style::Spacefill => MoleculeStyle::Spacefill,
+    let settings = MoleculeSettings {
+        width,
+        height,
+        model: MoleculeOptions {
+            style: match a.style {
+                Style::Balls => MoleculeStyle::Balls,
+                Style::Spacefill => MoleculeStyle::Spacefill,
+            },
+            ball_scale: a.ball_scale,
+            bond_radius: a.bond_radius,
         },
-        ball_scale: a.ball_scale,
-        bond_radius: a.bond_radius,
-    };
-    let scene = molecule_scene(&mol, &opts).with_context(|| a.input.display().to_string())?;
-    let camera = framing_camera(&scene, width, height)?;
-    let shading = SplatShading {
-        shading: Shading {
-            mode,
-            background: [1.0, 1.0, 1.0, 1.0],
-            ..Shading::default()
-        },
+        mode,
         shadows: a.shadows.then_some(ShadowOptions {
             resolution: a.shadow_map,
             softness: a.softness,
             light: None,
         }),
-        outlines: a.outlines.then(OutlineOptions::default),
+        outlines: a.outlines,
+        camera: None,
     };
-    let gpu = open_backend(a.backend)?;
-    let (frame, (image, shade_stats)) = match &gpu {
-        Some(g) => {
-            let f = g.splat(&scene, &camera, &SplatOptions::default())?;
-            let s = g.shade_splat(&f, &scene, &shading)?;
-            (f, s)
-        }
-        None => {
-            let f = splat(&scene, &camera, &SplatOptions::default())?;
-            let s = shade_splat(&f, &scene, &shading)?;
-            (f, s)
-        }
-    };
+    let mut renderer = open_renderer(a.backend)?;
+    let mf = renderer
+        .render_molecule(&mol, &settings)
+        .with_context(|| a.input.display().to_string())?;
+    let (frame, image, st) = (&mf.frame, &mf.image, &mf.stats);
     // The G-buffer first: a failure there leaves the previous image in place.
     if let Some(g) = &a.gbuffer {
         frame.gbuffer.write_exr(g)?;
     }
     image.write_png(&a.output)?;
-    let st = &frame.stats;
-    let backend = backend_name(gpu.as_ref());
     eprintln!(
-        "{} ({}): {} atoms, {} bonds -> {} quadrics ({} on screen); {backend}: {}x{} {}{}{} image, {} pixels covered, {} fragments; read {:.2} s, set-up {:.3} s, splat {:.3} s, shadow map {:.3} s, shade {:.3} s -> {}{}",
+        "{} ({}): {} atoms, {} bonds -> {} quadrics ({} on screen); {}: {}x{} {}{}{} image, {} pixels covered, {} fragments; read {:.2} s, set-up {:.3} s, splat {:.3} s, shadow map {:.3} s, shade {:.3} s -> {}{}",
         a.input.display(),
         mol.name,
-        mol.atoms.len(),
-        mol.bonds.len(),
+        st.atoms,
+        st.bonds,
         st.quadrics,
         st.drawn,
+        st.device,
         width,
         height,
         mode.name(),
         if a.shadows { " + shadows" } else { "" },
         if a.outlines { " + outlines" } else { "" },
-        frame.gbuffer.hit_count(),
+        st.covered_pixels,
         st.fragments,
         read_seconds,
         st.setup_seconds,
         st.splat_seconds,
-        shade_stats.shadow_map_seconds,
-        shade_stats.shade_seconds,
+        st.shadow_map_seconds,
+        st.shade_seconds,
         a.output.display(),
         a.gbuffer
             .as_ref()
             .map_or(String::new(), |g| format!(", {}", g.display()))
     );
     if a.stats {
-        let j = serde_json::json!({
-            "molecule": mol.name,
-            "atoms": mol.atoms.len(),
-            "bonds": mol.bonds.len(),
-            "quadrics": st.quadrics,
-            "drawn": st.drawn,
-            "fragments": st.fragments,
-            "fragment_hits": st.hits,
-            "covered_pixels": frame.gbuffer.hit_count(),
-            "width": width,
-            "height": height,
-            "style": format!("{:?}", opts.style).to_lowercase(),
-            "shadows": a.shadows,
-            "outlines": a.outlines,
-            "shadow_samples": shade_stats.shadow_samples,
-            "penumbra_pixels": shade_stats.penumbra_pixels,
-            "read_seconds": read_seconds,
-            "setup_seconds": st.setup_seconds,
-            "splat_seconds": st.splat_seconds,
-            "shadow_map_seconds": shade_stats.shadow_map_seconds,
-            "shade_seconds": shade_stats.shade_seconds,
-            "backend": if gpu.is_some() { "gpu" } else { "cpu" },
-            "device": backend,
-            "output": a.output.display().to_string(),
-        });
+        let mut j = serde_json::to_value(st)?;
+        if let Some(o) = j.as_object_mut() {
+            o.insert("molecule".into(), mol.name.clone().into());
+            o.insert("width".into(), width.into());
+            o.insert("height".into(), height.into());
+            o.insert(
+                "style".into(),
+                format!("{:?}", settings.model.style).to_lowercase().into(),
+            );
+            o.insert("shadows".into(), a.shadows.into());
+            o.insert("outlines".into(), a.outlines.into());
+            o.insert("read_seconds".into(), read_seconds.into());
+            o.insert("output".into(), a.output.display().to_string().into());
+        }
         println!("{j}");
     }
     Ok(())

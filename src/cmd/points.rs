@@ -218,7 +218,7 @@ pub fn run(a: Args) -> Result<()> {
             grid = bricks.to_grid()?;
             // Kept bricks hold values beyond the band: clamp, so the file reads "field
             // within W, ±W beyond" everywhere, as the dense path with the same W would.
-            super::clamp_to_band(&mut grid, w);
+            isokit_scene::clamp_to_band(&mut grid, w);
             Some((w, fraction, kept, total))
         }
         None => {

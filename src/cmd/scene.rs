@@ -5,8 +5,7 @@ use super::check_output;
 use anyhow::{Result, bail};
 use glam::Vec3;
 use isokit_io::{Volume, write_mesh, write_volume};
-use isokit_levelset::meshing::{MeshOptions, mesh_brick_grid, mesh_grid};
-use isokit_levelset::scene::{SampleOptions, Scene};
+use isokit_scene::{MeshOptions, SampleOptions, Scene, band_to_grid, clamp_to_band, mesh_scene};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,7 +25,7 @@ pub struct Args {
     /// [default: `sampling.band`, else 4 voxels].
     #[arg(long)]
     pub band: Option<f32>,
-    /// Brick size, a power of two from 2 to 64 [default: `sampling.brick`, else 4].
+    /// Brick size, a power of two from 2 to 256 [default: `sampling.brick`, else 4].
     #[arg(long)]
     pub brick: Option<usize>,
     /// Evaluate every sample of the dense grid instead (the baseline lazy evaluation is
@@ -64,37 +63,28 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(b) = a.brick {
         opts.brick = b;
     }
-    let mesh_opts = MeshOptions::default();
     let t1 = Instant::now();
-    let (stats, triangles) = if a.dense {
-        let (grid, stats) = scene.sample_dense(&opts)?;
-        let tris = if to_mesh {
-            let mesh = mesh_grid(&grid, &mesh_opts)?;
-            write_mesh(&a.output, &mesh)?;
-            Some(mesh.triangles.len())
-        } else {
-            let mut grid = grid;
-            super::clamp_to_band(&mut grid, stats.band);
-            write_volume(&a.output, &Volume::from(grid))?;
-            None
+    let job = super::progress::job();
+    let (stats, triangles) = if to_mesh {
+        let mo = MeshOptions {
+            sampling: opts,
+            dense: a.dense,
         };
-        (stats, tris)
+        let (mesh, st) = mesh_scene(&scene, &mo, &job)?;
+        write_mesh(&a.output, &mesh)?;
+        (st.sampling, Some(st.triangles))
+    } else if a.dense {
+        let (mut grid, stats) = scene.sample_dense(&opts)?;
+        clamp_to_band(&mut grid, stats.band);
+        write_volume(&a.output, &Volume::from(grid))?;
+        (stats, None)
     } else {
-        let (grid, stats) = scene.sample(&opts)?;
-        let tris = if to_mesh {
-            let mesh = mesh_brick_grid(&grid, &mesh_opts)?;
-            write_mesh(&a.output, &mesh)?;
-            Some(mesh.triangles.len())
-        } else {
-            // Kept bricks hold exact values a little beyond the band: clamp them, so the
-            // file reads "exact within W, ±W beyond" everywhere.
-            let mut dense = grid.to_grid()?;
-            let w = stats.band;
-            super::clamp_to_band(&mut dense, w);
-            write_volume(&a.output, &Volume::from(dense))?;
-            None
-        };
-        (stats, tris)
+        // Kept bricks hold exact values a little beyond the band: clamped, so the file
+        // reads "exact within W, ±W beyond" everywhere.
+        let (bricks, stats) = scene.sample_job(&opts, &job)?;
+        let grid = band_to_grid(&bricks, stats.band)?;
+        write_volume(&a.output, &Volume::from(grid))?;
+        (stats, None)
     };
     let total = t1.elapsed().as_secs_f64();
     if triangles == Some(0) {

@@ -159,34 +159,20 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
     Ok(())
 }
 
-/// Opens the GPU the user asked for, or says why the CPU runs.
+/// Opens the GPU the user asked for (the one policy of `isokit_gpu::choose_backend`), or
+/// says why the CPU runs.
 fn choose_gpu(backend: Backend) -> Result<Option<PrismGpu>> {
-    let env = BackendChoice::from_env().map_err(anyhow::Error::from)?;
     let choice = match backend {
         Backend::Cpu => BackendChoice::Cpu,
         Backend::Gpu => BackendChoice::Gpu,
-        Backend::Auto => env,
+        Backend::Auto => BackendChoice::Auto,
     };
-    match choice {
-        BackendChoice::Cpu => Ok(None),
-        BackendChoice::Gpu => Ok(Some(
-            PrismGpu::open().context("--backend gpu (or ISOKIT_BACKEND=gpu)")?,
-        )),
-        BackendChoice::Auto => match PrismGpu::open() {
-            Ok(g) if g.gpu().adapter_info().device_type == isokit_gpu::wgpu::DeviceType::Cpu => {
-                eprintln!(
-                    "note: backend auto: {} is a software rasterizer; using the CPU twin (--backend gpu forces it)",
-                    g.gpu().describe()
-                );
-                Ok(None)
-            }
-            Ok(g) => Ok(Some(g)),
-            Err(e) => {
-                eprintln!("note: backend auto: no GPU ({e}); using the CPU");
-                Ok(None)
-            }
-        },
+    let chosen = isokit_gpu::choose_backend(choice, &Default::default())
+        .context("--backend gpu (or ISOKIT_BACKEND=gpu)")?;
+    if let Some(why) = &chosen.reason {
+        eprintln!("note: backend auto: {why}; scanning on the CPU twin (same result)");
     }
+    Ok(chosen.gpu.map(PrismGpu::new).transpose()?)
 }
 
 fn run_prism(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()> {

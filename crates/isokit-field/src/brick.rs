@@ -69,6 +69,22 @@ enum Slot {
 }
 
 impl BrickGrid {
+    /// The largest brick edge in samples.
+    pub const MAX_BRICK: usize = 256;
+
+    /// Checks a brick edge: a power of two from 2 to [`BrickGrid::MAX_BRICK`].
+    pub fn check_brick(brick: usize) -> Result<(), FieldError> {
+        if brick.is_power_of_two() && (2..=Self::MAX_BRICK).contains(&brick) {
+            Ok(())
+        } else {
+            Err(FieldError::BadParameter {
+                name: "brick",
+                value: brick.to_string(),
+                why: "must be a power of two from 2 to 256",
+            })
+        }
+    }
+
     /// An empty brick grid over a virtual grid of `dims` samples.
     ///
     /// `brick` must be a power of two from 2 to 256 and `apron` at most `brick`.

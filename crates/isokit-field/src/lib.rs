@@ -36,6 +36,7 @@ pub mod generate;
 mod grid;
 mod job;
 pub mod mesh;
+pub mod morton;
 pub mod primitives;
 pub mod rng;
 pub mod transform;

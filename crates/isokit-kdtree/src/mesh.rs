@@ -6,7 +6,7 @@ use crate::tree::{BuildParams, KdTree, QueryStats};
 use crate::triangle::{ClosestPoint, Feature, closest_point, ray_triangle, solid_angle};
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::TriMesh;
-use isokit_field::{Aabb, Field};
+use isokit_field::{Aabb, Cancelled, Field, Job};
 use std::f64::consts::PI;
 
 /// How the sign of the distance is decided (the user's request).
@@ -152,6 +152,10 @@ pub struct MeshSdf {
     reason: String,
     beta: f64,
     bounds: Aabb,
+    /// Whether the value is at least the distance to `bounds` outside it: true unless the
+    /// sign comes from pseudonormals on a mesh that is not watertight and consistently
+    /// oriented (those can be negative far outside the box).
+    box_bound: bool,
 }
 
 impl MeshSdf {
@@ -189,10 +193,15 @@ impl MeshSdf {
         let tree = KdTree::build(&boxes, opts.tree);
         let bounds = tree.bounds();
 
+        let mut box_bound = true;
         let (method, reason) = match opts.sign {
             SignMode::Unsigned => (SignMethod::Unsigned, "requested".to_string()),
             SignMode::Winding => (SignMethod::Winding, "requested".to_string()),
-            SignMode::Pseudonormal => (SignMethod::Pseudonormal, "requested".to_string()),
+            SignMode::Pseudonormal => {
+                let r = mesh.validate();
+                box_bound = r.watertight && r.consistently_oriented;
+                (SignMethod::Pseudonormal, "requested".to_string())
+            }
             SignMode::Auto => {
                 let r = mesh.validate();
                 if r.watertight && r.consistently_oriented && r.degenerate_triangles == 0 {
@@ -236,6 +245,7 @@ impl MeshSdf {
             reason,
             beta: opts.winding_beta,
             bounds,
+            box_bound,
         };
         sdf.expansions = sdf.build_expansions();
         Ok(sdf)
@@ -555,7 +565,101 @@ impl MeshSdf {
     }
 }
 
+/// The answers of [`MeshSdf::query_points`], in the order of the query points.
+#[derive(Clone, Debug, Default)]
+pub struct PointQueries {
+    /// Signed distances (NaN for non-finite points).
+    pub distances: Vec<f64>,
+    /// The closest triangle of each point (`None` for non-finite points).
+    pub triangles: Vec<Option<u32>>,
+    /// The closest points (NaN for non-finite points); empty unless asked for.
+    pub closest: Vec<DVec3>,
+    /// Nodes visited and triangles tested over all queries.
+    pub stats: QueryStats,
+}
+
+impl MeshSdf {
+    /// Exact signed distances (and closest points when `closest`) at many points, in
+    /// parallel: the points are visited in Morton order so that each query starts from its
+    /// predecessor's closest triangle (a tight initial bound), and the results are put back
+    /// in input order. Progress goes to `job` (stage `"query"`, one unit per point);
+    /// cancellation is checked per chunk of 4096 points.
+    pub fn query_points(
+        &self,
+        points: &[DVec3],
+        closest: bool,
+        job: &Job,
+    ) -> Result<PointQueries, Cancelled> {
+        const CHUNK: usize = 4096;
+        let order = isokit_field::morton::order(points);
+        let progress = job.counter("query", points.len() as u64);
+        let chunks: Vec<Option<(Vec<Option<MeshHit>>, QueryStats)>> = {
+            use rayon::prelude::*;
+            order
+                .par_chunks(CHUNK)
+                .map(|chunk| {
+                    if job.is_cancelled() {
+                        return None;
+                    }
+                    let mut st = QueryStats::default();
+                    let mut hint = None;
+                    let hits = chunk
+                        .iter()
+                        .map(|&i| {
+                            let p = points[i as usize];
+                            let h = if p.is_finite() {
+                                self.query_near(p, hint, &mut st)
+                            } else {
+                                None
+                            };
+                            hint = h.map(|h| h.triangle).or(hint);
+                            h
+                        })
+                        .collect();
+                    progress.advance(chunk.len() as u64);
+                    Some((hits, st))
+                })
+                .collect()
+        };
+        let mut out = PointQueries {
+            distances: vec![f64::NAN; points.len()],
+            triangles: vec![None; points.len()],
+            closest: if closest {
+                vec![DVec3::NAN; points.len()]
+            } else {
+                Vec::new()
+            },
+            stats: QueryStats::default(),
+        };
+        for (c, idx) in chunks.into_iter().zip(order.chunks(CHUNK)) {
+            let (hits, st) = c.ok_or(Cancelled)?;
+            out.stats += st;
+            for (h, &i) in hits.into_iter().zip(idx) {
+                let i = i as usize;
+                if let Some(h) = h {
+                    out.distances[i] = h.distance;
+                    out.triangles[i] = Some(h.triangle);
+                    if closest {
+                        out.closest[i] = h.point;
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
 impl Field for MeshSdf {
+    /// In parallel, in Morton order with warm starts ([`MeshSdf::query_points`]).
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        let pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+        if let Ok(q) = self.query_points(&pts, false, &Job::default()) {
+            for (o, d) in out.iter_mut().zip(q.distances) {
+                *o = d as f32;
+            }
+        }
+    }
+
     fn value(&self, p: Vec3) -> f32 {
         let mut st = QueryStats::default();
         self.query(p.as_dvec3(), &mut st)
@@ -568,6 +672,23 @@ impl Field for MeshSdf {
 
     fn is_exact(&self) -> bool {
         true
+    }
+
+    /// The mesh's box (slack 0), unless pseudonormal signs on a mesh that is not watertight
+    /// and consistently oriented can make the value negative outside it.
+    fn distance_box(&self) -> Option<isokit_field::DistanceBox> {
+        self.box_bound
+            .then(|| isokit_field::DistanceBox::exact(self.bounds))
+    }
+
+    /// A band-limited query: the search stops at `cap` (see
+    /// [`MeshSdf::signed_distance_band`]).
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        if !cap.is_finite() {
+            return self.value(p);
+        }
+        let mut st = QueryStats::default();
+        (self.signed_distance_band(p.as_dvec3(), f64::from(cap), &mut st) as f32).clamp(-cap, cap)
     }
 
     /// `sign · (p − closest) / |p − closest|`; on the surface, the face normal.

@@ -11,8 +11,12 @@
 //! - [`evolve`]: level-set evolution with an upwind (Godunov) scheme on a narrow band.
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export.
-//! - [`scene`]: scene files (JSON or TOML) describing CSG trees, evaluated lazily into a
-//!   [`isokit_field::BrickGrid`] of the band.
+//!
+//! Every combinator answers the questions lazy evaluation asks (a lower bound from boxes,
+//! the value clamped to a cap; see [`isokit_field::Field::value_clamped`]), so a tree of
+//! them is evaluated only where it matters. Scene files that describe such trees, and their
+//! sources (meshes, clouds, volumes), are the `isokit-scene` crate's: this crate has no file
+//! formats.
 
 pub mod csg;
 pub mod evolve;
@@ -20,4 +24,3 @@ pub mod meshing;
 pub mod morph;
 pub mod offset;
 pub mod reinit;
-pub mod scene;

@@ -3,7 +3,7 @@
 //! [`mesh_grid`] meshes a dense [`Grid`], [`mesh_brick_grid`] a sparse [`BrickGrid`] (only
 //! where the surface can be); both return an [`isokit_field::TriMesh`] in world coordinates,
 //! triangles counter-clockwise seen from outside (outside = values at or above `iso`), ready
-//! for [`isokit_io::write_mesh`]. [`mesh_volume`] and [`mesh_area`] measure the result.
+//! for `isokit_io::write_mesh`. [`mesh_volume`] and [`mesh_area`] measure the result.
 //!
 //! ## Method
 //! Marching cubes whose polygons are *traced* rather than looked up in a case table:

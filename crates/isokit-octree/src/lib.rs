@@ -59,6 +59,7 @@ mod hashed;
 mod interp;
 pub mod key;
 mod linked;
+mod measure;
 
 pub use build::{
     BuildOptions, BuildStats, Construction, Cull, DEFAULT_MAX_CELLS, MAX_LOOKAHEAD, NodeStatus,
@@ -69,6 +70,7 @@ pub use hashed::{Accessor, HashedOctree};
 pub use interp::{trilerp, trilerp_gradient};
 pub use key::{CacheStats, MAX_LEVEL};
 pub use linked::{ALLOC_OVERHEAD, LinkedOctree};
+pub use measure::{AccessRow, TreeErrors, errors, table_3_1, test_points};
 
 use glam::{DVec3, IVec3, UVec3, Vec3};
 use isokit_field::{BrickGrid, Field, Grid};

@@ -258,7 +258,7 @@ impl PointSdf {
             let q = ((p - bounds.min) / size * 1_048_575.0)
                 .clamp(Vec3::ZERO, Vec3::splat(1_048_575.0))
                 .as_uvec3();
-            morton3(q.x) | (morton3(q.y) << 1) | (morton3(q.z) << 2)
+            isokit_field::morton::encode(q)
         };
         kept.par_sort_by_cached_key(|&i| (code(points[i]), i));
         let pts: Vec<DVec3> = kept.iter().map(|&i| points[i].as_dvec3()).collect();
@@ -562,17 +562,6 @@ impl PointSdf {
             weight,
         }
     }
-}
-
-/// Spreads the low 21 bits of `v` to every third bit of a u64 (one axis of a Morton code).
-fn morton3(v: u32) -> u64 {
-    let mut x = u64::from(v) & 0x1f_ffff;
-    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
-    x
 }
 
 impl Field for PointSdf {

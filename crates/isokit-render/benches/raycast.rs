@@ -19,10 +19,11 @@
 //! `tools/fetch-data.sh` has fetched it, else `data/torus.off`. A plain harness (no
 //! criterion) keeps the dependency tree lean.
 
+#[path = "../tests/common/mod.rs"]
+mod common;
 use glam::Vec3;
 use isokit_field::primitives::Sphere;
 use isokit_field::{Aabb, Camera, Grid, Projection, sample_into};
-use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
 use isokit_render::gpu::GpuRenderer;
 use isokit_render::{
     BrickCache, CachePolicy, Filter, Frame, Layout, RefineMethod, RenderOptions, Shading, Volume,
@@ -62,25 +63,20 @@ fn sphere(res: usize) -> Case {
 
 fn mesh(name: &str, path: &Path, res: usize) -> Case {
     let t = Instant::now();
-    let text = format!(
-        r#"{{"shape": {{"mesh": {{"path": {:?}}}}}}}"#,
-        path.to_string_lossy()
+    let (bricks, fraction) = common::mesh_band(path, res);
+    let shape = isokit_field::Field::bounds(
+        &isokit_kdtree::MeshSdf::new(&isokit_io::read_mesh(path).unwrap(), Default::default())
+            .unwrap(),
     );
-    let scene = Scene::from_text(&text, SceneFormat::Json, name, ".".as_ref()).unwrap();
-    let opts = SampleOptions {
-        resolution: res,
-        ..SampleOptions::default()
-    };
-    let (band, stats) = scene.sample(&opts).unwrap();
-    let shape = isokit_field::Field::bounds(&scene);
-    let volume = Volume::from_brick_grid(band, Layout::default()).unwrap();
+    let dims = bricks.dims();
+    let volume = Volume::from_brick_grid(bricks, Layout::default()).unwrap();
     Case {
         name: format!(
             "{name} (band {}x{}x{}, {:.0}% evaluated)",
-            stats.dims[0],
-            stats.dims[1],
-            stats.dims[2],
-            100.0 * stats.dense_fraction
+            dims[0],
+            dims[1],
+            dims[2],
+            100.0 * fraction
         ),
         volume,
         shape,

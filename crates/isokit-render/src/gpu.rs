@@ -237,7 +237,7 @@ impl GpuRenderer {
     /// True when the adapter is a software rasterizer running on the CPU (lavapipe,
     /// llvmpipe): correct, but its timings say nothing about a GPU.
     pub fn is_software(&self) -> bool {
-        self.gpu.adapter_info().device_type == wgpu::DeviceType::Cpu
+        self.gpu.is_software()
     }
 
     /// Rays traced per dispatch at most (default [`DEFAULT_MAX_RAYS_PER_DISPATCH`], at least
@@ -266,47 +266,17 @@ pub struct Selected {
     pub note: Option<String>,
 }
 
-/// Resolves a backend request: `Cpu` is the CPU twin; `Gpu` opens the default device
-/// (any adapter, software ones included) and fails when there is none
-/// ([`RenderError::Gpu`]); `Auto` (after `ISOKIT_BACKEND`, see [`BackendChoice::or_env`])
-/// uses a hardware GPU when one exists and otherwise the CPU twin, with a note saying why.
-///
-/// `Auto` passes over software adapters (lavapipe, llvmpipe: [`GpuRenderer::is_software`])
-/// because they run the kernel on the same CPU cores, several times slower than the rayon
-/// twin (the demo scene at 640×480 on 2 cores: 7.1 s against 1.5–1.9 s); they remain
-/// available with `Gpu`, which is how the tests use them.
+/// Resolves a backend request by [`isokit_gpu::choose_backend`] (the one policy: `auto`
+/// takes a hardware GPU, else the CPU twin with a note) and compiles the kernels on the
+/// device it chose.
 pub fn select_backend(choice: BackendChoice) -> Result<Selected, RenderError> {
-    match choice.or_env()? {
-        BackendChoice::Cpu => Ok(Selected {
-            gpu: None,
-            note: None,
-        }),
-        BackendChoice::Gpu => Ok(Selected {
-            gpu: Some(GpuRenderer::open()?),
-            note: None,
-        }),
-        BackendChoice::Auto => {
-            let cpu = |why: String| {
-                Ok(Selected {
-                    gpu: None,
-                    note: Some(format!(
-                        "note: {why}; rendering on the CPU twin (same algorithm)"
-                    )),
-                })
-            };
-            match Gpu::new(&GpuOptions::default()) {
-                Ok(g) if g.adapter_info().device_type == wgpu::DeviceType::Cpu => cpu(format!(
-                    "the only GPU adapter, {}, is a software one, slower than the CPU twin (--backend gpu uses it)",
-                    g.describe()
-                )),
-                Ok(g) => Ok(Selected {
-                    gpu: Some(GpuRenderer::new(g)?),
-                    note: None,
-                }),
-                Err(e) => cpu(format!("no usable GPU ({e})")),
-            }
-        }
-    }
+    let chosen = isokit_gpu::choose_backend(choice, &GpuOptions::default())?;
+    Ok(Selected {
+        gpu: chosen.gpu.map(GpuRenderer::new).transpose()?,
+        note: chosen
+            .reason
+            .map(|why| format!("note: {why}; rendering on the CPU twin (same algorithm)")),
+    })
 }
 
 /// Every program the renderer builds, in every variant, for the tests.

@@ -11,7 +11,7 @@
 //! brick pool, the reference index, the block ranges, the [`Uniforms`] — and the WGSL
 //! mirrors it function by function; both render the same [`GBuffer`] and image, the GPU's
 //! to rounding. It does not open windows or sample fields: scenes are sampled by
-//! `isokit-levelset`, volumes read by `isokit-io`.
+//! `isokit-scene`, volumes read by `isokit-io`.
 //!
 //! ## Where the code of each shader is
 //! Each kernel's CPU twin sits beside its host code, named after the shader (paths under

@@ -382,7 +382,7 @@ impl Volume {
         Self::new(VolumeData::Dense(grid), layout)
     }
 
-    /// A volume over a sparse band (e.g. [`isokit_levelset::scene::Scene::sample`]).
+    /// A volume over a sparse band (e.g. a scene's lazily sampled band).
     pub fn from_brick_grid(grid: BrickGrid, layout: Layout) -> Result<Self, RenderError> {
         Self::new(VolumeData::Band(grid), layout)
     }

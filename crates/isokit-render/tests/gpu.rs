@@ -66,19 +66,8 @@ fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
 
 /// The trefoil knot mesh of `data/` as a lazily sampled band (its exact mesh distance).
 fn trefoil_band(res: usize) -> Volume {
-    use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/trefoil.ply");
-    let text = format!(
-        r#"{{"shape": {{"mesh": {{"path": {:?}}}}}}}"#,
-        path.to_string_lossy()
-    );
-    let scene = Scene::from_text(&text, SceneFormat::Json, "trefoil", ".".as_ref()).unwrap();
-    let opts = SampleOptions {
-        resolution: res,
-        ..SampleOptions::default()
-    };
-    let (band, _) = scene.sample(&opts).unwrap();
-    Volume::from_brick_grid(band, Layout::default()).unwrap()
+    Volume::from_brick_grid(mesh_band(&path, res).0, Layout::default()).unwrap()
 }
 
 // ---------------------------------------------------------------------------------------

@@ -705,34 +705,6 @@ fn dda_segments_tile_the_ray() {
     }
 }
 
-/// A volume over a lazily sampled band renders exactly like one over the dense samples of
-/// the same lattice: the band holds every sample a hit depends on, and keeps the sign.
-#[test]
-fn a_band_volume_renders_like_the_dense_one() {
-    use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat};
-    let text = r#"{"shape": {"difference": [
-        {"sphere": {"radius": 0.8}},
-        {"box": {"half": [0.4, 0.4, 0.9], "center": [0.5, 0.3, 0.0]}}
-    ]}}"#;
-    let scene = Scene::from_text(text, SceneFormat::Json, "t.json", ".".as_ref()).unwrap();
-    let opts = SampleOptions {
-        resolution: 48,
-        apron: 1,
-        ..SampleOptions::default()
-    };
-    let (band, stats) = scene.sample(&opts).unwrap();
-    eprintln!("band: {:.3} of the dense samples", stats.dense_fraction);
-    assert!(stats.dense_fraction < 0.9);
-    let (dense, _) = scene.sample_dense(&opts).unwrap();
-    let a = Volume::from_brick_grid(band, Layout::default()).unwrap();
-    let b = Volume::from_grid(dense, Layout::default()).unwrap();
-    let cam = perspective(Vec3::new(1.2, 1.0, 2.2), 48, 48);
-    let fa = frame(&a, &cam, &RenderOptions::default());
-    let fb = frame(&b, &cam, &RenderOptions::default());
-    assert!(fa.stats.hits > 400);
-    assert_eq!(fa.gbuffer, fb.gbuffer);
-}
-
 /// Shading: every mode gives finite colours and the background where nothing was hit;
 /// the lit side is brighter; the curvature maps read a sphere as convex.
 #[test]

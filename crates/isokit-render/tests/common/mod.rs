@@ -88,3 +88,41 @@ pub fn csg_pair() -> (Grid, Grid) {
     let sdf = |(c, r): (Vec3, f32)| move |p: Vec3| (p - c).length() - r;
     (grid_of(64, sdf(CSG_A)), grid_of(64, sdf(CSG_B)))
 }
+
+/// A mesh's band sampled lazily on the lattice a scene of just the mesh uses by default
+/// (`isokit scene`: `res` samples along the longest side, band 4 voxels, the mesh's box
+/// padded by the band and 2 voxels, bricks of 4, apron 0), with band-limited kd-tree
+/// queries; also the fraction of the dense grid evaluated.
+pub fn mesh_band(path: &std::path::Path, res: usize) -> (isokit_field::BrickGrid, f64) {
+    let m = isokit_io::read_mesh(path).unwrap();
+    let sdf = isokit_kdtree::MeshSdf::new(&m, Default::default()).unwrap();
+    let shape = isokit_field::Field::bounds(&sdf);
+    let h0 = shape.size().max_element() / (res - 1) as f32;
+    let band = 4.0 * h0;
+    let (dims, origin, h) =
+        isokit_field::Grid::covering_geometry(shape, res, band + 2.0 * h0).unwrap();
+    let reach = 0.5 * 4.0 * h * 3f32.sqrt();
+    struct Clamped<'a>(&'a isokit_kdtree::MeshSdf, f32);
+    impl isokit_field::Field for Clamped<'_> {
+        fn value(&self, p: Vec3) -> f32 {
+            isokit_field::value_clamped(self.0, p, self.1)
+        }
+        fn bounds(&self) -> isokit_field::Aabb {
+            isokit_field::Field::bounds(self.0)
+        }
+    }
+    let cap = (band + reach) * 1.001 + h;
+    let bricks = isokit_field::BrickGrid::sample_field(
+        &Clamped(&sdf, cap),
+        dims,
+        origin,
+        h,
+        4,
+        0,
+        band,
+        band,
+    )
+    .unwrap();
+    let f = bricks.evaluated_fraction();
+    (bricks, f)
+}

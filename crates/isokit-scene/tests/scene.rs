@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use isokit_field::{Field, rng::SplitMix64};
-use isokit_levelset::scene::{SampleOptions, Scene, SceneFormat, parse};
+use isokit_scene::{SampleOptions, Scene, SceneFormat, parse};
 use std::path::{Path, PathBuf};
 
 /// A scratch folder removed on drop.
@@ -351,7 +351,7 @@ fn include_cycles_and_nested_errors_are_reported() {
 
 #[test]
 fn scenes_built_in_code_equal_scene_files() {
-    use isokit_levelset::scene::schema::{Node, SceneFile};
+    use isokit_scene::{Node, SceneFile};
     let code = Node::difference(vec![
         Node::sphere(1.0, [0.0; 3]),
         Node::cuboid([0.5; 3], [0.0; 3])

@@ -1,0 +1,522 @@
+//! Rendering a scene or a volume to a frame (image, G-buffer, statistics) through one
+//! [`Renderer`] that hides whether the CPU or the GPU twin runs.
+
+use crate::file::{CameraSpec, LightSpec, ShadingSpec};
+use crate::{SampleOptions, SampleStats, Scene, SceneError};
+use glam::Vec3;
+use isokit_field::{Aabb, Camera, Job, Projection};
+use isokit_gpu::BackendChoice;
+use isokit_render::gpu::GpuRenderer;
+pub use isokit_render::setup::ProjectionKind;
+use isokit_render::setup::camera_from;
+use isokit_render::shade::default_curvature_scale;
+use isokit_render::{
+    BrickCache, GBuffer, Image, Layout, Light, MultiView, RenderError, RenderOptions, Shading,
+    ShadingMode, Uniforms, Volume, estimate_gradient_scale,
+};
+use serde::Serialize;
+use std::time::Instant;
+
+/// The scene's camera, or when it has none a camera framing `bounds` from the front upper
+/// right (45° field of view).
+pub fn camera_for(
+    spec: Option<&CameraSpec>,
+    bounds: Aabb,
+    kind: ProjectionKind,
+    width: u32,
+    height: u32,
+) -> Result<Camera, RenderError> {
+    match spec {
+        Some(c) => camera_from(
+            Vec3::from(c.eye),
+            Vec3::from(c.target),
+            Vec3::from(c.up),
+            c.fov,
+            kind,
+            width,
+            height,
+        ),
+        None => {
+            let projection = match kind {
+                ProjectionKind::Perspective => Projection::Perspective {
+                    fov_y_degrees: 45.0,
+                },
+                ProjectionKind::Orthographic => Projection::Orthographic { height: 1.0 },
+            };
+            let from = Vec3::new(1.0, 0.7, 1.4);
+            Ok(Camera::framing(bounds, from, projection, width, height)?)
+        }
+    }
+}
+
+/// Shading from a scene's `shading` table and `lights` (missing values take
+/// [`Shading::default`]'s).
+pub fn shading_for(
+    spec: Option<&ShadingSpec>,
+    lights: &[LightSpec],
+) -> Result<Shading, RenderError> {
+    let mut sh = Shading::default();
+    if let Some(s) = spec {
+        if let Some(m) = s.mode {
+            sh.mode = m.0;
+        }
+        if let Some(c) = s.color {
+            sh.color = Vec3::from(c);
+        }
+        if let Some(a) = s.ambient {
+            sh.ambient = a;
+        }
+        if let Some(e) = s.shininess {
+            sh.shininess = e;
+        }
+    }
+    for (i, l) in lights.iter().enumerate() {
+        if l.direction.is_none() && l.position.is_none() {
+            return Err(RenderError::BadParameter {
+                name: "lights",
+                value: i.to_string(),
+                why: "a light needs a direction (directional) or a position (point)",
+            });
+        }
+        sh.lights.push(Light {
+            direction: l.direction.map(Vec3::from),
+            position: l.position.map(Vec3::from),
+            color: Vec3::from(l.color),
+            intensity: l.intensity,
+        });
+    }
+    sh.check()?;
+    Ok(sh)
+}
+
+/// What to render.
+#[derive(Clone, Copy, Debug)]
+pub enum RenderTarget<'a> {
+    /// A compiled scene, sampled lazily to a band first (a distance field; its camera,
+    /// lights and shading come from the scene unless the settings override them).
+    Scene(&'a Scene),
+    /// A volume on the ray caster's layout (a file's samples, possibly with a second
+    /// operand for on-the-fly CSG); not known to be a distance field.
+    Volume(&'a Volume),
+}
+
+/// How to render: image size, camera, shading, the ray caster's knobs.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// The ray caster's knobs; `options.iso` is replaced by [`RenderSettings::iso`]'s
+    /// resolution.
+    pub options: RenderOptions,
+    /// The isovalue; `None`: 0, or for a volume whose values do not reach 0 the middle of
+    /// its range (with a note).
+    pub iso: Option<f32>,
+    /// The shading mode (default: the scene's, else Phong).
+    pub mode: Option<ShadingMode>,
+    /// Perspective or orthographic (same eye, target and field of view).
+    pub projection: ProjectionKind,
+    /// The camera (default: the scene's `camera`, else one framing the bounds).
+    pub camera: Option<CameraSpec>,
+    /// The curvature that saturates the curvature maps (default 20 / the diagonal).
+    pub curvature_scale: Option<f32>,
+    /// The background colour (linear RGBA; default the shading's).
+    pub background: Option<[f32; 4]>,
+    /// A multi-view autostereoscopic display (paper 001).
+    pub multiview: Option<MultiView>,
+    /// Replace the multi-view display's separation by the default, 1% of the distance from
+    /// the eye to the target.
+    pub default_separation: bool,
+    /// The brick cache's size in bytes (default: [`isokit_render::DEFAULT_CACHE_BYTES`]).
+    pub cache_bytes: Option<usize>,
+    /// Scene sampling: samples along the longest side (default: the scene's `sampling`).
+    pub resolution: Option<usize>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 512,
+            height: 512,
+            options: RenderOptions::default(),
+            iso: None,
+            mode: None,
+            projection: ProjectionKind::Perspective,
+            camera: None,
+            curvature_scale: None,
+            background: None,
+            multiview: None,
+            default_separation: false,
+            cache_bytes: None,
+            resolution: None,
+        }
+    }
+}
+
+/// What one frame did (the `--stats` object of `isokit render`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrameStats {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// The isovalue rendered.
+    pub iso: f32,
+    /// The shading mode.
+    pub mode: &'static str,
+    /// Rays that hit the isosurface.
+    pub hits: u64,
+    /// Rays that hit a cap (the volume's box inside the solid).
+    pub caps: u64,
+    /// Field evaluations along all rays.
+    pub samples: u64,
+    /// Mean field evaluations per ray.
+    pub samples_per_ray: f64,
+    /// Blocks that hold the isovalue.
+    pub blocks_active: usize,
+    /// Blocks of the volume.
+    pub blocks_total: usize,
+    /// Bricks that hold an active block.
+    pub bricks_active: usize,
+    /// Bricks of the volume.
+    pub bricks_total: usize,
+    /// Bricks loaded into the cache during the frame.
+    pub bricks_loaded: u64,
+    /// Brick slots of the cache.
+    pub cache_capacity: usize,
+    /// Passes over the pending pixels.
+    pub passes: u32,
+    /// Active bricks held at half resolution.
+    pub bricks_downsampled: usize,
+    /// Seconds to prepare (sample the scene, build blocks, camera, shading).
+    pub prepare_seconds: f64,
+    /// Seconds of ray casting.
+    pub trace_seconds: f64,
+    /// Seconds of shading.
+    pub shade_seconds: f64,
+    /// `gpu` or `cpu`.
+    pub backend: &'static str,
+    /// The device (`GPU (adapter …)` or `CPU`).
+    pub device: String,
+    /// The scene's sampling, for scenes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<SampleStats>,
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// The shaded image (linear RGBA; `write_png` writes sRGB).
+    pub image: Image,
+    /// Per-pixel hits, positions, normals, curvatures.
+    pub gbuffer: GBuffer,
+    /// The uniforms the frame was traced with (the camera among them).
+    pub uniforms: Uniforms,
+    /// Counters and timing.
+    pub stats: FrameStats,
+    /// Notes for the user (an isovalue chosen from the data, a band too narrow for the
+    /// isovalue, no hit).
+    pub notes: Vec<String>,
+}
+
+/// A target made ready to ray cast: the volume, camera, shading and options resolved.
+pub struct Prepared<'a> {
+    volume: std::borrow::Cow<'a, Volume>,
+    camera: Camera,
+    shading: Shading,
+    options: RenderOptions,
+    multiview: Option<MultiView>,
+    cache_bytes: Option<usize>,
+    sampling: Option<SampleStats>,
+    notes: Vec<String>,
+    prepare_seconds: f64,
+}
+
+impl Prepared<'_> {
+    /// The volume that will be ray cast.
+    pub fn volume(&self) -> &Volume {
+        &self.volume
+    }
+    /// The camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+    /// The shading.
+    pub fn shading(&self) -> &Shading {
+        &self.shading
+    }
+    /// The ray caster's options (the isovalue resolved).
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+    /// The multi-view display, if any (its separation resolved).
+    pub fn multiview(&self) -> Option<&MultiView> {
+        self.multiview.as_ref()
+    }
+}
+
+/// The renderer: the GPU twin on a device, or the CPU twin; the same frames either way (to
+/// rounding). Opened once and reused (a device, its compiled kernels and its brick cache).
+pub struct Renderer {
+    gpu: Option<GpuRenderer>,
+    note: Option<String>,
+}
+
+impl std::fmt::Debug for Renderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Renderer({})", self.device())
+    }
+}
+
+impl Renderer {
+    /// The renderer `choice` asks for (the one backend policy of `isokit-gpu`: `auto` takes a
+    /// hardware GPU, else the CPU twin with a [`Renderer::note`]).
+    pub fn new(choice: BackendChoice) -> Result<Self, RenderError> {
+        let s = isokit_render::gpu::select_backend(choice)?;
+        Ok(Self {
+            gpu: s.gpu,
+            note: s.note,
+        })
+    }
+
+    /// The CPU twin (no device is opened).
+    pub fn cpu() -> Self {
+        Self {
+            gpu: None,
+            note: None,
+        }
+    }
+
+    /// Why the CPU twin renders although `auto` was asked for.
+    pub fn note(&self) -> Option<&str> {
+        self.note.as_deref()
+    }
+
+    /// The GPU renderer, when one is open.
+    pub fn gpu(&mut self) -> Option<&mut GpuRenderer> {
+        self.gpu.as_mut()
+    }
+
+    /// True when the GPU twin renders.
+    pub fn is_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// `gpu` or `cpu`.
+    pub fn backend(&self) -> &'static str {
+        if self.gpu.is_some() { "gpu" } else { "cpu" }
+    }
+
+    /// `GPU (adapter …)` or `CPU`.
+    pub fn device(&self) -> String {
+        match &self.gpu {
+            Some(g) => format!("GPU ({})", g.describe()),
+            None => "CPU".to_string(),
+        }
+    }
+
+    /// Resolves a target for rendering: samples a scene's band (reporting progress to
+    /// `job`), picks the isovalue, the camera and the shading.
+    pub fn prepare<'a>(
+        &self,
+        target: RenderTarget<'a>,
+        settings: &RenderSettings,
+        job: &Job,
+    ) -> Result<Prepared<'a>, SceneError> {
+        let t0 = Instant::now();
+        let err = |e: RenderError| SceneError::new(target_name(target), "", e.to_string());
+        let mut notes = Vec::new();
+        let (volume, sampling, specs) = match target {
+            RenderTarget::Scene(scene) => {
+                let mut opts = SampleOptions::from_scene(scene);
+                if let Some(r) = settings.resolution {
+                    opts.resolution = r;
+                }
+                let (band, stats) = scene.sample_job(&opts, job)?;
+                if let Some(iso) = settings.iso
+                    && iso.abs() >= stats.band
+                {
+                    notes.push(format!(
+                        "warning: --iso {iso} lies outside the sampled band (±{}); raise sampling.band",
+                        stats.band
+                    ));
+                }
+                let volume = Volume::from_brick_grid(band, Layout::default()).map_err(err)?;
+                let f = scene.settings();
+                (
+                    std::borrow::Cow::Owned(volume),
+                    Some(stats),
+                    Some((f.camera.clone(), f.shading.clone(), f.lights.clone())),
+                )
+            }
+            RenderTarget::Volume(v) => (std::borrow::Cow::Borrowed(v), None, None),
+        };
+        let iso = match (settings.iso, &specs, volume.value_range()) {
+            (Some(v), _, _) => v,
+            (None, None, Some((lo, hi))) if !(lo..=hi).contains(&0.0) => {
+                let mid = 0.5 * (lo + hi);
+                notes.push(format!(
+                    "note: the values lie in [{lo}, {hi}]; using --iso {mid}"
+                ));
+                mid
+            }
+            _ => 0.0,
+        };
+        let mut options = RenderOptions {
+            iso,
+            ..settings.options
+        };
+        if specs.is_none() {
+            // Not known to be a distance field: estimate |∇f| for the fine-rate threshold.
+            options.gradient_scale = estimate_gradient_scale(&volume, iso);
+        }
+        options.check().map_err(err)?;
+        let bounds = volume.bounds();
+        let (w, h) = (settings.width, settings.height);
+        let (scene_camera, scene_shading, lights) = specs.unwrap_or((None, None, Vec::new()));
+        let camera_spec = settings.camera.clone().or(scene_camera);
+        let camera =
+            camera_for(camera_spec.as_ref(), bounds, settings.projection, w, h).map_err(err)?;
+        let mut shading = shading_for(scene_shading.as_ref(), &lights).map_err(err)?;
+        if let Some(m) = settings.mode {
+            shading.mode = m;
+        }
+        if let Some(b) = settings.background {
+            shading.background = b;
+        }
+        shading.curvature_scale = settings
+            .curvature_scale
+            .unwrap_or_else(|| default_curvature_scale(bounds));
+        shading.check().map_err(err)?;
+        let multiview = settings.multiview.map(|mut mv| {
+            if settings.default_separation {
+                mv.separation = 0.01 * (camera.target() - camera.eye()).length();
+            }
+            mv
+        });
+        if let Some(mv) = &multiview {
+            mv.check().map_err(err)?;
+        }
+        Ok(Prepared {
+            volume,
+            camera,
+            shading,
+            options,
+            multiview,
+            cache_bytes: settings.cache_bytes,
+            sampling,
+            notes,
+            prepare_seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Renders a target: [`Renderer::prepare`] then [`Renderer::render_prepared`].
+    pub fn render(
+        &mut self,
+        target: RenderTarget<'_>,
+        settings: &RenderSettings,
+        job: &Job,
+    ) -> Result<Frame, SceneError> {
+        let p = self.prepare(target, settings, job)?;
+        self.render_prepared(&p, target_name(target))
+    }
+
+    /// Ray casts and shades a prepared target; `name` names it in errors.
+    pub fn render_prepared(&mut self, p: &Prepared<'_>, name: &str) -> Result<Frame, SceneError> {
+        self.render_view_of(p, None, name)
+    }
+
+    /// One view `k` of a prepared multi-view target, rendered alone.
+    pub fn render_view(
+        &mut self,
+        p: &Prepared<'_>,
+        k: u32,
+        name: &str,
+    ) -> Result<Frame, SceneError> {
+        self.render_view_of(p, Some(k), name)
+    }
+
+    fn render_view_of(
+        &mut self,
+        p: &Prepared<'_>,
+        view: Option<u32>,
+        name: &str,
+    ) -> Result<Frame, SceneError> {
+        let err = |e: RenderError| SceneError::new(name, "", e.to_string());
+        let mut cache = match p.cache_bytes {
+            Some(b) => BrickCache::with_bytes(&p.volume, b).map_err(err)?,
+            None => BrickCache::for_volume(&p.volume),
+        };
+        if let (Some(g), Some(b)) = (self.gpu.as_mut(), p.cache_bytes) {
+            g.set_cache_bytes(b);
+        }
+        let (v, c, o) = (&*p.volume, &p.camera, &p.options);
+        let frame = match (&p.multiview, view, self.gpu.as_mut()) {
+            (Some(mv), Some(k), Some(g)) => g.render_view(v, c, o, mv, k),
+            (Some(mv), Some(k), None) => isokit_render::render_view(v, &mut cache, c, o, mv, k),
+            (Some(mv), None, Some(g)) => g.render_multiview(v, c, o, mv),
+            (Some(mv), None, None) => isokit_render::render_multiview(v, &mut cache, c, o, mv),
+            (None, _, Some(g)) => g.render(v, c, o),
+            (None, _, None) => isokit_render::render(v, &mut cache, c, o),
+        }
+        .map_err(err)?;
+        let t1 = Instant::now();
+        let image = match self.gpu.as_ref() {
+            Some(g) => g.shade(&frame.gbuffer, &frame.uniforms, &p.shading),
+            None => isokit_render::shade(&frame.gbuffer, &frame.uniforms, &p.shading),
+        }
+        .map_err(err)?;
+        let shade_seconds = t1.elapsed().as_secs_f64();
+        let st = &frame.stats;
+        let mut notes = p.notes.clone();
+        if st.hits + st.caps == 0 {
+            notes.push(format!(
+                "warning: no ray hit the surface f = {}",
+                p.options.iso
+            ));
+        }
+        let cache_capacity = match self.gpu.as_ref() {
+            Some(g) => g.cache_capacity().unwrap_or(0),
+            None => cache.capacity(),
+        };
+        let stats = FrameStats {
+            width: st.width,
+            height: st.height,
+            iso: p.options.iso,
+            mode: p.shading.mode.name(),
+            hits: st.hits,
+            caps: st.caps,
+            samples: st.samples,
+            samples_per_ray: st.samples_per_ray(),
+            blocks_active: st.blocks_active,
+            blocks_total: st.blocks_total,
+            bricks_active: st.bricks_active,
+            bricks_total: st.bricks_total,
+            bricks_loaded: st.bricks_loaded,
+            cache_capacity,
+            passes: st.passes,
+            bricks_downsampled: st.bricks_downsampled,
+            prepare_seconds: p.prepare_seconds,
+            trace_seconds: st.seconds,
+            shade_seconds,
+            backend: self.backend(),
+            device: self.device(),
+            sampling: p.sampling.clone(),
+        };
+        Ok(Frame {
+            image,
+            gbuffer: frame.gbuffer,
+            uniforms: frame.uniforms,
+            stats,
+            notes,
+        })
+    }
+}
+
+fn target_name(t: RenderTarget<'_>) -> &str {
+    match t {
+        RenderTarget::Scene(s) => s.name(),
+        RenderTarget::Volume(_) => "<volume>",
+    }
+}

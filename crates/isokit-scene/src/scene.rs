@@ -1,0 +1,1039 @@
+//! A compiled scene: the shape tree turned into the level-set crate's field combinators with
+//! its sources loaded, the list of files it depends on, a content hash per subtree, and lazy
+//! sampling to a band.
+
+use crate::file::{SceneFile, SceneFormat, parse};
+use crate::node::{
+    BandMethod, Filter as FilterNode, Inside, MeshNode, Node, Normals, OctreeNode, PointsNode,
+    SignMode, Smooth, TransformSpec, VolumeData, VolumeNode,
+};
+use crate::source::{
+    BrickField, Counted, Counter, MeshField, PrismBackend, VolumeField, volume_lipschitz,
+};
+use crate::{SceneError, SourceCache};
+use glam::{DQuat, DVec3, Vec3};
+use isokit_field::filter::{Filter, SampledField};
+use isokit_field::transform::Transformed;
+use isokit_field::{Aabb, DistanceBox, Field, TriMesh};
+use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
+use isokit_levelset::csg::{Complement, DifferenceN, IntersectionN, Offset, Shell, SmoothKind};
+use isokit_levelset::csg::{SmoothN, UnionN};
+use isokit_levelset::morph::LinearMorph;
+use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions};
+use std::collections::hash_map::DefaultHasher;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The deepest tree a scene may build (across includes): evaluation recurses once per
+/// level.
+pub const MAX_DEPTH: usize = 256;
+/// The most nodes a scene may build (across includes; an include used twice counts twice).
+pub const MAX_NODES: usize = 100_000;
+
+/// A source of the scene (a leaf that is queried), with its query counter.
+#[derive(Clone)]
+pub struct SourceInfo {
+    /// The node's path in the scene, e.g. `shape.difference[1].mesh`.
+    pub node: String,
+    /// The node's kind (`sphere`, `mesh`, …).
+    pub kind: &'static str,
+    /// The number of triangles, for meshes.
+    pub triangles: Option<usize>,
+    pub(crate) count: Arc<Counter>,
+}
+
+impl std::fmt::Debug for SourceInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SourceInfo")
+            .field("node", &self.node)
+            .field("kind", &self.kind)
+            .field("queries", &self.queries())
+            .finish()
+    }
+}
+
+impl SourceInfo {
+    /// How many times the source was evaluated since the last reset.
+    pub fn queries(&self) -> u64 {
+        self.count.get()
+    }
+}
+
+/// A node's content hash and its bounds, as [`Scene::hashes`] lists them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeHash {
+    /// The node's path, e.g. `shape.union[2].sphere`.
+    pub node: String,
+    /// A hash of the subtree: its kinds and parameters, and for file sources the file's
+    /// path, size and modification time (so saving a referenced file changes it).
+    pub hash: u64,
+    /// The subtree's bounding box.
+    pub bounds: Aabb,
+}
+
+/// The frame of a node below transforms: world = translation + scale · rotation(local).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Frame {
+    pub(crate) rotation: DQuat,
+    pub(crate) translation: DVec3,
+    pub(crate) scale: f64,
+}
+
+impl Frame {
+    const WORLD: Frame = Frame {
+        rotation: DQuat::IDENTITY,
+        translation: DVec3::ZERO,
+        scale: 1.0,
+    };
+
+    /// This frame followed (inside) by a transform of rotation `r`, translation `t`,
+    /// scale `s`.
+    fn then(self, r: DQuat, t: DVec3, s: f64) -> Frame {
+        Frame {
+            rotation: self.rotation * r,
+            translation: self.translation + self.scale * (self.rotation * t),
+            scale: self.scale * s,
+        }
+    }
+
+    /// A world point in this frame.
+    pub(crate) fn to_local(self, p: DVec3) -> DVec3 {
+        self.rotation.inverse() * (p - self.translation) / self.scale
+    }
+}
+
+/// A mesh source with the prism method, and the frame it sits in.
+pub(crate) struct PrismMesh {
+    pub(crate) field: Arc<MeshField>,
+    pub(crate) frame: Frame,
+    pub(crate) node: String,
+}
+
+/// A compiled scene: the shape tree with its sources loaded, ready to evaluate. It is a
+/// [`Field`] (evaluated in full, nothing clamped; [`Field::value_clamped`] prunes).
+pub struct Scene {
+    file: SceneFile,
+    name: String,
+    root: Box<dyn Field>,
+    sources: Vec<SourceInfo>,
+    pub(crate) prism_meshes: Vec<PrismMesh>,
+    lipschitz: f32,
+    dependencies: Vec<PathBuf>,
+    hashes: Vec<NodeHash>,
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene")
+            .field("name", &self.name)
+            .field("sources", &self.sources.len())
+            .field("bounds", &self.root.bounds())
+            .finish()
+    }
+}
+
+impl Scene {
+    /// Reads and compiles a scene file (`.json` or `.toml`); meshes, clouds, volumes and
+    /// included scenes are loaded relative to its folder.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_with(path, &mut SourceCache::default())
+    }
+
+    /// [`Scene::load`] reusing the built sources in `cache` whose files did not change
+    /// (kd-trees, point-cloud solves, volumes), and adding the new ones to it.
+    pub fn load_with(path: &Path, cache: &mut SourceCache) -> Result<Self, SceneError> {
+        let name = path.display().to_string();
+        let (file, _) = read_scene_file(path, &name, "")?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut stack = vec![canonical(path)];
+        let mut deps = vec![path.to_path_buf()];
+        Self::build(file, &name, dir, &mut stack, &mut deps, cache)
+    }
+
+    /// Compiles scene text; `name` names it in errors and `dir` resolves relative paths.
+    pub fn from_text(
+        text: &str,
+        format: SceneFormat,
+        name: &str,
+        dir: &Path,
+    ) -> Result<Self, SceneError> {
+        let file = parse(text, format, name)?;
+        Self::build(
+            file,
+            name,
+            dir,
+            &mut Vec::new(),
+            &mut Vec::new(),
+            &mut SourceCache::default(),
+        )
+    }
+
+    /// Compiles a scene built in code (see [`Node`]'s constructors); relative paths are
+    /// resolved in `dir`.
+    pub fn from_file(file: SceneFile, dir: &Path) -> Result<Self, SceneError> {
+        Self::from_file_with(file, dir, &mut SourceCache::default())
+    }
+
+    /// [`Scene::from_file`] reusing and filling `cache`.
+    pub fn from_file_with(
+        file: SceneFile,
+        dir: &Path,
+        cache: &mut SourceCache,
+    ) -> Result<Self, SceneError> {
+        Self::build(
+            file,
+            "<scene>",
+            dir,
+            &mut Vec::new(),
+            &mut Vec::new(),
+            cache,
+        )
+    }
+
+    /// Compiles a shape built in code with default settings (paths relative to the current
+    /// folder).
+    pub fn from_node(shape: Node) -> Result<Self, SceneError> {
+        Self::from_file(SceneFile::new(shape), Path::new("."))
+    }
+
+    fn build(
+        file: SceneFile,
+        name: &str,
+        dir: &Path,
+        stack: &mut Vec<PathBuf>,
+        deps: &mut Vec<PathBuf>,
+        cache: &mut SourceCache,
+    ) -> Result<Self, SceneError> {
+        let mut b = Builder {
+            file: name.to_owned(),
+            dir: dir.to_path_buf(),
+            stack,
+            deps,
+            cache,
+            sources: Vec::new(),
+            prism_meshes: Vec::new(),
+            hashes: Vec::new(),
+            frame: Frame::WORLD,
+            depth: 0,
+            nodes: 0,
+        };
+        let root = b.compile(&file.shape, "shape")?;
+        let (sources, prism_meshes, hashes) = (b.sources, b.prism_meshes, b.hashes);
+        let dependencies = b.deps.clone();
+        let lipschitz = root.field.lipschitz().max(1.0);
+        if !lipschitz.is_finite() {
+            return Err(SceneError::new(
+                name,
+                "shape",
+                "the field's slope is not finite (a volume with enormous values or a tiny spacing?)",
+            ));
+        }
+        Ok(Self {
+            file,
+            name: name.to_owned(),
+            root: root.field,
+            sources,
+            prism_meshes,
+            lipschitz,
+            dependencies,
+            hashes,
+        })
+    }
+
+    /// The scene as read (shape tree, camera, lights, shading, sampling).
+    pub fn settings(&self) -> &SceneFile {
+        &self.file
+    }
+
+    /// The name used in messages (the file's path, or `<scene>`).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The sources (leaves) with their query counters.
+    pub fn sources(&self) -> &[SourceInfo] {
+        &self.sources
+    }
+
+    /// Sets every source's query counter to zero.
+    pub fn reset_counts(&self) {
+        self.sources.iter().for_each(|s| s.count.reset());
+    }
+
+    /// Every file the scene read: the scene file itself, included scenes, meshes, clouds,
+    /// volumes (a live viewer watches them).
+    pub fn dependencies(&self) -> &[PathBuf] {
+        &self.dependencies
+    }
+
+    /// Every node's content hash and bounds, root first (see [`NodeHash`]): two scenes
+    /// whose nodes at the same path have the same hash compute the same field there.
+    pub fn hashes(&self) -> &[NodeHash] {
+        &self.hashes
+    }
+
+    /// The root's content hash.
+    pub fn hash(&self) -> u64 {
+        self.hashes.first().map_or(0, |h| h.hash)
+    }
+
+    /// The compiled tree as a field.
+    pub fn field(&self) -> &dyn Field {
+        &*self.root
+    }
+
+    /// The value at `p`, exact where `|f(p)| < cap`; elsewhere `±cap` with the right sign.
+    /// Bounding boxes prune what cannot matter.
+    pub fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        isokit_field::value_clamped(&*self.root, p, cap)
+    }
+
+    /// The sampling domain: `sampling.bounds` when given, else the shape's bounds.
+    pub fn domain(&self) -> Aabb {
+        match self.file.sampling.bounds {
+            Some([a, b]) => Aabb::from_corners(Vec3::from(a), Vec3::from(b)),
+            None => self.root.bounds(),
+        }
+    }
+
+    /// The number of triangles of the scene's meshes.
+    pub fn triangles(&self) -> usize {
+        self.sources.iter().filter_map(|s| s.triangles).sum()
+    }
+}
+
+impl Field for Scene {
+    fn value(&self, p: Vec3) -> f32 {
+        self.root.value(p)
+    }
+    fn values(&self, points: &[Vec3], out: &mut [f32]) {
+        self.root.values(points, out)
+    }
+    fn bounds(&self) -> Aabb {
+        self.root.bounds()
+    }
+    /// Computed per node: min, max, the smooth blends, offsets, shells and similarity
+    /// transforms keep the largest of their operands' bounds; a morph has
+    /// `|1 − t|·L_from + |t|·L_to`; a volume's is measured from its samples.
+    fn lipschitz(&self) -> f32 {
+        self.lipschitz
+    }
+    fn is_exact(&self) -> bool {
+        self.root.is_exact()
+    }
+    fn fd_step(&self, p: Vec3) -> f32 {
+        self.root.fd_step(p)
+    }
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.root.gradient(p)
+    }
+    fn hessian(&self, p: Vec3) -> glam::Mat3 {
+        self.root.hessian(p)
+    }
+    fn distance_box(&self) -> Option<DistanceBox> {
+        self.root.distance_box()
+    }
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        self.root.lower_bound(p)
+    }
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        self.root.value_clamped(p, cap)
+    }
+}
+
+/// An error and its causes, joined by `: ` (an I/O error's operating-system reason is its
+/// source).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        cause = c.source();
+    }
+    s
+}
+
+fn canonical(p: &Path) -> PathBuf {
+    p.canonicalize().unwrap_or_else(|_| p.to_path_buf())
+}
+
+/// Reads and parses a scene file; `node` names the include node in errors (empty for the
+/// top-level file).
+fn read_scene_file(path: &Path, name: &str, node: &str) -> Result<(SceneFile, String), SceneError> {
+    let format = SceneFormat::from_path(path).ok_or_else(|| {
+        if node.is_empty() {
+            SceneError::new(name, "", "unknown scene format (expected .json or .toml)")
+        } else {
+            SceneError::new(
+                name,
+                node,
+                format!("{name}: unknown scene format (expected .json or .toml)"),
+            )
+        }
+    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        if node.is_empty() {
+            SceneError::new(name, "", format!("cannot read: {e}"))
+        } else {
+            SceneError::new(name, node, format!("cannot read {name}: {e}"))
+        }
+    })?;
+    Ok((parse(&text, format, name)?, text))
+}
+
+/// A file's stamp for content hashes: its canonical path, size and modification time.
+pub(crate) fn file_stamp(path: &Path) -> u64 {
+    let mut h = DefaultHasher::new();
+    canonical(path).hash(&mut h);
+    if let Ok(m) = std::fs::metadata(path) {
+        m.len().hash(&mut h);
+        if let Ok(t) = m.modified() {
+            t.hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+/// A compiled node: its field and content hash.
+struct Compiled {
+    field: Box<dyn Field>,
+    hash: u64,
+}
+
+/// Compiles nodes into fields, loading sources.
+struct Builder<'a> {
+    /// The file being compiled (its name in errors) and its folder.
+    file: String,
+    dir: PathBuf,
+    stack: &'a mut Vec<PathBuf>,
+    deps: &'a mut Vec<PathBuf>,
+    cache: &'a mut SourceCache,
+    sources: Vec<SourceInfo>,
+    prism_meshes: Vec<PrismMesh>,
+    hashes: Vec<NodeHash>,
+    frame: Frame,
+    depth: usize,
+    nodes: usize,
+}
+
+fn hash_of(parts: impl FnOnce(&mut DefaultHasher)) -> u64 {
+    let mut h = DefaultHasher::new();
+    parts(&mut h);
+    h.finish()
+}
+
+fn f32_bits(h: &mut DefaultHasher, v: &[f32]) {
+    v.iter().for_each(|x| x.to_bits().hash(h));
+}
+
+impl Builder<'_> {
+    fn err(&self, node: &str, m: impl Into<String>) -> SceneError {
+        SceneError::new(&self.file, node, m)
+    }
+
+    fn counted<F: Field + 'static>(
+        &mut self,
+        node: String,
+        kind: &'static str,
+        triangles: Option<usize>,
+        field: F,
+    ) -> Box<dyn Field> {
+        let count = Arc::new(Counter::new());
+        self.sources.push(SourceInfo {
+            node,
+            kind,
+            triangles,
+            count: count.clone(),
+        });
+        Box::new(Counted { field, count })
+    }
+
+    /// The file a node names, relative to the scene file, recorded as a dependency (also
+    /// when it is missing: a live viewer waits for it to appear).
+    fn resolve(&mut self, file: &str, node: &str) -> Result<PathBuf, SceneError> {
+        if file.is_empty() {
+            return Err(self.err(node, "path is empty"));
+        }
+        let p = self.dir.join(file);
+        self.deps.push(p.clone());
+        if p.is_dir() {
+            return Err(self.err(node, format!("{} is a directory, not a file", p.display())));
+        }
+        if !p.is_file() {
+            return Err(self.err(node, format!("no such file: {}", p.display())));
+        }
+        Ok(p)
+    }
+
+    fn children(
+        &mut self,
+        of: &[Node],
+        path: &str,
+        min: usize,
+    ) -> Result<Vec<Compiled>, SceneError> {
+        if of.len() < min {
+            let what = if min == 1 { "shape" } else { "shapes" };
+            return Err(self.err(
+                path,
+                format!("needs at least {min} {what}, got {}", of.len()),
+            ));
+        }
+        of.iter()
+            .enumerate()
+            .map(|(i, n)| self.compile(n, &format!("{path}[{i}]")))
+            .collect()
+    }
+
+    fn compile(&mut self, node: &Node, parent: &str) -> Result<Compiled, SceneError> {
+        let path = format!("{parent}.{}", node.kind());
+        self.nodes += 1;
+        if self.nodes > MAX_NODES {
+            return Err(self.err(
+                &path,
+                format!("the scene has more than {MAX_NODES} nodes (includes count each time they are used)"),
+            ));
+        }
+        if self.depth >= MAX_DEPTH {
+            return Err(self.err(
+                &path,
+                format!("the tree is nested more than {MAX_DEPTH} levels deep"),
+            ));
+        }
+        self.depth += 1;
+        // Reserve the node's slot so the list stays in pre-order (root first).
+        let slot = self.hashes.len();
+        self.hashes.push(NodeHash {
+            node: path.clone(),
+            hash: 0,
+            bounds: Aabb::EMPTY,
+        });
+        let out = self.compile_node(node, path);
+        self.depth -= 1;
+        match out {
+            Ok(c) => {
+                let h = &mut self.hashes[slot];
+                h.hash = c.hash;
+                h.bounds = c.field.bounds();
+                Ok(c)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    fn compile_node(&mut self, node: &Node, path: String) -> Result<Compiled, SceneError> {
+        if let Some(p) = node.primitive() {
+            let prim = p.build().map_err(|e| self.err(&path, e.to_string()))?;
+            let hash = hash_of(|h| {
+                node.kind().hash(h);
+                for (name, v) in p.params() {
+                    name.hash(h);
+                    match v {
+                        crate::primitives::Param::Number(x) => f32_bits(h, &[x]),
+                        crate::primitives::Param::Vector(x) => f32_bits(h, &x),
+                    }
+                }
+            });
+            let field = self.counted(path, node.kind(), None, prim);
+            return Ok(Compiled { field, hash });
+        }
+        let finite = |x: f32, name: &str| -> Result<f32, SceneError> {
+            if x.is_finite() {
+                Ok(x)
+            } else {
+                Err(SceneError::new(
+                    &self.file,
+                    &format!("{path}.{name}"),
+                    format!("{x} must be finite"),
+                ))
+            }
+        };
+        let combine = |kind: &str, params: &[f32], kids: &[Compiled]| {
+            hash_of(|h| {
+                kind.hash(h);
+                f32_bits(h, params);
+                kids.iter().for_each(|k| k.hash.hash(h));
+            })
+        };
+        let file = self.file.clone();
+        let csg = |e: isokit_levelset::csg::CsgError| SceneError::new(&file, &path, e.to_string());
+        Ok(match node {
+            Node::Mesh(m) => self.mesh(m, path)?,
+            Node::Points(p) => self.points(p, path)?,
+            Node::Volume(v) => self.volume(v, path)?,
+            Node::Octree(o) => self.octree(o, path)?,
+            Node::Field(f) => {
+                let hash = hash_of(|h| {
+                    "field".hash(h);
+                    f.hash.hash(h);
+                });
+                let field = self.counted(path, "field", None, f.field.clone());
+                Compiled { field, hash }
+            }
+            Node::Include { path: file } => self.include(file, path)?,
+            Node::Union(of) => {
+                let kids = self.children(of, &path, 1)?;
+                let hash = combine("union", &[], &kids);
+                let fields = kids.into_iter().map(|k| k.field).collect();
+                Compiled {
+                    field: Box::new(UnionN::new(fields).map_err(csg)?),
+                    hash,
+                }
+            }
+            Node::Intersection(of) => {
+                let kids = self.children(of, &path, 1)?;
+                let hash = combine("intersection", &[], &kids);
+                let fields = kids.into_iter().map(|k| k.field).collect();
+                Compiled {
+                    field: Box::new(IntersectionN::new(fields).map_err(csg)?),
+                    hash,
+                }
+            }
+            Node::Difference(of) => {
+                let kids = self.children(of, &path, 2)?;
+                let hash = combine("difference", &[], &kids);
+                let mut fields: Vec<Box<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
+                let base = fields.remove(0);
+                Compiled {
+                    field: Box::new(DifferenceN::new(base, fields)),
+                    hash,
+                }
+            }
+            Node::Complement(of) => {
+                let c = self.compile(of, &path)?;
+                Compiled {
+                    hash: combine("complement", &[], std::slice::from_ref(&c)),
+                    field: Box::new(Complement::new(c.field)),
+                }
+            }
+            Node::SmoothUnion(s) => self.smooth(s, &path, SmoothKind::Union)?,
+            Node::SmoothIntersection(s) => self.smooth(s, &path, SmoothKind::Intersection)?,
+            Node::SmoothDifference(s) => self.smooth(s, &path, SmoothKind::Difference)?,
+            Node::Offset { by, of } => {
+                let by = finite(*by, "by")?;
+                let c = self.compile(of, &format!("{path}.of"))?;
+                Compiled {
+                    hash: combine("offset", &[by], std::slice::from_ref(&c)),
+                    field: Box::new(Offset::new(c.field, by).map_err(csg)?),
+                }
+            }
+            Node::Shell { thickness, of } => {
+                let t = finite(*thickness, "thickness")?;
+                if t <= 0.0 {
+                    return Err(self.err(&format!("{path}.thickness"), format!("{t} must be > 0")));
+                }
+                let c = self.compile(of, &format!("{path}.of"))?;
+                Compiled {
+                    hash: combine("shell", &[t], std::slice::from_ref(&c)),
+                    field: Box::new(Shell::new(c.field, t).map_err(csg)?),
+                }
+            }
+            Node::Morph { t, from, to } => {
+                let t = finite(*t, "t")?;
+                let a = self.compile(from, &format!("{path}.from"))?;
+                let b = self.compile(to, &format!("{path}.to"))?;
+                let hash = hash_of(|h| {
+                    "morph".hash(h);
+                    t.to_bits().hash(h);
+                    a.hash.hash(h);
+                    b.hash.hash(h);
+                });
+                let field = LinearMorph::new(a.field, b.field, t)
+                    .map_err(|e| self.err(&path, e.to_string()))?;
+                Compiled {
+                    field: Box::new(field),
+                    hash,
+                }
+            }
+            Node::Transform(t) => self.transform(t, &path)?,
+            _ => unreachable!("primitives are compiled above"),
+        })
+    }
+
+    fn smooth(&mut self, s: &Smooth, path: &str, kind: SmoothKind) -> Result<Compiled, SceneError> {
+        if !(s.radius.is_finite() && s.radius >= 0.0) {
+            return Err(self.err(
+                &format!("{path}.radius"),
+                format!("{} must be finite and non-negative", s.radius),
+            ));
+        }
+        let min = if kind == SmoothKind::Difference { 2 } else { 1 };
+        let kids = self.children(&s.of, &format!("{path}.of"), min)?;
+        let hash = hash_of(|h| {
+            format!("{kind:?}").hash(h);
+            s.radius.to_bits().hash(h);
+            kids.iter().for_each(|k| k.hash.hash(h));
+        });
+        let fields = kids.into_iter().map(|k| k.field).collect();
+        let field =
+            SmoothN::new(kind, s.radius, fields).map_err(|e| self.err(path, e.to_string()))?;
+        Ok(Compiled {
+            field: Box::new(field),
+            hash,
+        })
+    }
+
+    fn transform(&mut self, t: &TransformSpec, path: &str) -> Result<Compiled, SceneError> {
+        let translation = t.translate.map_or(Vec3::ZERO, Vec3::from);
+        if !translation.is_finite() {
+            return Err(self.err(&format!("{path}.translate"), "must be finite"));
+        }
+        let scale = t.scale.unwrap_or(1.0);
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(self.err(
+                &format!("{path}.scale"),
+                format!("{scale} must be finite and > 0 (uniform scale only)"),
+            ));
+        }
+        let (axis, degrees) = match &t.rotate {
+            None => (None, 0.0),
+            Some(r) => {
+                let axis = Vec3::from(r.axis);
+                if !(axis.is_finite() && axis.length() > 0.0 && r.degrees.is_finite()) {
+                    return Err(self.err(
+                        &format!("{path}.rotate"),
+                        "axis must be finite and nonzero, degrees finite",
+                    ));
+                }
+                (Some(axis), r.degrees)
+            }
+        };
+        // Scale, then rotate, then translate (the builders compose in call order).
+        let tf = |inner: Box<dyn Field>| -> Result<Transformed<Box<dyn Field>>, String> {
+            let mut x = Transformed::new(inner)
+                .scale(scale)
+                .map_err(|e| e.to_string())?;
+            if let Some(a) = axis {
+                x = x
+                    .rotate_axis_degrees(a, degrees)
+                    .map_err(|e| e.to_string())?;
+            }
+            x.translate(translation).map_err(|e| e.to_string())
+        };
+        // The child's frame (for prism bands): world = t + s · q(local), as the builders
+        // above compose it.
+        let q = axis.map_or(DQuat::IDENTITY, |a| {
+            let a = a.as_dvec3();
+            DQuat::from_axis_angle(
+                (a / a.abs().max_element()).normalize(),
+                f64::from(degrees).to_radians(),
+            )
+        });
+        let outer = self.frame;
+        self.frame = outer.then(q, translation.as_dvec3(), f64::from(scale));
+        let c = self.compile(&t.of, &format!("{path}.of"));
+        self.frame = outer;
+        let c = c?;
+        let hash = hash_of(|h| {
+            "transform".hash(h);
+            f32_bits(h, &translation.to_array());
+            f32_bits(h, &[scale, degrees]);
+            if let Some(a) = axis {
+                f32_bits(h, &a.to_array());
+            }
+            c.hash.hash(h);
+        });
+        let field = tf(c.field).map_err(|e| self.err(path, e))?;
+        Ok(Compiled {
+            field: Box::new(field),
+            hash,
+        })
+    }
+
+    fn mesh(&mut self, m: &MeshNode, path: String) -> Result<Compiled, SceneError> {
+        let sign = match m.sign {
+            SignMode::Auto => isokit_kdtree::mesh::SignMode::Auto,
+            SignMode::Pseudonormal => isokit_kdtree::mesh::SignMode::Pseudonormal,
+            SignMode::Winding => isokit_kdtree::mesh::SignMode::Winding,
+            SignMode::Unsigned => isokit_kdtree::mesh::SignMode::Unsigned,
+        };
+        let (mesh, stamp, what): (Arc<TriMesh>, u64, String) = match (&m.data, &m.path) {
+            (Some(d), _) => (d.data.clone(), d.hash, "the mesh in memory".to_owned()),
+            (None, Some(file)) => {
+                let f = self.resolve(file, &path)?;
+                let stamp = file_stamp(&f);
+                let mesh = match self.cache.meshes.get(&(canonical(&f), stamp)) {
+                    Some(m) => m.clone(),
+                    None => {
+                        let mesh = Arc::new(
+                            isokit_io::read_mesh(&f).map_err(|e| self.err(&path, chain(&e)))?,
+                        );
+                        self.cache
+                            .meshes
+                            .insert((canonical(&f), stamp), mesh.clone());
+                        mesh
+                    }
+                };
+                (mesh, stamp, f.display().to_string())
+            }
+            (None, None) => return Err(self.err(&path, "a mesh needs a `path`")),
+        };
+        let key = (stamp, m.sign);
+        let sdf = match self.cache.mesh_sdfs.get(&key) {
+            Some(s) => s.clone(),
+            None => {
+                let opts = MeshOptions {
+                    sign,
+                    ..Default::default()
+                };
+                let sdf = Arc::new(
+                    MeshSdf::new(&mesh, opts)
+                        .map_err(|e| self.err(&path, format!("{what}: {e}")))?,
+                );
+                self.cache.mesh_sdfs.insert(key, sdf.clone());
+                sdf
+            }
+        };
+        let prism = match m.method {
+            BandMethod::Kdtree => None,
+            BandMethod::Prism => Some(PrismBackend::Auto),
+            BandMethod::PrismCpu => Some(PrismBackend::Cpu),
+            BandMethod::PrismGpu => Some(PrismBackend::Gpu),
+        };
+        let field = Arc::new(MeshField::new(sdf, prism.map(|b| (mesh.clone(), b))));
+        if prism.is_some() {
+            self.prism_meshes.push(PrismMesh {
+                field: field.clone(),
+                frame: self.frame,
+                node: path.clone(),
+            });
+        }
+        let hash = hash_of(|h| {
+            "mesh".hash(h);
+            stamp.hash(h);
+            m.sign.hash(h);
+            m.method.hash(h);
+        });
+        let triangles = Some(mesh.triangles.len());
+        let field = self.counted(path, "mesh", triangles, field);
+        Ok(Compiled { field, hash })
+    }
+
+    fn points(&mut self, p: &PointsNode, path: String) -> Result<Compiled, SceneError> {
+        let (cloud, stamp, what) = match (&p.data, &p.path) {
+            (Some(d), _) => (d.data.clone(), d.hash, "the cloud in memory".to_owned()),
+            (None, Some(file)) => {
+                let f = self.resolve(file, &path)?;
+                let cloud = isokit_io::read_points(&f).map_err(|e| self.err(&path, chain(&e)))?;
+                (Arc::new(cloud), file_stamp(&f), f.display().to_string())
+            }
+            (None, None) => return Err(self.err(&path, "a point cloud needs a `path`")),
+        };
+        let key = (stamp, p.k, p.normals);
+        let sdf = match self.cache.clouds.get(&key) {
+            Some(s) => s.clone(),
+            None => {
+                let normals = match (p.normals, cloud.normals.is_some()) {
+                    (Normals::Auto, true) | (Normals::Given, _) => NormalSource::Given,
+                    (Normals::Auto, false) | (Normals::Estimate, _) => {
+                        NormalSource::Estimate(NormalOptions::default())
+                    }
+                };
+                let mut opts = PointSdfOptions::default();
+                if let Some(k) = p.k {
+                    opts.k = k;
+                }
+                let (sdf, _) = PointSdf::from_cloud(&cloud, normals, &opts)
+                    .map_err(|e| self.err(&path, format!("{what}: {e}")))?;
+                let sdf = Arc::new(sdf);
+                self.cache.clouds.insert(key, sdf.clone());
+                sdf
+            }
+        };
+        let hash = hash_of(|h| {
+            "points".hash(h);
+            key.hash(h);
+        });
+        let field = self.counted(path, "points", None, sdf);
+        Ok(Compiled { field, hash })
+    }
+
+    fn volume(&mut self, v: &VolumeNode, path: String) -> Result<Compiled, SceneError> {
+        let filter = match v.filter {
+            FilterNode::Trilinear => Filter::Trilinear,
+            FilterNode::CubicBspline => Filter::CubicBSpline,
+            FilterNode::CatmullRom => Filter::CatmullRom,
+        };
+        let sign = match v.inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        };
+        if !v.iso.is_finite() {
+            return Err(self.err(&format!("{path}.iso"), format!("{} must be finite", v.iso)));
+        }
+        let iso = v.iso;
+        let (data, stamp, what) = match (&v.data, &v.path) {
+            (Some(d), _) => (d.data.clone(), d.hash, "the volume in memory".to_owned()),
+            (None, Some(file)) => {
+                let f = self.resolve(file, &path)?;
+                let grid = isokit_io::read_volume(&f)
+                    .and_then(|v| v.into_grid())
+                    .map_err(|e| self.err(&path, chain(&e)))?;
+                (
+                    Arc::new(VolumeData::Grid(grid)),
+                    file_stamp(&f),
+                    f.display().to_string(),
+                )
+            }
+            (None, None) => return Err(self.err(&path, "a volume needs a `path`")),
+        };
+        let hash = hash_of(|h| {
+            "volume".hash(h);
+            stamp.hash(h);
+            v.filter.hash(h);
+            iso.to_bits().hash(h);
+            v.inside.hash(h);
+        });
+        let field: Box<dyn Field> = match &*data {
+            VolumeData::Grid(grid) => {
+                let key = (stamp, v.filter, iso.to_bits(), v.inside);
+                let vf = match self.cache.volumes.get(&key) {
+                    Some(f) => f.clone(),
+                    None => {
+                        let vf = Arc::new(self.volume_field(
+                            grid.clone(),
+                            filter,
+                            iso,
+                            sign,
+                            &path,
+                            &what,
+                        )?);
+                        self.cache.volumes.insert(key, vf.clone());
+                        vf
+                    }
+                };
+                self.counted(path, "volume", None, vf)
+            }
+            VolumeData::Bricks(bricks) => {
+                if iso != 0.0 || v.inside != Inside::Below || v.filter != FilterNode::Trilinear {
+                    return Err(self.err(
+                        &path,
+                        "a brick grid in memory is read as a distance field: trilinear, iso 0, inside below",
+                    ));
+                }
+                let lipschitz = 3f32.sqrt();
+                self.counted(
+                    path,
+                    "volume",
+                    None,
+                    BrickField {
+                        bricks: bricks.clone(),
+                        lipschitz,
+                    },
+                )
+            }
+        };
+        Ok(Compiled { field, hash })
+    }
+
+    fn volume_field(
+        &self,
+        grid: isokit_field::Grid,
+        filter: Filter,
+        iso: f32,
+        sign: f32,
+        path: &str,
+        what: &str,
+    ) -> Result<VolumeField, SceneError> {
+        let (lo, hi) = grid
+            .min_max()
+            .ok_or_else(|| self.err(path, format!("{what}: the volume has no finite sample")))?;
+        if grid.data().iter().any(|x| !x.is_finite()) {
+            return Err(self.err(
+                path,
+                format!("{what}: the volume holds NaN or infinite samples"),
+            ));
+        }
+        // Trilinear and B-spline reconstructions are convex combinations of the samples;
+        // tricubic Catmull-Rom can undershoot by up to 0.477 of the range (the negative
+        // lobes of its 64 weights).
+        let undershoot = if filter == Filter::CatmullRom {
+            0.5 * (hi - lo)
+        } else {
+            0.0
+        };
+        let min = if sign > 0.0 { lo - iso } else { iso - hi } - undershoot;
+        let lipschitz = volume_lipschitz(&grid, filter);
+        Ok(VolumeField {
+            field: SampledField::new(grid, filter),
+            iso,
+            sign,
+            min,
+            lipschitz,
+        })
+    }
+
+    fn octree(&mut self, o: &OctreeNode, path: String) -> Result<Compiled, SceneError> {
+        if !(1..=12).contains(&o.max_level) {
+            return Err(self.err(
+                &format!("{path}.max_level"),
+                format!("{} must be 1 to 12", o.max_level),
+            ));
+        }
+        let child = self.compile(&o.of, &format!("{path}.of"))?;
+        let b = child.field.bounds();
+        if !b.is_finite() || b.is_empty() {
+            return Err(self.err(&path, "the octree's child must be bounded"));
+        }
+        let cell = b.size().max_element() / (1u32 << o.max_level) as f32;
+        let error = o.error.unwrap_or(0.01 * cell);
+        if !(error.is_finite() && error >= 0.0) {
+            return Err(self.err(&format!("{path}.error"), format!("{error} must be ≥ 0")));
+        }
+        let mut opts = isokit_octree::BuildOptions::new(u32::from(o.max_level));
+        opts.min_level = u32::from(o.min_level.unwrap_or(2).min(o.max_level));
+        opts.error = error;
+        opts.band = 2.0 * cell;
+        let domain = b.expanded(4.0 * cell);
+        let tree = isokit_octree::HashedOctree::build(&*child.field, domain, &opts)
+            .map_err(|e| self.err(&path, e.to_string()))?;
+        let hash = hash_of(|h| {
+            "octree".hash(h);
+            o.max_level.hash(h);
+            o.min_level.hash(h);
+            error.to_bits().hash(h);
+            child.hash.hash(h);
+        });
+        let field = self.counted(path, "octree", None, tree);
+        Ok(Compiled { field, hash })
+    }
+
+    fn include(&mut self, file: &str, path: String) -> Result<Compiled, SceneError> {
+        let f = self.resolve(file, &path)?;
+        let key = canonical(&f);
+        if let Some(i) = self.stack.iter().position(|p| *p == key) {
+            let cycle: Vec<String> = self.stack[i..]
+                .iter()
+                .chain(std::iter::once(&key))
+                .map(|p| p.display().to_string())
+                .collect();
+            return Err(self.err(&path, format!("include cycle: {}", cycle.join(" -> "))));
+        }
+        let name = f.display().to_string();
+        let (inner, _) = read_scene_file(&f, &name, &path).map_err(|e| {
+            if e.file == name && e.node.is_empty() {
+                self.err(&path, e.message)
+            } else {
+                e
+            }
+        })?;
+        let dir = f.parent().unwrap_or(Path::new(".")).to_path_buf();
+        self.stack.push(key);
+        // The included file's nodes are compiled with its own folder and name.
+        let saved_dir = std::mem::replace(&mut self.dir, dir);
+        let saved_file = std::mem::replace(&mut self.file, name.clone());
+        let compiled = self.compile(&inner.shape, &format!("{path}({name}).shape"));
+        self.dir = saved_dir;
+        self.file = saved_file;
+        self.stack.pop();
+        let c = compiled?;
+        Ok(Compiled {
+            hash: hash_of(|h| {
+                "include".hash(h);
+                c.hash.hash(h);
+            }),
+            field: c.field,
+        })
+    }
+}

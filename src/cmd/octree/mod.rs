@@ -1,0 +1,206 @@
+//! `isokit octree INPUT --max-level L …`: an adaptively sampled field in a hashed octree,
+//! with its size, build time and error against the exact field.
+
+mod bench;
+mod summary;
+
+pub use bench::{BenchArgs, bench};
+
+use super::check_output;
+use super::mesh_args::MeshKnobs;
+use anyhow::{Result, bail};
+use isokit_io::{Volume, write_volume};
+use isokit_octree::{BuildOptions, Construction, HashedOctree, Octree, errors, test_points};
+use isokit_scene::input::open_field;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Arguments of `isokit octree`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A mesh (.obj .gltf .glb .ply .stl .off: exact distance through the kd-tree), a volume
+    /// (.nrrd .nhdr .npy .nii .nii.gz: its trilinear reconstruction, which is then also the
+    /// reference for the error), a scene file (.json, .toml), or a primitive name with its
+    /// default size (sphere, box, rounded-box, torus, capsule, cylinder, cone, ellipsoid; see
+    /// `isokit sample --help`).
+    pub input: String,
+    /// Finest level (the root is level 0; 2^L cells a side), at most 21.
+    #[arg(long)]
+    pub max_level: u32,
+    /// Cells above this level are always subdivided [default: min(2, max level)].
+    #[arg(long)]
+    pub min_level: Option<u32>,
+    /// Error bound in world units: half for the cells' trilinear reconstruction at their test
+    /// points, half for hanging nodes [default: a tenth of a finest cell].
+    #[arg(long)]
+    pub error: Option<f32>,
+    /// Extra levels of test points per cell (for small features of general fields), 0 to 4.
+    #[arg(long, default_value_t = 0)]
+    pub lookahead: u32,
+    /// Half-width of the band around the surface where the bound holds, in world units
+    /// [default: two finest cells].
+    #[arg(long)]
+    pub band: Option<f32>,
+    /// Half-width of the band where the test points lie [default: two finest cells].
+    #[arg(long)]
+    pub test_band: Option<f32>,
+    /// Evaluate the whole finest grid and coalesce (guaranteed feature capture; refused when
+    /// the dense grid is too large).
+    #[arg(long)]
+    pub bottom_up: bool,
+    /// Leave hanging nodes interpolated without refining their coarse leaves (the thesis's
+    /// construction; the bound then holds only where no hanging node is near).
+    #[arg(long)]
+    pub no_hanging_refinement: bool,
+    /// Stop with an error beyond this many cells (a tree costs about 20 to 60 bytes per cell
+    /// while it is built).
+    #[arg(long, default_value_t = isokit_octree::DEFAULT_MAX_CELLS)]
+    pub max_cells: usize,
+    /// Margin around the input's bounds in world units [default: 10% of the diagonal for
+    /// meshes and primitives, 0 for volumes].
+    #[arg(long)]
+    pub padding: Option<f32>,
+    /// Export the tree sampled on a grid (.nrrd or .npy).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Level of the exported grid (2^level + 1 samples a side) [default: min(max level, 8)].
+    #[arg(long)]
+    pub export_level: Option<u32>,
+    /// Random test points within the band (independent of the construction).
+    #[arg(long, default_value_t = 20_000)]
+    pub test_points: usize,
+    /// Seed of the test points.
+    #[arg(long, default_value_t = 2026)]
+    pub seed: u64,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub knobs: MeshKnobs,
+}
+
+/// Runs the command.
+pub fn run(a: Args) -> Result<()> {
+    if let Some(o) = &a.output {
+        check_output(o, &[".nrrd", ".npy"])?;
+    }
+    let l = a.max_level;
+    if l > isokit_octree::MAX_LEVEL {
+        bail!(
+            "--max-level {l} is too deep: at most {}",
+            isokit_octree::MAX_LEVEL
+        );
+    }
+    let export_level = a.export_level.unwrap_or(l.min(8));
+    if a.output.is_some() && export_level > l {
+        bail!("--export-level {export_level} is finer than --max-level {l}");
+    }
+    let inp = open_field(&a.input, a.knobs.options())?;
+    if !inp.field.bounds().is_finite() {
+        bail!("{}: unbounded field", a.input);
+    }
+    let pad = a.padding.unwrap_or(inp.pad);
+    if !(pad.is_finite() && pad >= 0.0) {
+        bail!("--padding {pad} must be finite and non-negative");
+    }
+    let bounds = inp.bounds.expanded(pad);
+    let domain = isokit_octree::Domain::cube_around(bounds, l)?;
+    let h = domain.finest_spacing() as f32;
+    let band = a.band.unwrap_or(2.0 * h);
+    let opts = BuildOptions {
+        min_level: a.min_level.unwrap_or(l.min(2)),
+        error: a.error.unwrap_or(0.1 * h),
+        lookahead: a.lookahead,
+        band,
+        construction: if a.bottom_up {
+            Construction::BottomUp
+        } else {
+            Construction::TopDown
+        },
+        refine_hanging: !a.no_hanging_refinement,
+        max_cells: a.max_cells,
+        ..BuildOptions::new(l)
+    };
+    let tree = HashedOctree::build(&*inp.field, bounds, &opts)?;
+    let st = tree.stats().clone();
+    let test_band = a.test_band.unwrap_or(2.0 * h);
+    if !(test_band.is_finite() && test_band > 0.0) {
+        bail!("--test-band {test_band} must be finite and positive");
+    }
+    let pts = test_points(
+        &*inp.field,
+        inp.mesh.as_ref(),
+        domain.bounds(),
+        test_band,
+        a.test_points,
+        a.seed,
+    );
+    let e = errors(&tree, &*inp.field, &pts);
+    let (max_error, rms_error) = (e.max, e.rms);
+    let exported = match &a.output {
+        Some(o) => {
+            let g = tree.to_grid(export_level)?;
+            let dims = g.dims();
+            write_volume(o, &Volume::from(g))?;
+            Some((o.display().to_string(), dims))
+        }
+        None => None,
+    };
+    let (cells_bytes, nodes_bytes) = tree.memory_split();
+    let v = json!({
+        "input": a.input,
+        "what": inp.what,
+        "reference": inp.reference,
+        "exact_reference": inp.reference.starts_with("exact"),
+        "construction": if a.bottom_up { "bottom-up" } else { "top-down" },
+        "max_level": l,
+        "min_level": opts.min_level,
+        "error_bound": opts.error,
+        "lookahead": opts.lookahead,
+        "band": band,
+        "test_band": test_band,
+        "narrow_keys": tree.narrow_keys(),
+        "refine_hanging": opts.refine_hanging,
+        "domain_origin": domain.origin().to_array(),
+        "domain_side": domain.side(),
+        "finest_spacing": h,
+        "cells": tree.cell_count(),
+        "leaves": st.leaves_per_level.iter().sum::<u64>(),
+        "leaves_per_level": st.leaves_per_level,
+        "nodes": tree.node_count(),
+        "hanging_nodes": st.hanging_nodes,
+        "memory_bytes": tree.memory_bytes(),
+        "cell_set_bytes": cells_bytes,
+        "node_map_bytes": nodes_bytes,
+        "bytes_per_cell": tree.bytes_per_cell(),
+        "build_seconds": st.seconds,
+        "finalize_passes": st.passes,
+        "evaluations": st.evaluations,
+        "dense_samples": ((1u64 << l) + 1).pow(3),
+        "dense_fraction": st.dense_fraction,
+        "test_points": pts.len(),
+        "max_error": max_error,
+        "rms_error": rms_error,
+        "build_cell_cache_hit_rate": st.cell_cache.hit_rate(),
+        "build_node_cache_hit_rate": st.node_cache.hit_rate(),
+        "test_cell_cache_hit_rate": e.cell_hit_rate,
+        "test_node_cache_hit_rate": e.node_hit_rate,
+        "threads": rayon::current_num_threads(),
+        "output": exported.as_ref().map(|(p, _)| p.clone()),
+        "export_level": exported.as_ref().map(|_| export_level),
+        "export_dims": exported.as_ref().map(|(_, d)| *d),
+    });
+    if a.json {
+        println!("{v}");
+    } else {
+        summary::print(&v);
+    }
+    if pts.len() < a.test_points {
+        eprintln!(
+            "note: found only {} of {} test points within the band",
+            pts.len(),
+            a.test_points
+        );
+    }
+    Ok(())
+}
