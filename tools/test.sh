@@ -10,6 +10,11 @@ cd "$(dirname "$0")/.."
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 cargo test --workspace
 cargo build --bin isokit
+# The modeling scripts in examples/ run too (they check their own results).
+examples_out=$(mktemp -d)
+trap 'rm -rf "$examples_out"' EXIT
+cargo run --quiet --example model_in_code -- "$examples_out"
+cargo run --quiet --example csg_scene -- "$examples_out/part.obj"
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
