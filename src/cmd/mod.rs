@@ -70,33 +70,6 @@ pub fn padded_grid(
     Ok(isokit_field::Grid::covering(bounds, res, pad)?)
 }
 
-/// Fills `grid` one z-slice per parallel task, reporting progress labelled `label` on
-/// stderr: `slice(k, positions, values)` receives the f64 positions of slice `k` (x fastest)
-/// and writes the values; the per-slice results are combined with `merge`.
-pub fn fill_slices<S: Send + Default>(
-    grid: &mut isokit_field::Grid,
-    label: &'static str,
-    slice: impl Fn(usize, &mut dyn Iterator<Item = glam::DVec3>, &mut [f32]) -> S + Sync,
-    merge: impl Fn(S, S) -> S + Sync + Send,
-) -> S {
-    use rayon::prelude::*;
-    let [nx, ny, _] = grid.dims();
-    let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
-    let job = progress::job();
-    let progress = job.counter(label, grid.len() as u64);
-    grid.data_mut()
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .map(|(k, values)| {
-            let mut pos = (0..nx * ny)
-                .map(|n| origin + h * glam::DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64));
-            let s = slice(k, &mut pos, values);
-            progress.advance(values.len() as u64);
-            s
-        })
-        .reduce(S::default, &merge)
-}
-
 /// A volume file as a uniform grid (anisotropic volumes resampled, with a note).
 pub fn read_grid(path: &std::path::Path) -> anyhow::Result<isokit_field::Grid> {
     let v = isokit_io::read_volume(path)?;

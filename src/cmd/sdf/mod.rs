@@ -2,85 +2,18 @@
 //! distance on a grid, per sample through the kd-tree or per triangle by prism scan
 //! conversion (CPU or GPU).
 
+mod args;
+
+pub use args::Args;
+use args::{Backend, Method};
+
 use super::check_output;
-use super::mesh_args::MeshKnobs;
 use anyhow::{Context, Result, bail};
 use isokit_field::Grid;
-use isokit_gpu::BackendChoice;
 use isokit_io::{Volume, read_mesh, write_volume};
 use isokit_kdtree::mesh::MeshSdf;
-use isokit_kdtree::tree::QueryStats;
-use isokit_prism::{Engine, PrismGpu, PrismOptions, PrismSdf, SideRule};
-use std::path::PathBuf;
+use isokit_prism::{Engine, PrismGpu, PrismSdf};
 use std::time::Instant;
-
-/// How the grid is computed.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Per-sample exact closest point through the kd-tree.
-    Kdtree,
-    /// Per-triangle prism scan conversion of the narrow band (needs --band): exact inside the
-    /// band, ±W outside it; much faster for narrow bands.
-    Prism,
-}
-
-/// Where the prism scan runs.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// A hardware GPU when one exists, else the CPU (a software rasterizer such as lavapipe
-    /// counts as no GPU here: the CPU twin is faster on the same cores). `ISOKIT_BACKEND`
-    /// overrides.
-    Auto,
-    /// The CPU twin (rayon).
-    Cpu,
-    /// The GPU (wgpu compute); an error when no adapter exists.
-    Gpu,
-}
-
-/// The prism's sides on the concave side of an edge.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sides {
-    /// Perpendicular to the face: exact at any band width.
-    Exact,
-    /// The paper's bisectors: tighter, may leak where the band is wide compared with the
-    /// triangles.
-    Bisector,
-}
-
-/// Arguments of `isokit sdf`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
-    /// Triangle mesh (.obj .gltf .glb .ply .stl .off).
-    pub mesh: PathBuf,
-    /// Output volume (.nrrd or .npy).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Algorithm.
-    #[arg(long, value_enum, default_value_t = Method::Kdtree)]
-    pub method: Method,
-    /// Samples along the longest side of the padded bounds.
-    #[arg(long, default_value_t = 64)]
-    pub res: usize,
-    /// Narrow band: only samples within W of the surface are exact; the rest hold ±W with
-    /// the right sign (the search exits early beyond W). Required by --method prism.
-    #[arg(long)]
-    pub band: Option<f64>,
-    /// Margin around the mesh bounds in world units [default: 10% of the diagonal].
-    #[arg(long)]
-    pub padding: Option<f32>,
-    /// Where --method prism runs.
-    #[arg(long, value_enum, default_value_t = Backend::Auto)]
-    pub backend: Backend,
-    /// --method prism: sides of the prisms on concave edges.
-    #[arg(long, value_enum, default_value_t = Sides::Exact)]
-    pub prism_sides: Sides,
-    /// --method prism: do not close the gaps at saddle vertices (to measure what the repair
-    /// is for; leaves band samples wrong or at ±W).
-    #[arg(long)]
-    pub no_gap_repair: bool,
-    #[command(flatten)]
-    pub knobs: MeshKnobs,
-}
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
@@ -112,39 +45,18 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
         MeshSdf::new(mesh, a.knobs.options()).with_context(|| a.mesh.display().to_string())?;
     eprintln!("sign: {} ({})", sdf.sign_method().name(), sdf.sign_reason());
     let t = Instant::now();
-    let band = a.band.unwrap_or(f64::INFINITY);
-    let stats = super::fill_slices(
+    let fill = sdf.fill_grid(
         &mut grid,
-        "sdf",
-        |_, positions, values| {
-            let mut st = QueryStats::default();
-            // Neighbouring samples share their closest triangle more often than not.
-            let mut hint = None;
-            for (p, v) in positions.zip(values.iter_mut()) {
-                let (d, t) = sdf.signed_distance_band_near(p, band, hint, &mut st);
-                hint = t.or(hint);
-                *v = d as f32;
-            }
-            st
-        },
-        |mut a, b| {
-            a += b;
-            a
-        },
-    );
+        a.band.unwrap_or(f64::INFINITY),
+        &super::progress::job(),
+    )?;
     let secs = t.elapsed().as_secs_f64();
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
-    let inside_band = a.band.map(|_| {
-        grid.data()
-            .iter()
-            .filter(|v| (v.abs() as f64) < band)
-            .count()
-    });
     write_volume(&a.output, &Volume::from(grid))?;
-    let in_band = inside_band.map_or(String::new(), |n| {
+    let in_band = a.band.map_or(String::new(), |_| {
         format!(
             ", {:.1}% of samples inside the band",
-            100.0 * n as f64 / len as f64
+            100.0 * fill.band_samples as f64 / len as f64
         )
     });
     eprintln!(
@@ -153,40 +65,19 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
         dims[1],
         dims[2],
         len as f64 / secs.max(1e-12),
-        stats.prims_tested as f64 / len as f64,
+        fill.stats.prims_tested as f64 / len as f64,
         a.output.display()
     );
     Ok(())
 }
 
-/// Opens the GPU the user asked for (the one policy of `isokit_gpu::choose_backend`), or
-/// says why the CPU runs.
-fn choose_gpu(backend: Backend) -> Result<Option<PrismGpu>> {
-    let choice = match backend {
-        Backend::Cpu => BackendChoice::Cpu,
-        Backend::Gpu => BackendChoice::Gpu,
-        Backend::Auto => BackendChoice::Auto,
-    };
-    let chosen = isokit_gpu::choose_backend(choice, &Default::default())
-        .context("--backend gpu (or ISOKIT_BACKEND=gpu)")?;
-    if let Some(why) = &chosen.reason {
+fn run_prism(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()> {
+    let opts = a.prism_options(a.band.unwrap_or_default());
+    let (gpu, note) =
+        PrismGpu::choose(a.backend.choice()).context("--backend gpu (or ISOKIT_BACKEND=gpu)")?;
+    if let Some(why) = note {
         eprintln!("note: backend auto: {why}; scanning on the CPU twin (same result)");
     }
-    Ok(chosen.gpu.map(PrismGpu::new).transpose()?)
-}
-
-fn run_prism(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()> {
-    let band = a.band.unwrap_or_default();
-    let opts = PrismOptions {
-        mesh: a.knobs.options(),
-        repair: !a.no_gap_repair,
-        sides: match a.prism_sides {
-            Sides::Exact => SideRule::Exact,
-            Sides::Bisector => SideRule::Bisector,
-        },
-        ..PrismOptions::with_band(band)
-    };
-    let gpu = choose_gpu(a.backend)?;
     let sdf = PrismSdf::new(mesh, opts).with_context(|| a.mesh.display().to_string())?;
     eprintln!("sign: {} ({})", sdf.sign_method().name(), sdf.sign_reason());
     if let Some(w) = sdf.warning() {
@@ -205,14 +96,8 @@ fn run_prism(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()> 
         r.fat_sides,
         sdf.build_seconds()
     );
-    let engine = match &gpu {
-        Some(g) => Engine::Gpu(g),
-        None => Engine::Cpu,
-    };
-    let where_ = match &gpu {
-        Some(g) => format!("GPU {}", g.gpu().describe()),
-        None => format!("CPU, {} threads", rayon::current_num_threads()),
-    };
+    let engine = Engine::from(gpu.as_ref());
+    let where_ = engine.describe();
     let t = Instant::now();
     let stats = sdf.fill_grid(&mut grid, &engine)?;
     let secs = t.elapsed().as_secs_f64();
