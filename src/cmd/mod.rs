@@ -1,17 +1,21 @@
-//! One module per subcommand.
+//! One module per subcommand, and the argument groups they share (`args`, `*_args`,
+//! `sample_options`).
 
 pub mod args;
 pub mod bench;
 pub mod convert;
+pub mod csg_args;
 pub mod demo;
 pub mod info;
 pub mod mesh;
 pub mod mesh_args;
 pub mod molecule;
+pub mod multiview_args;
 pub mod octree;
 pub mod points;
 pub mod progress;
 pub mod query;
+pub mod raycast_args;
 pub mod render;
 pub mod sample;
 pub mod sample_options;
