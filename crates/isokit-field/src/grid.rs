@@ -268,6 +268,16 @@ impl Grid {
         finite_min_max(&self.data)
     }
 
+    /// Clamps every sample to `[-band, band]` (in parallel): a lazily sampled band, whose
+    /// kept bricks hold exact values a little beyond `band`, then reads "the field within
+    /// `band`, `±band` beyond" everywhere, as a dense sampling clamped the same way would.
+    pub fn clamp_to_band(&mut self, band: f32) {
+        use rayon::prelude::*;
+        self.data
+            .par_iter_mut()
+            .for_each(|v| *v = v.clamp(-band, band));
+    }
+
     /// Iterates `((i, j, k), value)` in storage order.
     pub fn iter(&self) -> impl Iterator<Item = ([usize; 3], f32)> + '_ {
         let [nx, ny, _] = self.dims;
@@ -281,6 +291,14 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clamps_to_the_band() {
+        let mut g =
+            Grid::from_data([2, 2, 1], Vec3::ZERO, 1.0, vec![-3.0, -0.5, 0.25, 7.0]).unwrap();
+        g.clamp_to_band(1.0);
+        assert_eq!(g.data(), &[-1.0, -0.5, 0.25, 1.0]);
+    }
 
     #[test]
     fn refuses_absurd_sizes_before_allocating() {

@@ -437,6 +437,18 @@ impl Renderer {
         self.render_view_of(p, Some(k), name)
     }
 
+    /// Every view of a prepared multi-view target, each rendered alone (what the display
+    /// shows from each eye position), as shaded images in view order; empty when the target
+    /// is not multi-view.
+    pub fn render_views(&mut self, p: &Prepared<'_>, name: &str) -> Result<Vec<Image>, SceneError> {
+        let Some(mv) = p.multiview() else {
+            return Ok(Vec::new());
+        };
+        (0..mv.views)
+            .map(|k| Ok(self.render_view(p, k, name)?.image))
+            .collect()
+    }
+
     fn render_view_of(
         &mut self,
         p: &Prepared<'_>,

@@ -206,12 +206,9 @@ impl Scene {
             } else {
                 isokit_gpu::BackendChoice::Auto
             };
-            isokit_gpu::choose_backend(choice, &Default::default())
+            isokit_prism::PrismGpu::choose(choice)
                 .map_err(|e| SceneError::new(self.name(), "sampling", format!("prism band: {e}")))?
-                .gpu
-                .map(isokit_prism::PrismGpu::new)
-                .transpose()
-                .map_err(|e| SceneError::new(self.name(), "sampling", format!("prism band: {e}")))?
+                .0
         } else {
             None
         };
@@ -354,9 +351,7 @@ pub fn band_to_grid(bricks: &BrickGrid, band: f32) -> Result<Grid, isokit_field:
     Ok(grid)
 }
 
-/// Clamps a grid's samples to `±band`.
+/// Clamps a grid's samples to `±band` ([`Grid::clamp_to_band`]).
 pub fn clamp_to_band(grid: &mut Grid, band: f32) {
-    grid.data_mut()
-        .par_iter_mut()
-        .for_each(|v| *v = v.clamp(-band, band));
+    grid.clamp_to_band(band);
 }
