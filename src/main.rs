@@ -41,6 +41,7 @@ enum Command {
     Points(Box<cmd::points::Args>),
     /// Evaluate a scene file (JSON or TOML CSG tree) to a band field or a mesh, computing
     /// only the bricks that can hold the surface; `--stats` prints what it cost as JSON.
+    #[command(after_help = cmd::scene::node_kinds_help())]
     Scene(cmd::scene::Args),
     /// The isosurface of a volume as a watertight, 2-manifold triangle mesh.
     Mesh(cmd::mesh::Args),

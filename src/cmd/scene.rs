@@ -41,6 +41,14 @@ pub struct Args {
 const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
 const MESHES: [&str; 4] = [".obj", ".ply", ".stl", ".off"];
 
+/// The node kinds a scene file can hold, for `--help` (from the library's list).
+pub fn node_kinds_help() -> String {
+    format!(
+        "Node kinds: {}.\nThe JSON Schema of scene files: docs/scene.schema.json.",
+        isokit_scene::Node::KINDS.join(", ")
+    )
+}
+
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     let all: Vec<&str> = VOLUMES.iter().chain(&MESHES).copied().collect();
