@@ -75,14 +75,6 @@ impl<'py> Points<'py> {
         }
     }
 
-    /// The number of rows.
-    pub fn len(&self) -> usize {
-        match self {
-            Points::F32(a) => a.shape()[0],
-            Points::F64(a) => a.shape()[0],
-        }
-    }
-
     /// The rows as f32 points (NaN rows stay NaN).
     pub fn to_vec3(&self) -> Vec<Vec3> {
         match self {

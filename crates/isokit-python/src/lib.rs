@@ -4,14 +4,14 @@
 //! `python/isokit/`). Every call goes through `isokit-scene`, the pipeline the command
 //! uses, so a script and a scene file compute the same thing.
 //!
-//! - [`shape`]: `isokit.Shape` (a scene tree with operators and methods), the source
+//! - [`shape`], `isokit.Shape` (a scene tree with operators and methods), the source
 //!   constructors and `load_scene`;
-//! - [`field`]: `isokit.Field` (a sampled lattice) and the level-set operations;
-//! - [`render`]: `isokit.Frame`, `isokit.Molecule`, rendering;
-//! - [`sdf`]: `isokit.signed_distance`;
-//! - [`run`]: how work runs without the GIL, with Ctrl-C, progress and caught panics;
-//! - [`errors`]: the mapping of library errors to Python exceptions;
-//! - [`arrays`]: NumPy views in, NumPy arrays out.
+//! - [`field`], `isokit.Field` (a sampled lattice) and the level-set operations;
+//! - [`render`], `isokit.Frame`, `isokit.Molecule`, rendering;
+//! - [`sdf`], `isokit.signed_distance`;
+//! - [`run`], how work runs without the GIL, with Ctrl-C, progress and caught panics;
+//! - [`errors`], the mapping of library errors to Python exceptions;
+//! - [`arrays`], NumPy views in, NumPy arrays out.
 //!
 //! It is not a library for Rust code: use `isokit-scene` there.
 #![warn(missing_docs)]
