@@ -297,15 +297,16 @@ primitives! {
         half: [f32; 3] = [1.0, 0.75, 0.5],
     } => |n, v| Cuboid::new(v(n.center), v(n.half))?;
 
-    /// A box with rounded edges: the box of half extents `half` grown by `radius`.
+    /// A box of outer half extents `half` with its edges and corners rounded by `radius`
+    /// (the points within `radius` of the box of half extents `half − radius`).
     RoundedBox, RoundedBoxNode, "rounded_box", cli "rounded-box", aliases ["rounded_box"],
-    note "radius: edge rounding",
+    note "half: outer half extents; radius: edge rounding",
     {
         /// Centre.
         center: [f32; 3] = [0.0; 3],
-        /// Half extents of the inner box, each > 0.
+        /// Outer half extents, each > 0.
         half: [f32; 3] = [1.0, 0.75, 0.5],
-        /// Rounding radius, > 0.
+        /// Rounding radius, from 0 to the smallest half extent.
         radius: f32 = 0.2,
     } => |n, v| RoundedBox::new(v(n.center), v(n.half), n.radius)?;
 
