@@ -58,6 +58,18 @@ pub fn checked_len(dims: [usize; 3]) -> Result<usize, FieldError> {
     Ok(n as usize)
 }
 
+/// Checks a dense f32 grid of `dims` against the memory budget ([`crate::memory::check`]).
+pub fn check_grid_budget(dims: [usize; 3]) -> Result<(), FieldError> {
+    crate::memory::check(
+        &format!(
+            "a dense grid of {} x {} x {} samples",
+            dims[0], dims[1], dims[2]
+        ),
+        crate::memory::grid_bytes(dims),
+        "lower the resolution, sample a narrow band instead of a dense grid, or raise the budget",
+    )
+}
+
 /// A dense, node-centered grid: sample `(i, j, k)` sits at `origin + spacing * (i, j, k)`
 /// and is stored at index `i + nx * (j + ny * k)` (x fastest).
 ///
@@ -93,7 +105,9 @@ impl Grid {
         Self::filled(dims, origin, spacing, 0.0)
     }
 
-    /// A grid filled with `value`.
+    /// A grid filled with `value`. Besides the size limits of [`checked_len`], the grid
+    /// must fit the memory budget ([`crate::memory`]): [`FieldError::OverBudget`] otherwise,
+    /// before anything is allocated.
     pub fn filled(
         dims: [usize; 3],
         origin: Vec3,
@@ -102,6 +116,7 @@ impl Grid {
     ) -> Result<Self, FieldError> {
         check_geometry(origin, spacing)?;
         let n = checked_len(dims)?;
+        check_grid_budget(dims)?;
         Ok(Self {
             dims,
             origin,

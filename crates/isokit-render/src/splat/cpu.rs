@@ -363,6 +363,11 @@ fn splat_core(
     depth_only: bool,
 ) -> Result<(Vec<TileOut>, SplatStats), RenderError> {
     scene.check()?;
+    isokit_field::memory::check(
+        &format!("the set-ups of {} quadrics", scene.len()),
+        scene.len() as u128 * (std::mem::size_of::<QuadricSetup>() as u128 + 8),
+        "splat fewer quadrics, or raise the budget",
+    )?;
     let t0 = Instant::now();
     let set = setups(scene, view);
     let near_t: Vec<f32> = if exhaustive {
@@ -397,6 +402,14 @@ fn splat_core(
             "exceeds the CPU splatter's 2^30 binning limit; render a smaller image or fewer overlapping quadrics",
         ));
     }
+    isokit_field::memory::check(
+        &format!(
+            "the tile bins of {} quadrics ({entries} tile and quadric pairs)",
+            set.len()
+        ),
+        u128::from(entries) * 4 + u128::from(tx * ty) * 24,
+        "render a smaller image or fewer overlapping quadrics, or raise the budget",
+    )?;
     let fragments: u64 = ranges
         .iter()
         .map(|r| u64::from(r[2].saturating_sub(r[0])) * u64::from(r[3].saturating_sub(r[1])))
