@@ -46,7 +46,7 @@ pub enum FieldError {
         got: usize,
     },
     /// Bounds to sample are empty or not finite.
-    #[error("bounds {0:?} are empty or not finite; give explicit bounds")]
+    #[error("bounds {0} are empty or not finite; give explicit bounds")]
     BadBounds(crate::Aabb),
     /// A stage would hold more bytes than the memory budget ([`crate::memory`]); refused
     /// before allocating.

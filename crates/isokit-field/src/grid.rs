@@ -194,6 +194,33 @@ impl Grid {
         Ok((dims, origin, spacing))
     }
 
+    /// Why padding `pad` is unusable for a grid of `res` samples over `bounds`, if it is:
+    /// not finite, negative, or so large that the padded lattice's spacing exceeds the
+    /// diagonal of `bounds` (the shape would fall between two samples). `None` when fine.
+    ///
+    /// ```
+    /// use isokit_field::{Aabb, Grid};
+    /// use glam::Vec3;
+    /// let b = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+    /// assert!(Grid::padding_problem(b, 64, 0.5).is_none());
+    /// assert!(Grid::padding_problem(b, 64, 1e30).is_some());
+    /// assert!(Grid::padding_problem(b, 64, f32::NAN).is_some());
+    /// ```
+    pub fn padding_problem(bounds: Aabb, res: usize, pad: f32) -> Option<String> {
+        if !(pad.is_finite() && pad >= 0.0) {
+            return Some("must be finite and non-negative".into());
+        }
+        let diag = bounds.diagonal();
+        let longest = bounds.expanded(pad).size().max_element();
+        let spacing = longest / res.saturating_sub(1).max(1) as f32;
+        (diag.is_finite() && diag > 0.0 && !(spacing <= diag)).then(|| {
+            format!(
+                "makes the sample spacing {spacing:e} larger than the shape itself (diagonal {diag}); use a padding below {:.4}",
+                0.5 * (diag * res.saturating_sub(1).max(1) as f32 - bounds.size().max_element())
+            )
+        })
+    }
+
     /// Samples along x, y, z.
     pub fn dims(&self) -> [usize; 3] {
         self.dims

@@ -329,6 +329,12 @@ impl Scene {
             }
         };
         let pad = if explicit { 0.0 } else { band + 2.0 * h0 };
+        if let Some(why) = Grid::padding_problem(domain, res, pad) {
+            return Err(err(
+                "sampling.band",
+                format!("{band} (the band, or --band, pads the domain by its width) {why}"),
+            ));
+        }
         if domain.expanded(pad).size().max_element() <= 0.0 {
             return Err(err(
                 "sampling.bounds",
