@@ -10,7 +10,7 @@ use glam::Vec3;
 /// The mesh file formats this crate reads, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum MeshFormat {
-    /// Wavefront OBJ (`.obj`), read with tobj.
+    /// Wavefront OBJ (`.obj`): every vertex, polygons fanned into triangles.
     Obj,
     /// glTF 2.0 JSON (`.gltf`) with embedded (data URI) or external buffers.
     Gltf,

@@ -1,4 +1,4 @@
-//! Wavefront OBJ through tobj, and a plain `v`/`f` writer.
+//! Wavefront OBJ: a reader of `v` and `f` lines that keeps every vertex, and a plain writer.
 
 use std::path::Path;
 
