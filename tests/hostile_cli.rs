@@ -448,3 +448,96 @@ fn a_union_of_fifty_thousand_spheres_visits_few_children() {
     eprintln!("50,000 spheres: {per_sample:.1} children per evaluated sample, {secs:.1} s");
     assert!(per_sample < 64.0, "{per_sample} children per sample");
 }
+
+// ------------------------------------------------------------------ GPU adapters
+
+/// On a GL adapter (llvmpipe) the splatter's `Rgba32Float` target is not renderable: wgpu's
+/// validation error filled seven lines. It is refused in one line before drawing (or, where
+/// the adapter can render to it, the molecule renders).
+#[test]
+fn a_gl_adapter_without_float_targets_fails_in_one_line() {
+    let d = scratch("gl-splat");
+    let png = d.join("m.png").display().to_string();
+    let (o, _) = run_limited(
+        "",
+        &[
+            "molecule",
+            &data("molecules/1a8o.pdb.gz"),
+            "-o",
+            &png,
+            "--backend",
+            "gpu",
+            "--width",
+            "64",
+            "--height",
+            "64",
+        ],
+        &[("WGPU_BACKEND", "gl"), ("XDG_RUNTIME_DIR", "/tmp")],
+        300,
+    );
+    if !o.status.success() {
+        assert_clear_error(&o, "GPU");
+    }
+}
+
+/// One OBJ polygon of 400,000 vertices was fanned into slivers sharing a vertex, which no
+/// spatial index separates: `sdf` tested most triangles per sample and ran past 20 s. Large
+/// polygons are strips now: counted, not timed.
+#[test]
+fn a_huge_polygon_does_not_make_every_query_test_every_triangle() {
+    let d = scratch("fan");
+    let n = 400_000;
+    let mut text = String::with_capacity(n * 30);
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        text.push_str(&format!("v {} {} 0\n", a.cos(), a.sin()));
+    }
+    text.push('f');
+    for i in 1..=n {
+        text.push_str(&format!(" {i}"));
+    }
+    text.push('\n');
+    let fan = write(&d, "fan.obj", &text);
+    let out = d.join("fan.npy").display().to_string();
+    let (o, secs) = run_limited(
+        "",
+        &["sdf", &fan, "--res", "24", "--sign", "pseudonormal", "-o", &out],
+        &[],
+        120,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let tested: f64 = err
+        .split(" triangles tested per sample")
+        .next()
+        .and_then(|s| s.rsplit(", ").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no count in: {err}"));
+    eprintln!("400,000-gon: {tested} triangles tested per sample, {secs:.1} s");
+    assert!(tested < 2000.0, "{tested} triangles tested per sample");
+}
+
+/// 20,000 atoms at one point with shadows ran past 20 s on the CPU splatter (every quadric
+/// evaluated at every pixel, twice with the shadow map); refused at once with the reason.
+#[test]
+fn coincident_atoms_are_refused_at_once() {
+    let d = scratch("atoms");
+    let mut text = String::new();
+    for i in 0..20_000 {
+        text.push_str(&format!(
+            "HETATM{:5}  O   HOH A{:4}       0.000   0.000   0.000  1.00 20.00           O\n",
+            i % 100_000,
+            i % 10_000
+        ));
+    }
+    let pdb = write(&d, "pile.pdb", &text);
+    let png = d.join("p.png").display().to_string();
+    let (o, secs) = run_limited(
+        "",
+        &["molecule", &pdb, "-o", &png, "--shadows", "--backend", "cpu"],
+        &[],
+        120,
+    );
+    assert_clear_error(&o, "coincident quadrics");
+    eprintln!("20,000 coincident atoms refused after {secs:.1} s");
+}

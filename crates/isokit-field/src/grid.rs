@@ -213,7 +213,7 @@ impl Grid {
         let diag = bounds.diagonal();
         let longest = bounds.expanded(pad).size().max_element();
         let spacing = longest / res.saturating_sub(1).max(1) as f32;
-        (diag.is_finite() && diag > 0.0 && !(spacing <= diag)).then(|| {
+        (diag.is_finite() && diag > 0.0 && (spacing > diag || spacing.is_nan())).then(|| {
             format!(
                 "makes the sample spacing {spacing:e} larger than the shape itself (diagonal {diag}); use a padding below {:.4}",
                 0.5 * (diag * res.saturating_sub(1).max(1) as f32 - bounds.size().max_element())

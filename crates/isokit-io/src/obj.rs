@@ -8,7 +8,7 @@ use crate::util::show;
 use crate::{IoError, TriMesh, atomic_write};
 
 /// Reads the geometry of an OBJ file: every `v` line in order (unreferenced vertices
-/// included: nothing is dropped) and every `f` line, polygons fanned into triangles. Indices
+/// included: nothing is dropped) and every `f` line, polygons triangulated (`crate::mesh::fan`). Indices
 /// are 1-based or negative (relative to the vertices read so far); texture and normal
 /// indices (`v/vt/vn`), other statements, groups and materials are ignored. A file with `v`
 /// lines and no faces gives a mesh without triangles (a point cloud: [`read_obj_points`]).
@@ -59,9 +59,7 @@ pub(crate) fn read_obj(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {
                         face.len()
                     )));
                 }
-                for k in 1..face.len() - 1 {
-                    mesh.triangles.push([face[0], face[k], face[k + 1]]);
-                }
+                crate::mesh::fan(&face, &mut mesh.triangles);
             }
             _ => {}
         }
