@@ -59,17 +59,29 @@ pub fn check_output(path: &std::path::Path, allowed: &[&str]) -> anyhow::Result<
     Ok(())
 }
 
-/// The empty output grid over `bounds` padded by `padding` (default: 10% of the diagonal),
-/// `res` samples along the longest side. Made before any expensive work, so an absurd size is
-/// refused at once.
+/// The empty output grid over `bounds` (of the input `input`) padded by `padding` (default:
+/// 10% of the diagonal), `res` samples along the longest side. Made before any expensive
+/// work, so an absurd size is refused at once. Bounds that are not finite (a coordinate
+/// near f32's limit) are the input's problem and name it, not the padding.
 pub fn padded_grid(
+    input: &std::path::Path,
     bounds: isokit_field::Aabb,
     res: usize,
     padding: Option<f32>,
 ) -> anyhow::Result<isokit_field::Grid> {
+    if bounds.is_empty() {
+        bail!("{}: has no finite vertex or point", input.display());
+    }
+    if !(bounds.is_finite() && bounds.diagonal().is_finite()) {
+        bail!(
+            "{}: its bounds {} are too large to sample (coordinates near f32's limit of 3.4e38)",
+            input.display(),
+            bounds
+        );
+    }
     let pad = padding.unwrap_or(0.1 * bounds.diagonal());
-    if !(pad.is_finite() && pad >= 0.0) {
-        bail!("--padding {pad} must be finite and non-negative");
+    if let Some(why) = isokit_field::Grid::padding_problem(bounds, res, pad) {
+        bail!("--padding {pad} {why}");
     }
     Ok(isokit_field::Grid::covering(bounds, res, pad)?)
 }

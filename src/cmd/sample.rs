@@ -129,8 +129,8 @@ pub fn run(a: Args) -> Result<()> {
             (b, a.pad.unwrap_or(0.1 * b.diagonal()))
         }
     };
-    if !(pad.is_finite() && pad >= 0.0) {
-        bail!("--pad {pad} must be finite and non-negative");
+    if let Some(why) = Grid::padding_problem(bounds, a.res, pad) {
+        bail!("--pad {pad} {why}");
     }
     let start = Instant::now();
     let mut grid = Grid::covering(bounds, a.res, pad)?;

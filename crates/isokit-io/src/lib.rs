@@ -73,7 +73,7 @@ pub mod reader {
     pub use crate::util::{gunzip, read_file, show};
 }
 
-pub use atomic::atomic_write;
+pub use atomic::{atomic_write, temporary_name};
 pub use error::IoError;
 pub use image::{
     ExrImage, ExrInfo, MAX_EXR_SAMPLES, encode_png, linear_to_srgb8, read_exr, read_exr_bytes,

@@ -25,7 +25,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let cloud = read_points(&a.cloud)?;
-    let mut grid = super::padded_grid(cloud.bounds(), a.res, a.padding)?;
+    let mut grid = super::padded_grid(&a.cloud, cloud.bounds(), a.res, a.padding)?;
     let opts = a.options(&cloud);
     let field = opts.field;
     let st = cloud_to_grid(&cloud, &mut grid, &opts, &super::progress::job())

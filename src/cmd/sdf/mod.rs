@@ -33,7 +33,7 @@ pub fn run(a: Args) -> Result<()> {
     if mesh.triangles.is_empty() {
         bail!("{}: the mesh has no triangles", a.mesh.display());
     }
-    let grid = super::padded_grid(mesh.bounds(), a.res, a.padding)?;
+    let grid = super::padded_grid(&a.mesh, mesh.bounds(), a.res, a.padding)?;
     match a.method {
         Method::Kdtree => run_kdtree(&a, &mesh, grid),
         Method::Prism => run_prism(&a, &mesh, grid),
