@@ -110,7 +110,11 @@ fn main() -> ExitCode {
             // One clear line: the error and its causes joined by ": " (a message that spans
             // lines, as some from wgpu do, joined by "; ").
             let text = format!("{e:#}");
-            let line: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            let line: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
             eprintln!("isokit: error: {}", line.join("; "));
             ExitCode::from(2)
         }

@@ -501,7 +501,16 @@ fn a_huge_polygon_does_not_make_every_query_test_every_triangle() {
     let out = d.join("fan.npy").display().to_string();
     let (o, secs) = run_limited(
         "",
-        &["sdf", &fan, "--res", "24", "--sign", "pseudonormal", "-o", &out],
+        &[
+            "sdf",
+            &fan,
+            "--res",
+            "24",
+            "--sign",
+            "pseudonormal",
+            "-o",
+            &out,
+        ],
         &[],
         120,
     );
@@ -534,7 +543,15 @@ fn coincident_atoms_are_refused_at_once() {
     let png = d.join("p.png").display().to_string();
     let (o, secs) = run_limited(
         "",
-        &["molecule", &pdb, "-o", &png, "--shadows", "--backend", "cpu"],
+        &[
+            "molecule",
+            &pdb,
+            "-o",
+            &png,
+            "--shadows",
+            "--backend",
+            "cpu",
+        ],
         &[],
         120,
     );

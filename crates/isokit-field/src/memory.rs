@@ -137,7 +137,7 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
     let bad = || format!("{t:?} is not a size (give bytes or a number with K, M, G or T, e.g. 8G)");
     let x: f64 = num.trim().parse().map_err(|_| bad())?;
     let bytes = x * (1u64 << shift) as f64;
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1.8e19) {
+    if !(1.0..1.8e19).contains(&bytes) {
         return Err(format!("{t:?} must be at least 1 byte and below 16 EiB"));
     }
     Ok(bytes as u64)

@@ -154,6 +154,19 @@ pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
     }
 }
 
+/// A face normal (unit, or zero for a degenerate triangle).
+pub(crate) fn face_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// Refuses a mesh whose indices are out of range (writers call this first).
+pub(crate) fn check_indices(mesh: &TriMesh, path: &Path) -> Result<(), IoError> {
+    match mesh.index_problem() {
+        Some(m) => Err(IoError::invalid_input(path, m)),
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,18 +195,5 @@ mod tests {
                 assert!(t.iter().filter(|x| x.contains(&0)).count() <= 2);
             }
         }
-    }
-}
-
-/// A face normal (unit, or zero for a degenerate triangle).
-pub(crate) fn face_normal(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    (b - a).cross(c - a).normalize_or_zero()
-}
-
-/// Refuses a mesh whose indices are out of range (writers call this first).
-pub(crate) fn check_indices(mesh: &TriMesh, path: &Path) -> Result<(), IoError> {
-    match mesh.index_problem() {
-        Some(m) => Err(IoError::invalid_input(path, m)),
-        None => Ok(()),
     }
 }
