@@ -52,13 +52,8 @@ fn residual(f: f32) -> f32 {
     return (f - U.iso) * U.inside_sign;
 }
 
-fn block_active(r: vec2<f32>) -> bool {
-    if ((U.flags & FLAG_SKIP_EMPTY) == 0u) {
-        return true;
-    }
-    let eps = RANGE_MARGIN * max(abs(r.x), abs(r.y));
-    return r.x - eps <= U.iso && U.iso <= r.y + eps;
-}
+// Which blocks are active (raycast/cpu.rs: block_active) the host decides: their skip
+// distance in `block_info` is 0.
 
 struct BoxHit {
     t0: f32,
@@ -98,18 +93,20 @@ struct Exit {
     axis: u32,
 }
 
-// Where the ray crosses the plane x_a = m · block (raycast/cpu.rs: plane_t).
-fn plane_t(m: i32, o: f32, d: f32) -> f32 {
-    return (f32(m) * f32(U.block) - o) / d;
+// Where the ray crosses the plane x_a = m · block, from o and inv = 1 / d along the axis
+// (raycast/cpu.rs: plane_t).
+fn plane_t(m: i32, o: f32, inv: f32) -> f32 {
+    return (f32(m) * f32(U.block) - o) * inv;
 }
 
-// Where the ray leaves block `cell`, from the block index alone (the lowest of tied axes).
-fn block_exit(cell: vec3<i32>, o: vec3<f32>, d: vec3<f32>) -> Exit {
+// Where the ray leaves block `cell`, from the block index alone (the lowest of tied axes)
+// (raycast/cpu.rs: block_exit_inv).
+fn block_exit(cell: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>) -> Exit {
     var t = F32_MAX;
     var axis = 0u;
     for (var a = 0u; a < 3u; a++) {
         if (d[a] != 0.0) {
-            let ta = plane_t(cell[a] + select(0, 1, d[a] > 0.0), o[a], d[a]);
+            let ta = plane_t(cell[a] + select(0, 1, d[a] > 0.0), o[a], inv[a]);
             if (ta < t) {
                 t = ta;
                 axis = a;
@@ -126,13 +123,13 @@ struct Jump {
 }
 
 // Plane m of axis a crossed before the cube's exit (t, e) (raycast/cpu.rs: jump, `crossed`).
-fn crossed(m: i32, a: u32, o: f32, d: f32, t: f32, e: u32) -> bool {
-    let tm = plane_t(m, o, d);
+fn crossed(m: i32, a: u32, o: f32, inv: f32, t: f32, e: u32) -> bool {
+    let tm = plane_t(m, o, inv);
     return tm < t || (tm == t && a < e);
 }
 
 // Across the inactive cube of blocks within k − 1 of `cell` (raycast/cpu.rs: jump).
-fn jump(cell: vec3<i32>, k: i32, o: vec3<f32>, d: vec3<f32>, bd: vec3<i32>) -> Jump {
+fn jump(cell: vec3<i32>, k: i32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, bd: vec3<i32>) -> Jump {
     let r = k - 1;
     let lo = max(cell - vec3<i32>(r), vec3<i32>(0));
     let hi = min(cell + vec3<i32>(r), bd - vec3<i32>(1));
@@ -141,7 +138,7 @@ fn jump(cell: vec3<i32>, k: i32, o: vec3<f32>, d: vec3<f32>, bd: vec3<i32>) -> J
     for (var a = 0u; a < 3u; a++) {
         if (d[a] != 0.0) {
             let m = select(lo[a], hi[a] + 1, d[a] > 0.0);
-            let ta = plane_t(m, o[a], d[a]);
+            let ta = plane_t(m, o[a], inv[a]);
             if (ta < t) {
                 t = ta;
                 e = a;
@@ -158,22 +155,22 @@ fn jump(cell: vec3<i32>, k: i32, o: vec3<f32>, d: vec3<f32>, bd: vec3<i32>) -> J
         if (d[a] == 0.0) {
             continue;
         }
-        let guess = i32((o[a] + t * d[a]) / b);
+        let guess = i32((o[a] + t * d[a]) * (1.0 / b));
         if (d[a] > 0.0) {
             var g = clamp(guess, cell[a], hi[a]);
-            while (g > cell[a] && !crossed(g, a, o[a], d[a], t, e)) {
+            while (g > cell[a] && !crossed(g, a, o[a], inv[a], t, e)) {
                 g -= 1;
             }
-            while (g < hi[a] && crossed(g + 1, a, o[a], d[a], t, e)) {
+            while (g < hi[a] && crossed(g + 1, a, o[a], inv[a], t, e)) {
                 g += 1;
             }
             next[a] = g;
         } else {
             var g = clamp(guess, lo[a], cell[a]);
-            while (g < cell[a] && !crossed(g + 1, a, o[a], d[a], t, e)) {
+            while (g < cell[a] && !crossed(g + 1, a, o[a], inv[a], t, e)) {
                 g += 1;
             }
-            while (g > lo[a] && crossed(g, a, o[a], d[a], t, e)) {
+            while (g > lo[a] && crossed(g, a, o[a], inv[a], t, e)) {
                 g -= 1;
             }
             next[a] = g;
@@ -805,14 +802,16 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
     }
     let dir_step = vec3<i32>(select(-1, 1, d.x > 0.0), select(-1, 1, d.y > 0.0), select(-1, 1, d.z > 0.0));
     let sphere = (U.flags & FLAG_SPHERE) != 0u;
+    let inv = vec3<f32>(1.0) / d;
     let max_steps = U.block_dims.x + U.block_dims.y + U.block_dims.z + 3u;
     for (var n = 0u; n < max_steps; n++) {
         let idx = block_index(cell);
-        let range = block_range[idx];
+        // Skip distance 0 exactly where block_active holds (raycast/cpu.rs: trace_pixel).
+        let info = block_info[idx];
         var bexit = Exit(0.0, 0u);
         var have_exit = false;
-        if (block_active(range)) {
-            bexit = block_exit(cell, o, d);
+        if (info.w == 0.0) {
+            bexit = block_exit(cell, o, d, inv);
             have_exit = true;
             let t1 = min(bexit.t, t_exit);
             let brick = brick_of_block(cell);
@@ -828,7 +827,7 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
             var seg = Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
             if (t1 > t_in || caps) {
                 if (sphere) {
-                    let slope = ray_slope(d, block_info[idx]);
+                    let slope = ray_slope(d, info);
                     seg = march_sphere(ray, t_in, max(t1, t_in), caps, slope);
                 } else {
                     seg = march_segment(ray, t_in, max(t1, t_in), caps);
@@ -841,23 +840,26 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
                 let t = refine(ray, seg.ta, seg.ra, seg.tb, seg.rb);
                 return finished(surface_sample(ray, t));
             }
-        } else if (first_block && (U.flags & FLAG_CAPS) != 0u && residual(range.x) < 0.0 && residual(range.y) < 0.0) {
-            return finished(cap_sample(o, d, t_in, bx.axis));
+        } else if (first_block && (U.flags & FLAG_CAPS) != 0u) {
+            let range = block_range[idx];
+            if (residual(range.x) < 0.0 && residual(range.y) < 0.0) {
+                return finished(cap_sample(o, d, t_in, bx.axis));
+            }
         }
         first_block = false;
-        let k = i32(block_info[idx].w);
+        let k = i32(info.w);
         var t_out: f32;
         var axis: u32;
         var next = cell;
         if (k >= 2) {
             // Every block within k − 1 of this one is inactive: cross them at once.
-            let j = jump(cell, k, o, d, bd);
+            let j = jump(cell, k, o, d, inv, bd);
             t_out = j.t;
             axis = j.axis;
             next = j.next;
         } else {
             if (!have_exit) {
-                bexit = block_exit(cell, o, d);
+                bexit = block_exit(cell, o, d, inv);
             }
             t_out = bexit.t;
             axis = bexit.axis;

@@ -413,12 +413,20 @@ pub fn ray_box(u: &Uniforms, o: Vec3, d: Vec3) -> Option<(f32, f32, u32)> {
     (t0 <= t1 && t0.is_finite()).then_some((t0, t1, axis))
 }
 
-/// The ray parameter where the ray crosses the plane `x_a = m · block` of axis `a` (`d`
-/// the ray's component along it, not 0): `(m · block − o) / d`, the one expression every
-/// block face is computed by, so that faces reached by different walks agree bit for bit.
+/// The ray parameter where the ray crosses the plane `x_a = m · block` of axis `a`, from
+/// the ray's origin `o` and inverse direction `inv = 1 / d` along that axis (`d` not 0):
+/// `(m · block − o) · inv`, the one expression every block face is computed by, so that
+/// faces reached by different walks agree bit for bit (and monotone in `m`).
 #[inline]
-pub fn plane_t(u: &Uniforms, m: i32, o: f32, d: f32) -> f32 {
-    (m as f32 * u.block as f32 - o) / d
+pub fn plane_t(u: &Uniforms, m: i32, o: f32, inv: f32) -> f32 {
+    (m as f32 * u.block as f32 - o) * inv
+}
+
+/// `1 / d` per axis, as [`plane_t`] takes it (infinite where `d` is 0: those axes are never
+/// crossed and never read).
+#[inline]
+pub fn inverse_direction(d: Vec3) -> Vec3 {
+    Vec3::ONE / d
 }
 
 /// Where the ray leaves block `cell`: the smallest `t` at which it crosses one of the block's
@@ -426,11 +434,17 @@ pub fn plane_t(u: &Uniforms, m: i32, o: f32, d: f32) -> f32 {
 /// alone.
 #[inline]
 pub fn block_exit(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3) -> (f32, usize) {
+    block_exit_inv(u, cell, o, d, inverse_direction(d))
+}
+
+/// [`block_exit`] with the inverse direction given (computed once per ray).
+#[inline]
+pub fn block_exit_inv(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3, inv: Vec3) -> (f32, usize) {
     let mut t = f32::INFINITY;
     let mut axis = 0;
     for a in 0..3 {
         if d[a] != 0.0 {
-            let ta = plane_t(u, cell[a] + i32::from(d[a] > 0.0), o[a], d[a]);
+            let ta = plane_t(u, cell[a] + i32::from(d[a] > 0.0), o[a], inv[a]);
             if ta < t {
                 t = ta;
                 axis = a;
@@ -448,24 +462,40 @@ pub fn block_exit(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3) -> (f32, usize) {
 /// crossed are those whose [`plane_t`] lies before `t` (or at it, for a lower axis than the
 /// exit's, as [`block_exit`] breaks ties). The entered block may lie outside the volume.
 #[inline]
-pub fn jump(u: &Uniforms, cell: IVec3, k: i32, o: Vec3, d: Vec3, bd: IVec3) -> (f32, usize, IVec3) {
+pub fn jump(
+    u: &Uniforms,
+    cell: IVec3,
+    k: i32,
+    o: Vec3,
+    d: Vec3,
+    inv: Vec3,
+    bd: IVec3,
+) -> (f32, usize, IVec3) {
     let r = k - 1;
-    let lo = (cell - IVec3::splat(r)).max(IVec3::ZERO);
-    let hi = (cell + IVec3::splat(r)).min(bd - IVec3::ONE);
+    let (c, o, d, inv, bd) = (
+        cell.to_array(),
+        o.to_array(),
+        d.to_array(),
+        inv.to_array(),
+        bd.to_array(),
+    );
+    let lo = c.map(|v| (v - r).max(0));
+    let hi = [0, 1, 2].map(|a| (c[a] + r).min(bd[a] - 1));
     let mut t = f32::INFINITY;
     let mut e = 0;
     for a in 0..3 {
         if d[a] != 0.0 {
             let m = if d[a] > 0.0 { hi[a] + 1 } else { lo[a] };
-            let ta = plane_t(u, m, o[a], d[a]);
+            let ta = plane_t(u, m, o[a], inv[a]);
             if ta < t {
                 t = ta;
                 e = a;
             }
         }
     }
-    let mut next = cell;
-    let b = u.block as f32;
+    let mut next = c;
+    // Blocks are a power of two of voxels: the reciprocal is exact.
+    let rb = 1.0 / u.block as f32;
     for a in 0..3 {
         if a == e {
             next[a] = if d[a] > 0.0 { hi[a] + 1 } else { lo[a] - 1 };
@@ -475,15 +505,15 @@ pub fn jump(u: &Uniforms, cell: IVec3, k: i32, o: Vec3, d: Vec3, bd: IVec3) -> (
             continue;
         }
         let crossed = |m: i32| {
-            let tm = plane_t(u, m, o[a], d[a]);
+            let tm = plane_t(u, m, o[a], inv[a]);
             tm < t || (tm == t && a < e)
         };
         // A first guess from the position, then corrected by the planes' own times.
-        let guess = ((o[a] + t * d[a]) / b) as i32;
+        let guess = ((o[a] + t * d[a]) * rb) as i32;
         if d[a] > 0.0 {
             // Crossing plane m enters block m: the last crossed plane in (cell, hi].
-            let mut g = guess.clamp(cell[a], hi[a]);
-            while g > cell[a] && !crossed(g) {
+            let mut g = guess.clamp(c[a], hi[a]);
+            while g > c[a] && !crossed(g) {
                 g -= 1;
             }
             while g < hi[a] && crossed(g + 1) {
@@ -492,8 +522,8 @@ pub fn jump(u: &Uniforms, cell: IVec3, k: i32, o: Vec3, d: Vec3, bd: IVec3) -> (
             next[a] = g;
         } else {
             // Crossing plane m enters block m − 1: planes cell, cell − 1, …, lo + 1.
-            let mut g = guess.clamp(lo[a], cell[a]);
-            while g < cell[a] && !crossed(g + 1) {
+            let mut g = guess.clamp(lo[a], c[a]);
+            while g < c[a] && !crossed(g + 1) {
                 g += 1;
             }
             while g > lo[a] && crossed(g) {
@@ -502,7 +532,7 @@ pub fn jump(u: &Uniforms, cell: IVec3, k: i32, o: Vec3, d: Vec3, bd: IVec3) -> (
             next[a] = g;
         }
     }
-    (t, e, next)
+    (t, e, IVec3::from_array(next))
 }
 
 /// Linear index of block `cell`.
@@ -1491,14 +1521,21 @@ pub fn trace_pixel(
         if d.z > 0.0 { 1 } else { -1 },
     );
     let sphere = u.flags & FLAG_SPHERE != 0 && !data.block_info.is_empty();
+    let inv = inverse_direction(d);
     // Each step moves one block coordinate monotonically: at most the sum of the dims.
     let max_steps = u.block_dims.iter().sum::<u32>() + 3;
     for _ in 0..max_steps {
         let idx = block_index(u, cell);
-        let range = data.block_range[idx];
+        // The skip distance is 0 exactly where `block_active` holds (it was computed by it,
+        // for these ranges); without it, the ranges decide.
+        let info = data.block_info.get(idx).copied();
+        let active = match info {
+            Some(i) => i[3] == 0.0,
+            None => block_active(u, data.block_range[idx]),
+        };
         let mut exit = None;
-        if block_active(u, range) {
-            let (t_out, axis) = block_exit(u, cell, o, d);
+        if active {
+            let (t_out, axis) = block_exit_inv(u, cell, o, d, inv);
             exit = Some((t_out, axis));
             let t1 = t_out.min(t_exit);
             let brick = brick_of_block(u, cell);
@@ -1521,8 +1558,8 @@ pub fn trace_pixel(
             // crossing; only the cap test needs its sample.
             let seg = if !(t1 > t_in || caps) {
                 Segment::Empty
-            } else if sphere {
-                let slope = ray_slope(u, d, data.block_info[idx]);
+            } else if let (true, Some(info)) = (sphere, info) {
+                let slope = ray_slope(u, d, info);
                 let t1 = t1.max(t_in);
                 march_sphere(u, data.pool, &ray, t_in, t1, caps, slope, &mut samples)
             } else {
@@ -1546,8 +1583,8 @@ pub fn trace_pixel(
             }
         } else if first
             && u.flags & FLAG_CAPS != 0
-            && residual(u, range[0]) < 0.0
-            && residual(u, range[1]) < 0.0
+            && residual(u, data.block_range[idx][0]) < 0.0
+            && residual(u, data.block_range[idx][1]) < 0.0
         {
             // A skipped block entirely inside: its first sample would be inside too.
             return PixelResult::Done {
@@ -1556,12 +1593,12 @@ pub fn trace_pixel(
             };
         }
         first = false;
-        let k = data.block_info.get(idx).map_or(0, |i| i[3] as i32);
+        let k = info.map_or(0, |i| i[3] as i32);
         let (t_out, axis, next) = if k >= 2 {
             // Every block within k − 1 of this one is inactive: cross them at once.
-            jump(u, cell, k, o, d, bd)
+            jump(u, cell, k, o, d, inv, bd)
         } else {
-            let (t_out, axis) = exit.unwrap_or_else(|| block_exit(u, cell, o, d));
+            let (t_out, axis) = exit.unwrap_or_else(|| block_exit_inv(u, cell, o, d, inv));
             let mut next = cell;
             next[axis] += step[axis];
             (t_out, axis, next)
