@@ -12,6 +12,12 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Memory budget: the most bytes one stage may hold (dense grids, bricks, meshes, images,
+    /// molecule scenes, octrees); larger requests are refused before allocating, with what
+    /// would not fit and how to fit it. Bytes or K/M/G/T (powers of 1024), e.g. 8G, 512M
+    /// [default: ISOKIT_MAX_MEMORY, else 3/4 of the memory available to this process].
+    #[arg(long, global = true, value_name = "SIZE", value_parser = isokit_field::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -41,6 +47,7 @@ enum Command {
     Points(Box<cmd::points::Args>),
     /// Evaluate a scene file (JSON or TOML CSG tree) to a band field or a mesh, computing
     /// only the bricks that can hold the surface; `--stats` prints what it cost as JSON.
+    #[command(after_help = cmd::scene::node_kinds_help())]
     Scene(cmd::scene::Args),
     /// The isosurface of a volume as a watertight, 2-manifold triangle mesh.
     Mesh(cmd::mesh::Args),
@@ -71,6 +78,17 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    match cli.max_memory {
+        Some(b) => isokit_field::memory::set_budget(b),
+        None => match isokit_field::memory::budget_from_env() {
+            Ok(Some(b)) => isokit_field::memory::set_budget(b),
+            Ok(None) => {}
+            Err(e) => {
+                eprintln!("isokit: error: {e}");
+                return ExitCode::from(2);
+            }
+        },
+    }
     let result = match cli.command {
         Command::Info(a) => cmd::info::run(a),
         Command::Convert(a) => cmd::convert::run(a),
@@ -89,8 +107,15 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One clear line: the error and its causes joined by ": ".
-            eprintln!("isokit: error: {e:#}");
+            // One clear line: the error and its causes joined by ": " (a message that spans
+            // lines, as some from wgpu do, joined by "; ").
+            let text = format!("{e:#}");
+            let line: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("isokit: error: {}", line.join("; "));
             ExitCode::from(2)
         }
     }

@@ -411,12 +411,70 @@ fn a_run_failing_while_writing_keeps_the_previous_output() {
             .any(|e| {
                 e.file_name()
                     .to_string_lossy()
-                    .starts_with(&format!(".{name}.tmp"))
+                    .starts_with(&format!(".{name}.isokit-"))
             });
         assert!(
             partial || stderr.contains("File too large"),
             "{name}: neither a partial temporary file nor a write error: {stderr}"
         );
+    }
+}
+
+/// A run killed with SIGKILL while writing leaves its temporary file (nothing can remove
+/// it), keeps the previous output, and the next run writing the same output removes the
+/// orphan.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_killed_write_leaves_no_orphan_after_the_next_run() {
+    let d = scratch("killed-write");
+    for (name, args) in [
+        ("big.nrrd", ["sample", "sphere", "--res", "320"]),
+        ("big.npy", ["sample", "torus", "--res", "320"]),
+    ] {
+        let out = d.join(name);
+        std::fs::write(&out, b"previous").unwrap();
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_isokit"))
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let temporaries = || -> Vec<std::path::PathBuf> {
+            std::fs::read_dir(&*d)
+                .unwrap()
+                .filter_map(Result::ok)
+                .filter(|e| {
+                    e.file_name()
+                        .to_string_lossy()
+                        .starts_with(&format!(".{name}."))
+                })
+                .map(|e| e.path())
+                .collect()
+        };
+        let t0 = std::time::Instant::now();
+        while temporaries().is_empty() {
+            assert!(
+                t0.elapsed().as_secs() < 120,
+                "{name}: no temporary file appeared"
+            );
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        child.kill().unwrap(); // SIGKILL
+        let status = child.wait().unwrap();
+        let left = temporaries();
+        assert_eq!(std::fs::read(&out).unwrap(), b"previous", "{name}");
+        assert!(
+            !status.success() && left.len() == 1,
+            "{name}: the kill came too late ({status}, {left:?})"
+        );
+        // The next run writing the same output succeeds and removes the orphan.
+        isokit_ok(&[args[0], args[1], "--res", "16", "-o", out.to_str().unwrap()]);
+        assert_ne!(std::fs::read(&out).unwrap(), b"previous");
+        assert!(temporaries().is_empty(), "{name}: {:?}", temporaries());
     }
 }
 

@@ -52,6 +52,23 @@ fn pdb_and_mmcif_give_the_same_picture() {
     assert_eq!(pa, pb);
     let info = isokit::io::read_exr_info(&exr).unwrap();
     assert!(info.channels.iter().any(|c| c == "K1"));
+    // The file's pixels are the G-buffer the library splats for the same molecule and
+    // settings (the command's defaults: ball-and-stick, Phong, no shadows), channel by channel.
+    let mol = isokit::molecule::read_molecule(Path::new(&molecule("1a8o.pdb.gz"))).unwrap();
+    let settings = isokit::scene::MoleculeSettings {
+        width: 96,
+        height: 72,
+        ..Default::default()
+    };
+    let frame = isokit::scene::Renderer::cpu()
+        .render_molecule(&mol, &settings)
+        .unwrap();
+    let back = isokit::io::read_exr(&exr).unwrap();
+    frame.frame.gbuffer.matches_exr(&back).unwrap();
+    assert_eq!(
+        frame.frame.gbuffer.hit_count() as u64,
+        ja["covered_pixels"].as_u64().unwrap()
+    );
 }
 
 #[test]

@@ -33,10 +33,10 @@ pub struct KdtreeArgs {
     #[arg(long, default_value_t = 200_000)]
     pub points: usize,
     /// Leaf size of both trees.
-    #[arg(long, default_value_t = BuildParams::default().leaf_size)]
+    #[arg(long, default_value_t = BuildParams::default().leaf_size, value_parser = super::mesh_args::leaf_size)]
     pub leaf_size: usize,
     /// Sibling overlap of the overlapping tree (fraction of a node's extent).
-    #[arg(long, default_value_t = BuildParams::default().max_overlap)]
+    #[arg(long, default_value_t = BuildParams::default().max_overlap, value_parser = super::mesh_args::max_overlap, allow_negative_numbers = true)]
     pub max_overlap: f32,
     /// Seed of the query points.
     #[arg(long, default_value_t = 2026)]

@@ -79,7 +79,24 @@ pub fn run(a: Args) -> Result<()> {
         return write_distances(&a.output, &dist);
     }
     if isokit_io::detect_kind(&a.mesh)? == isokit_io::FileKind::PointCloud {
-        return super::points::query_cloud(&a.mesh, &points, &a.output, a.closest.is_some());
+        if a.closest.is_some() {
+            bail!(
+                "--closest is not available for point clouds: the field's zero set has no exact closest point"
+            );
+        }
+        let cloud = isokit_io::read_points(&a.mesh)?;
+        let q = isokit_points::query_cloud(&cloud, &points, &Default::default())
+            .with_context(|| a.mesh.display().to_string())?;
+        let normals = if q.normals_estimated {
+            "estimated"
+        } else {
+            "given"
+        };
+        eprintln!(
+            "cloud: {} samples, normals {normals}, built in {:.2} s",
+            q.samples, q.build_seconds
+        );
+        return write_distances(&a.output, &q.distances);
     }
     let mesh = read_mesh(&a.mesh)?;
     let t0 = Instant::now();

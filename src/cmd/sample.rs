@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use isokit_field::{Aabb, Field, Grid, sample_into};
 use isokit_io::{Volume, write_volume};
-use isokit_scene::primitives::{Param, PrimitiveKind};
+use isokit_scene::primitives::PrimitiveKind;
 use isokit_scene::{Node, Scene};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -39,11 +39,6 @@ impl clap::ValueEnum for Shape {
         )
     }
 }
-
-/// Every shape option (the union over the vocabulary), in the order of `--help`.
-pub const SHAPE_OPTIONS: [&str; 12] = [
-    "center", "radius", "half", "major", "minor", "a", "b", "ra", "rb", "normal", "offset", "radii",
-];
 
 /// Arguments of `isokit sample`.
 #[derive(clap::Args, Debug)]
@@ -94,31 +89,7 @@ pub fn shape_node(
     shape: PrimitiveKind,
     options: &super::sample_options::ShapeOptions,
 ) -> Result<Node> {
-    let mut node = shape.default_node();
-    let takes: Vec<&str> = shape.params().iter().map(|(n, _)| *n).collect();
-    let given: Vec<(&str, Param)> = SHAPE_OPTIONS
-        .iter()
-        .filter_map(|o| options.get(o).map(|v| (*o, v)))
-        .collect();
-    let unused: Vec<String> = given
-        .iter()
-        .filter(|(o, _)| !takes.contains(o))
-        .map(|(o, _)| format!("--{o}"))
-        .collect();
-    if !unused.is_empty() {
-        let takes: Vec<String> = takes.iter().map(|o| format!("--{o}")).collect();
-        bail!(
-            "{} does not take {}; its options are {}",
-            shape.cli_name(),
-            unused.join(", "),
-            takes.join(", ")
-        );
-    }
-    for (o, v) in given {
-        node.set(o, v).map_err(anyhow::Error::msg)?;
-    }
-    node.build()?;
-    Ok(node.into())
+    Ok(shape.node_with(&options.given())?.into())
 }
 
 /// The shape node wrapped in the requested transform.
@@ -133,15 +104,7 @@ fn transformed(a: &Args, node: Node) -> Result<Node> {
         }
         None => None,
     };
-    if a.scale.is_none() && rotate.is_none() && a.translate.is_none() {
-        return Ok(node);
-    }
-    Ok(Node::Transform(isokit_scene::node::TransformSpec {
-        translate: a.translate.map(|t| t.to_array()),
-        rotate,
-        scale: a.scale,
-        of: Box::new(node),
-    }))
+    Ok(node.transformed(a.scale, rotate, a.translate.map(|t| t.to_array())))
 }
 
 /// Runs the command.
@@ -166,8 +129,8 @@ pub fn run(a: Args) -> Result<()> {
             (b, a.pad.unwrap_or(0.1 * b.diagonal()))
         }
     };
-    if !(pad.is_finite() && pad >= 0.0) {
-        bail!("--pad {pad} must be finite and non-negative");
+    if let Some(why) = Grid::padding_problem(bounds, a.res, pad) {
+        bail!("--pad {pad} {why}");
     }
     let start = Instant::now();
     let mut grid = Grid::covering(bounds, a.res, pad)?;

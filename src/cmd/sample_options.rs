@@ -46,7 +46,20 @@ pub struct ShapeOptions {
     pub radii: Option<Vec3>,
 }
 
+/// Every shape option (the union over the vocabulary), in the order of `--help`.
+pub const SHAPE_OPTIONS: [&str; 12] = [
+    "center", "radius", "half", "major", "minor", "a", "b", "ra", "rb", "normal", "offset", "radii",
+];
+
 impl ShapeOptions {
+    /// The options given, in the order of [`SHAPE_OPTIONS`].
+    pub fn given(&self) -> Vec<(&'static str, Param)> {
+        SHAPE_OPTIONS
+            .iter()
+            .filter_map(|o| self.get(o).map(|v| (*o, v)))
+            .collect()
+    }
+
     /// The option called `name`, if given.
     pub fn get(&self, name: &str) -> Option<Param> {
         let n = |x: Option<f32>| x.map(Param::Number);

@@ -5,7 +5,7 @@ use super::check_output;
 use anyhow::{Result, bail};
 use glam::Vec3;
 use isokit_io::{Volume, write_mesh, write_volume};
-use isokit_scene::{MeshOptions, SampleOptions, Scene, band_to_grid, clamp_to_band, mesh_scene};
+use isokit_scene::{MeshOptions, SampleOptions, Scene, clamp_to_band, mesh_scene};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -40,6 +40,14 @@ pub struct Args {
 
 const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
 const MESHES: [&str; 4] = [".obj", ".ply", ".stl", ".off"];
+
+/// The node kinds a scene file can hold, for `--help` (from the library's list).
+pub fn node_kinds_help() -> String {
+    format!(
+        "Node kinds: {}.\nThe JSON Schema of scene files: docs/scene.schema.json.",
+        isokit_scene::Node::KINDS.join(", ")
+    )
+}
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
@@ -81,8 +89,7 @@ pub fn run(a: Args) -> Result<()> {
     } else {
         // Kept bricks hold exact values a little beyond the band: clamped, so the file
         // reads "exact within W, ±W beyond" everywhere.
-        let (bricks, stats) = scene.sample_job(&opts, &job)?;
-        let grid = band_to_grid(&bricks, stats.band)?;
+        let (grid, stats) = scene.sample_grid_job(&opts, &job)?;
         write_volume(&a.output, &Volume::from(grid))?;
         (stats, None)
     };

@@ -15,6 +15,17 @@ pub struct Aabb {
     pub max: Vec3,
 }
 
+/// `[x0, y0, z0] .. [x1, y1, z1]`, or `empty` (for messages).
+impl std::fmt::Display for Aabb {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_empty() {
+            return write!(f, "empty");
+        }
+        let v = |v: glam::Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+        write!(f, "{} .. {}", v(self.min), v(self.max))
+    }
+}
+
 impl Aabb {
     /// The empty box: contains nothing, and `EMPTY.union(b) == b`.
     pub const EMPTY: Aabb = Aabb {

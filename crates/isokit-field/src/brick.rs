@@ -122,6 +122,15 @@ impl BrickGrid {
                 why: "too small for this grid (more than 2^32 bricks)",
             });
         }
+        // The index, plus the per-brick lists the builders make (coordinates, decisions).
+        crate::memory::check(
+            &format!(
+                "the index of {n} bricks of {brick}^3 samples (of {} x {} x {} samples)",
+                dims[0], dims[1], dims[2]
+            ),
+            n as u128 * 48,
+            "lower the resolution or use larger bricks, or raise the budget",
+        )?;
         Ok(Self {
             dims,
             origin,
@@ -238,6 +247,7 @@ impl BrickGrid {
     ) -> Result<Self, FieldError> {
         job.check()?;
         let mut b = Self::new(dims, origin, spacing, brick, apron, background)?;
+        let side = brick + 2 * apron;
         let lip = field.lipschitz().max(0.0);
         let reach = 0.5 * ((brick + 2 * apron) as f32) * spacing * 3f32.sqrt();
         let mi = b.max_index();
@@ -266,6 +276,18 @@ impl BrickGrid {
             }
         }
         job.check()?;
+        // What the kept bricks will hold, known before their samples are evaluated: the
+        // cores, the stored bricks with aprons and the pool they are copied into.
+        let kept = keep.iter().filter(|k| **k == Some(true)).count() as u128;
+        let per = (brick.pow(3) + 2 * side.pow(3)) as u128 * 4 + 64;
+        crate::memory::check(
+            &format!(
+                "the {kept} bricks of {brick}^3 samples that may hold the band (of {} x {} x {} samples)",
+                dims[0], dims[1], dims[2]
+            ),
+            kept * per + b.index.len() as u128 * 4,
+            "lower the resolution or narrow the band, or raise the budget",
+        )?;
         // Pass 2: the core samples of kept bricks, each evaluated once.
         let cores: Vec<Option<Vec<f32>>> = coords
             .par_iter()
@@ -290,7 +312,6 @@ impl BrickGrid {
         job.check()?;
         // Pass 3: aprons read neighbouring cores where kept and evaluate the field elsewhere.
         let bd = IVec3::from_array(b.brick_dims.map(|v| v as i32));
-        let side = brick + 2 * apron;
         // The virtual grid at clamped indices: a kept core's sample, or a new evaluation
         // (counted in `extra`).
         let virtual_at = |i: i32, j: i32, k: i32, extra: &Cell<u64>| -> f32 {

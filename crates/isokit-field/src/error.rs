@@ -1,7 +1,7 @@
 //! Errors of the field core.
 
 /// What can go wrong when building grids and fields from user parameters.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum FieldError {
     /// A grid dimension is zero.
     #[error("grid dimensions {0:?} must all be at least 1")]
@@ -46,8 +46,21 @@ pub enum FieldError {
         got: usize,
     },
     /// Bounds to sample are empty or not finite.
-    #[error("bounds {0:?} are empty or not finite; give explicit bounds")]
+    #[error("bounds {0} are empty or not finite; give explicit bounds")]
     BadBounds(crate::Aabb),
+    /// A stage would hold more bytes than the memory budget ([`crate::memory`]); refused
+    /// before allocating.
+    #[error("{}", crate::memory::refusal(what, *bytes, *budget, fit))]
+    OverBudget {
+        /// What would not fit, e.g. "a dense grid of 1200 x 1200 x 1200 samples".
+        what: String,
+        /// The bytes it would hold.
+        bytes: u128,
+        /// The budget in force.
+        budget: u64,
+        /// How to make it fit.
+        fit: String,
+    },
     /// The computation's [`crate::Job`] was cancelled.
     #[error(transparent)]
     Cancelled(#[from] crate::Cancelled),

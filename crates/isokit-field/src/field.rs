@@ -1,7 +1,7 @@
 //! The [`Field`] trait: anything that gives a scalar value at a point.
 
-use crate::{Aabb, FieldError, Grid};
-use glam::{Mat3, Vec3};
+use crate::{Aabb, Cancelled, FieldError, Grid, Job};
+use glam::{DVec3, Mat3, Vec3};
 use rayon::prelude::*;
 
 /// A scalar field over 3D space. For signed distance fields the surface is the zero set,
@@ -224,6 +224,42 @@ pub fn sample_into(field: &dyn Field, grid: &mut Grid) {
         });
 }
 
+/// Fills `grid` one z-slice per parallel task, for fields evaluated in f64 or with state
+/// carried from sample to sample (a warm-started search along a row).
+/// `slice(k, positions, values)` receives the f64 positions of slice `k` (x fastest, each
+/// `origin + spacing · (i, j, k)` computed in f64) and writes its values; the per-slice
+/// results are combined with `merge`, starting from `S::default()`. Progress goes to `job`
+/// as `stage`, one unit per sample; a cancelled job stops before the next slice and returns
+/// [`Cancelled`] (the grid then holds a mix of old and new samples).
+pub fn fill_slices<S: Send + Default>(
+    grid: &mut Grid,
+    job: &Job,
+    stage: &str,
+    slice: impl Fn(usize, &mut dyn Iterator<Item = DVec3>, &mut [f32]) -> S + Sync,
+    merge: impl Fn(S, S) -> S + Sync + Send,
+) -> Result<S, Cancelled> {
+    let [nx, ny, _] = grid.dims();
+    let (origin, h) = (grid.origin().as_dvec3(), grid.spacing() as f64);
+    let progress = job.counter(stage, grid.len() as u64);
+    let s = grid
+        .data_mut()
+        .par_chunks_mut(nx * ny)
+        .enumerate()
+        .map(|(k, values)| {
+            if job.is_cancelled() {
+                return S::default();
+            }
+            let mut pos = (0..nx * ny)
+                .map(|n| origin + h * DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64));
+            let s = slice(k, &mut pos, values);
+            progress.advance(values.len() as u64);
+            s
+        })
+        .reduce(S::default, &merge);
+    job.check()?;
+    Ok(s)
+}
+
 /// Samples `field` on a grid covering its bounds grown by `pad`, with `res` samples along
 /// the longest axis.
 ///
@@ -286,5 +322,33 @@ mod tests {
         let pts = [Vec3::ZERO, Vec3::X, Vec3::Y];
         Quadratic.values(&pts, &mut out);
         assert_eq!(out, vec![0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn slices_see_f64_positions_and_merge() {
+        let mut g = Grid::new([3, 4, 5], Vec3::new(0.5, -1.0, 2.0), 0.25).unwrap();
+        let rows = fill_slices(
+            &mut g,
+            &Job::default(),
+            "test",
+            |k, positions, values| {
+                for (p, v) in positions.zip(values.iter_mut()) {
+                    assert_eq!(p.z, 2.0 + 0.25 * k as f64);
+                    *v = (p.x + p.y + p.z) as f32;
+                }
+                1usize
+            },
+            |a, b| a + b,
+        )
+        .unwrap();
+        assert_eq!(rows, 5);
+        for ([i, j, k], v) in g.iter() {
+            let p = g.position(i, j, k);
+            assert_eq!(v, p.x + p.y + p.z);
+        }
+        let job = Job::new();
+        job.cancel();
+        let r = fill_slices(&mut g, &job, "test", |_, _, _| (), |(), ()| ());
+        assert_eq!(r, Err(Cancelled));
     }
 }

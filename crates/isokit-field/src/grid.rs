@@ -58,6 +58,18 @@ pub fn checked_len(dims: [usize; 3]) -> Result<usize, FieldError> {
     Ok(n as usize)
 }
 
+/// Checks a dense f32 grid of `dims` against the memory budget ([`crate::memory::check`]).
+pub fn check_grid_budget(dims: [usize; 3]) -> Result<(), FieldError> {
+    crate::memory::check(
+        &format!(
+            "a dense grid of {} x {} x {} samples",
+            dims[0], dims[1], dims[2]
+        ),
+        crate::memory::grid_bytes(dims),
+        "lower the resolution, sample a narrow band instead of a dense grid, or raise the budget",
+    )
+}
+
 /// A dense, node-centered grid: sample `(i, j, k)` sits at `origin + spacing * (i, j, k)`
 /// and is stored at index `i + nx * (j + ny * k)` (x fastest).
 ///
@@ -93,7 +105,9 @@ impl Grid {
         Self::filled(dims, origin, spacing, 0.0)
     }
 
-    /// A grid filled with `value`.
+    /// A grid filled with `value`. Besides the size limits of [`checked_len`], the grid
+    /// must fit the memory budget ([`crate::memory`]): [`FieldError::OverBudget`] otherwise,
+    /// before anything is allocated.
     pub fn filled(
         dims: [usize; 3],
         origin: Vec3,
@@ -102,6 +116,7 @@ impl Grid {
     ) -> Result<Self, FieldError> {
         check_geometry(origin, spacing)?;
         let n = checked_len(dims)?;
+        check_grid_budget(dims)?;
         Ok(Self {
             dims,
             origin,
@@ -177,6 +192,33 @@ impl Grid {
         let origin = b.center() - 0.5 * span;
         checked_len(dims)?;
         Ok((dims, origin, spacing))
+    }
+
+    /// Why padding `pad` is unusable for a grid of `res` samples over `bounds`, if it is:
+    /// not finite, negative, or so large that the padded lattice's spacing exceeds the
+    /// diagonal of `bounds` (the shape would fall between two samples). `None` when fine.
+    ///
+    /// ```
+    /// use isokit_field::{Aabb, Grid};
+    /// use glam::Vec3;
+    /// let b = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+    /// assert!(Grid::padding_problem(b, 64, 0.5).is_none());
+    /// assert!(Grid::padding_problem(b, 64, 1e30).is_some());
+    /// assert!(Grid::padding_problem(b, 64, f32::NAN).is_some());
+    /// ```
+    pub fn padding_problem(bounds: Aabb, res: usize, pad: f32) -> Option<String> {
+        if !(pad.is_finite() && pad >= 0.0) {
+            return Some("must be finite and non-negative".into());
+        }
+        let diag = bounds.diagonal();
+        let longest = bounds.expanded(pad).size().max_element();
+        let spacing = longest / res.saturating_sub(1).max(1) as f32;
+        (diag.is_finite() && diag > 0.0 && (spacing > diag || spacing.is_nan())).then(|| {
+            format!(
+                "makes the sample spacing {spacing:e} larger than the shape itself (diagonal {diag}); use a padding below {:.4}",
+                0.5 * (diag * res.saturating_sub(1).max(1) as f32 - bounds.size().max_element())
+            )
+        })
     }
 
     /// Samples along x, y, z.
@@ -268,6 +310,16 @@ impl Grid {
         finite_min_max(&self.data)
     }
 
+    /// Clamps every sample to `[-band, band]` (in parallel): a lazily sampled band, whose
+    /// kept bricks hold exact values a little beyond `band`, then reads "the field within
+    /// `band`, `±band` beyond" everywhere, as a dense sampling clamped the same way would.
+    pub fn clamp_to_band(&mut self, band: f32) {
+        use rayon::prelude::*;
+        self.data
+            .par_iter_mut()
+            .for_each(|v| *v = v.clamp(-band, band));
+    }
+
     /// Iterates `((i, j, k), value)` in storage order.
     pub fn iter(&self) -> impl Iterator<Item = ([usize; 3], f32)> + '_ {
         let [nx, ny, _] = self.dims;
@@ -281,6 +333,14 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clamps_to_the_band() {
+        let mut g =
+            Grid::from_data([2, 2, 1], Vec3::ZERO, 1.0, vec![-3.0, -0.5, 0.25, 7.0]).unwrap();
+        g.clamp_to_band(1.0);
+        assert_eq!(g.data(), &[-1.0, -0.5, 0.25, 1.0]);
+    }
 
     #[test]
     fn refuses_absurd_sizes_before_allocating() {

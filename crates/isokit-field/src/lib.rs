@@ -35,6 +35,7 @@ pub mod filter;
 pub mod generate;
 mod grid;
 mod job;
+pub mod memory;
 pub mod mesh;
 pub mod morton;
 pub mod primitives;
@@ -47,9 +48,9 @@ pub use camera::{Camera, Projection, Ray};
 pub use cloud::PointCloud;
 pub use error::FieldError;
 pub use field::{
-    DistanceBox, Field, box_lower_bound, finite_difference_hessian, sample_field, sample_into,
-    value_clamped,
+    DistanceBox, Field, box_lower_bound, fill_slices, finite_difference_hessian, sample_field,
+    sample_into, value_clamped,
 };
-pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, checked_len, finite_min_max};
+pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, check_grid_budget, checked_len, finite_min_max};
 pub use job::{Cancelled, Counter, Job, ProgressFn};
 pub use mesh::{DEGENERATE_REL_TOL, MeshReport, TriMesh};

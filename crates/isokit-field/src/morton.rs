@@ -35,9 +35,15 @@ pub fn order(points: &[DVec3]) -> Vec<u32> {
         let q = ((*p - lo) * scale).as_uvec3();
         encode(q)
     };
-    let mut idx: Vec<u32> = (0..points.len() as u32).collect();
-    idx.par_sort_by_key(|&i| key(&points[i as usize]));
-    idx
+    // Each key computed once (a sort by key would recompute it at every comparison); ties
+    // broken by index, so the order equals a stable sort by key.
+    let mut keyed: Vec<(u64, u32)> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (key(p), i as u32))
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 #[cfg(test)]

@@ -5,7 +5,8 @@
 pub enum GpuError {
     /// No adapter could be found (no driver, no device, or the backends were narrowed away).
     #[error(
-        "no GPU adapter: {0} (install a Vulkan driver, e.g. Debian's mesa-vulkan-drivers, or use --backend cpu)"
+        "no GPU adapter: {} (install a Vulkan driver, e.g. Debian's mesa-vulkan-drivers, or use --backend cpu)",
+        one_line(.0)
     )]
     NoAdapter(String),
     /// The adapter cannot run compute shaders (e.g. GL below ES 3.1).
@@ -20,10 +21,10 @@ pub enum GpuError {
         features: String,
     },
     /// Opening the device failed.
-    #[error("could not open the GPU device: {0}")]
+    #[error("could not open the GPU device: {}", one_line(.0))]
     Device(String),
     /// A shader failed to compile or a pipeline failed to build.
-    #[error("shader {label}: {message}")]
+    #[error("shader {label}: {}", one_line(message))]
     Shader {
         /// The shader's label.
         label: String,
@@ -31,15 +32,25 @@ pub enum GpuError {
         message: String,
     },
     /// Mapping a buffer for read-back failed.
-    #[error("GPU read-back failed: {0}")]
+    #[error("GPU read-back failed: {}", one_line(.0))]
     Map(String),
     /// A validation or internal error raised by wgpu while recording or submitting work.
-    #[error("GPU error: {0}")]
+    #[error("GPU error: {}", one_line(.0))]
     Wgpu(String),
     /// The work does not fit the device's limits (buffer size, dispatch size).
-    #[error("too large for the GPU: {0}")]
+    #[error("too large for the GPU: {}", one_line(.0))]
     TooLarge(String),
     /// `--backend` or `ISOKIT_BACKEND` holds an unknown value.
     #[error("unknown backend '{0}': use cpu, gpu or auto")]
     BadBackend(String),
+}
+
+/// wgpu's and naga's messages span lines (a validation error, its causes, the source
+/// excerpt): joined with "; " so that every error prints as one line.
+pub(crate) fn one_line(s: &str) -> String {
+    s.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
 }

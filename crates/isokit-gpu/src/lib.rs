@@ -183,6 +183,7 @@ pub struct Gpu {
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
+    adapter: wgpu::Adapter,
 }
 
 impl Gpu {
@@ -217,6 +218,38 @@ impl Gpu {
             queue,
             info,
             limits,
+            adapter,
+        })
+    }
+
+    /// Refuses, before anything is drawn, render-target formats the adapter cannot render to
+    /// (GL adapters such as llvmpipe cannot render to `Rgba32Float`), naming the adapter,
+    /// the formats and `what` needs them.
+    pub fn check_render_formats(
+        &self,
+        formats: &[wgpu::TextureFormat],
+        what: &str,
+    ) -> Result<(), GpuError> {
+        let missing: Vec<String> = formats
+            .iter()
+            .filter(|f| {
+                !self
+                    .adapter
+                    .get_texture_format_features(**f)
+                    .allowed_usages
+                    .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+            })
+            .map(|f| format!("{f:?}"))
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(GpuError::MissingFeatures {
+            adapter: adapter_name(&self.info),
+            features: format!(
+                "render targets of {} ({what}); use --backend cpu",
+                missing.join(" and ")
+            ),
         })
     }
 

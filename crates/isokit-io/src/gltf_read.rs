@@ -13,7 +13,7 @@ use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 use gltf::json::{Accessor, Root};
 
-use crate::util::read_file;
+use crate::util::read_referenced;
 use crate::{IoError, TriMesh};
 
 /// Instancing (one mesh under many nodes) may expand a small file into a huge mesh: refuse
@@ -118,7 +118,7 @@ impl Buffers<'_> {
             self.data.resize(root.buffers.len(), None);
         }
         if self.data[i].is_none() {
-            let loaded = self.load(buffer.uri.as_deref(), i)?;
+            let loaded = self.load(buffer.uri.as_deref(), i, buffer.byte_length.0)?;
             if (loaded.len() as u64) < buffer.byte_length.0 {
                 return Err(IoError::malformed(
                     self.path,
@@ -134,7 +134,7 @@ impl Buffers<'_> {
         Ok(self.data[i].as_deref().unwrap_or_default())
     }
 
-    fn load(&self, uri: Option<&str>, i: usize) -> Result<Vec<u8>, IoError> {
+    fn load(&self, uri: Option<&str>, i: usize, declared: u64) -> Result<Vec<u8>, IoError> {
         let Some(uri) = uri else {
             return self.bin.map(<[u8]>::to_vec).ok_or_else(|| {
                 IoError::malformed(
@@ -176,13 +176,13 @@ impl Buffers<'_> {
             })?;
             let dir = self.path.parent().unwrap_or(Path::new(""));
             let file: PathBuf = dir.join(rel);
-            read_file(&file).map_err(|e| match e {
-                IoError::Io { source, .. } => IoError::malformed(
-                    self.path,
-                    format!("glTF buffer {i}: cannot read {}: {source}", file.display()),
-                ),
-                other => other,
-            })
+            // Exactly the declared bytes: a longer file (or a device) is not read further.
+            read_referenced(
+                self.path,
+                &format!("glTF buffer {i}:"),
+                &file,
+                Some(declared),
+            )
         }
     }
 }

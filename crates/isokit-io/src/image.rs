@@ -11,20 +11,25 @@ use crate::util::read_file;
 /// Encodes an 8-bit RGBA image (row 0 at the top, `width * height * 4` bytes) as PNG and
 /// writes it atomically.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba8: &[u8]) -> Result<(), IoError> {
+    let buf = encode(width, height, rgba8).map_err(|m| IoError::invalid_input(path, m))?;
+    atomic_write_bytes(path, &buf)
+}
+
+/// The PNG file [`write_png`] would write, in memory (e.g. for a notebook's `_repr_png_`);
+/// `name` names the image in errors.
+pub fn encode_png(width: u32, height: u32, rgba8: &[u8], name: &str) -> Result<Vec<u8>, IoError> {
+    encode(width, height, rgba8).map_err(|m| IoError::invalid_input(Path::new(name), m))
+}
+
+fn encode(width: u32, height: u32, rgba8: &[u8]) -> Result<Vec<u8>, String> {
     let want = width as u128 * height as u128 * 4;
     if width == 0 || height == 0 {
-        return Err(IoError::invalid_input(
-            path,
-            format!("image size {width}x{height} is empty"),
-        ));
+        return Err(format!("image size {width}x{height} is empty"));
     }
     if rgba8.len() as u128 != want {
-        return Err(IoError::invalid_input(
-            path,
-            format!(
-                "{} bytes for a {width}x{height} RGBA image (need {want})",
-                rgba8.len()
-            ),
+        return Err(format!(
+            "{} bytes for a {width}x{height} RGBA image (need {want})",
+            rgba8.len()
         ));
     }
     let mut buf = Vec::with_capacity(rgba8.len() / 2 + 1024);
@@ -35,13 +40,12 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba8: &[u8]) -> Result<(
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         let mut w = enc
             .write_header()
-            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
+            .map_err(|e| format!("PNG encoder: {e}"))?;
         w.write_image_data(rgba8)
-            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
-        w.finish()
-            .map_err(|e| IoError::invalid_input(path, format!("PNG encoder: {e}")))?;
+            .map_err(|e| format!("PNG encoder: {e}"))?;
+        w.finish().map_err(|e| format!("PNG encoder: {e}"))?;
     }
-    atomic_write_bytes(path, &buf)
+    Ok(buf)
 }
 
 /// Reads a PNG as 8-bit RGBA (row 0 at the top): gray, gray+alpha, RGB and palette images
@@ -329,4 +333,20 @@ fn exr_info(
             .collect(),
         layers: meta.headers.len(),
     })
+}
+
+#[cfg(test)]
+mod png_tests {
+    use super::*;
+
+    #[test]
+    fn encoded_png_reads_back() {
+        let rgba: Vec<u8> = (0..3 * 2 * 4).map(|i| (i * 10) as u8).collect();
+        let bytes = encode_png(3, 2, &rgba, "mem.png").unwrap();
+        assert_eq!(read_png_bytes(&bytes, "mem.png").unwrap(), (3, 2, rgba));
+        let e = encode_png(3, 2, &[0; 5], "mem.png")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("mem.png") && e.contains("need 24"), "{e}");
+    }
 }

@@ -9,9 +9,9 @@ use crate::{IoError, ply};
 /// What a file holds, for dispatch in tools that accept several kinds of input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FileKind {
-    /// A triangle mesh (`.obj .gltf .glb .stl .off`, or `.ply` with faces).
+    /// A triangle mesh (`.gltf .glb .stl .off`, or `.ply` and `.obj` with faces).
     Mesh,
-    /// A point cloud (`.xyz`, or `.ply` without faces).
+    /// A point cloud (`.xyz`, or `.ply` and `.obj` without faces).
     PointCloud,
     /// A volume (`.nrrd .nhdr .npy .nii .nii.gz`).
     Volume,
@@ -22,11 +22,18 @@ pub enum FileKind {
 
 /// Decides the kind of a file by extension (case-insensitive). A `.ply` file is opened and
 /// its header read: a `face` element with a count above 0 makes it a mesh, otherwise a point
-/// cloud.
+/// cloud. Likewise an `.obj` file with `f` lines is a mesh, one with only `v` lines a cloud.
 pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
     let ext = extension(path).unwrap_or_default();
     Ok(match ext.as_str() {
-        "obj" | "gltf" | "glb" | "stl" | "off" => FileKind::Mesh,
+        "gltf" | "glb" | "stl" | "off" => FileKind::Mesh,
+        "obj" => {
+            if crate::obj::has_faces(&crate::util::read_file(path)?) {
+                FileKind::Mesh
+            } else {
+                FileKind::PointCloud
+            }
+        }
         "xyz" => FileKind::PointCloud,
         "nrrd" | "nhdr" | "npy" | "nii" | "nii.gz" => FileKind::Volume,
         "png" | "exr" => FileKind::Image,

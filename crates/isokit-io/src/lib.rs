@@ -6,7 +6,7 @@
 //! | --- | --- | --- | --- |
 //! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY, STL, OFF |
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
-//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY, NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY |
+//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY; [`lattice::write_npy_volume`]: NPY + sidecar |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
 //! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
 //!
@@ -53,6 +53,7 @@ mod error;
 mod gltf_read;
 mod image;
 mod kind;
+pub mod lattice;
 mod mesh;
 mod nifti;
 mod npy;
@@ -72,11 +73,12 @@ pub mod reader {
     pub use crate::util::{gunzip, read_file, show};
 }
 
-pub use atomic::atomic_write;
+pub use atomic::{atomic_write, temporary_name};
 pub use error::IoError;
 pub use image::{
-    ExrImage, ExrInfo, MAX_EXR_SAMPLES, linear_to_srgb8, read_exr, read_exr_bytes, read_exr_info,
-    read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear, write_exr, write_png,
+    ExrImage, ExrInfo, MAX_EXR_SAMPLES, encode_png, linear_to_srgb8, read_exr, read_exr_bytes,
+    read_exr_info, read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear, write_exr,
+    write_png,
 };
 pub use isokit_field::{DEGENERATE_REL_TOL, MeshReport, PointCloud, TriMesh, generate};
 pub use kind::{FileKind, detect_kind};

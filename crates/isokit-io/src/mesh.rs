@@ -10,7 +10,7 @@ use glam::Vec3;
 /// The mesh file formats this crate reads, chosen by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum MeshFormat {
-    /// Wavefront OBJ (`.obj`), read with tobj.
+    /// Wavefront OBJ (`.obj`): every vertex; polygons triangulated.
     Obj,
     /// glTF 2.0 JSON (`.gltf`) with embedded (data URI) or external buffers.
     Gltf,
@@ -55,7 +55,7 @@ impl MeshFormat {
 
 /// Reads a triangle mesh, choosing the format by extension (see [`MeshFormat`]).
 ///
-/// Polygons are fan-triangulated. Every returned index is in range. What each reader
+/// Polygons are triangulated (a fan, or a strip above 16 vertices). Every returned index is in range. What each reader
 /// supports:
 /// - OBJ: `v` and `f` (any polygon, `v/vt/vn` forms, negative indices), all objects and
 ///   groups merged into one mesh; texture coordinates, normals, lines, points and materials
@@ -123,11 +123,33 @@ pub fn write_stl_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
     stl::write_stl(path, mesh, true)
 }
 
-/// Fan-triangulates a polygon given as indices, appending to `out`.
+/// Polygons with more vertices than this are triangulated as a strip instead of a fan.
+const FAN_LIMIT: usize = 16;
+
+/// Triangulates a polygon given as indices, appending to `out`, keeping its orientation:
+/// a fan around the first vertex for small polygons, a zigzag strip (vertices taken
+/// alternately from both ends) for polygons of more than 16 vertices. A fan of thousands of
+/// slivers shares one vertex, which no spatial index can separate (a 400,000-vertex polygon
+/// made every distance query test most of its triangles); the strip's triangles are local
+/// chords. Both are the same surface for a planar convex polygon.
 pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
-    if poly.len() >= 3 {
-        for w in 1..poly.len() - 1 {
+    let n = poly.len();
+    if n < 3 {
+        return;
+    }
+    if n <= FAN_LIMIT {
+        for w in 1..n - 1 {
             out.push([poly[0], poly[w], poly[w + 1]]);
+        }
+        return;
+    }
+    let (mut a, mut b) = (0, n - 1);
+    while a + 1 < b {
+        out.push([poly[a], poly[a + 1], poly[b]]);
+        a += 1;
+        if a + 1 < b {
+            out.push([poly[a], poly[b - 1], poly[b]]);
+            b -= 1;
         }
     }
 }
@@ -142,5 +164,36 @@ pub(crate) fn check_indices(mesh: &TriMesh, path: &Path) -> Result<(), IoError> 
     match mesh.index_problem() {
         Some(m) => Err(IoError::invalid_input(path, m)),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn large_polygons_become_strips_of_the_same_orientation() {
+        for n in [3usize, 4, 16, 17, 18, 1001] {
+            let poly: Vec<u32> = (0..n as u32).collect();
+            let mut t = Vec::new();
+            fan(&poly, &mut t);
+            assert_eq!(t.len(), n - 2);
+            // A regular polygon in the xy plane: every triangle faces +z, and they tile it.
+            let p = |i: u32| {
+                let a = std::f64::consts::TAU * f64::from(i) / n as f64;
+                glam::DVec2::new(a.cos(), a.sin())
+            };
+            let mut area = 0.0;
+            for [a, b, c] in &t {
+                let cross = (p(*b) - p(*a)).perp_dot(p(*c) - p(*a));
+                assert!(cross > 0.0, "{n}: {a} {b} {c}");
+                area += 0.5 * cross;
+            }
+            let exact = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
+            assert!((area - exact).abs() < 1e-9, "{n}: {area} vs {exact}");
+            if n > FAN_LIMIT {
+                assert!(t.iter().filter(|x| x.contains(&0)).count() <= 2);
+            }
+        }
     }
 }

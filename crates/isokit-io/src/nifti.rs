@@ -133,6 +133,7 @@ pub(crate) fn read_nifti(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
         }
     }
     let n = checked_len(dims).map_err(|e| bad(e.to_string()))?;
+    isokit_field::check_grid_budget(dims).map_err(|e| bad(e.to_string()))?;
     let code = h.i16(70);
     let scalar = datatype(code).ok_or_else(|| {
         IoError::unsupported(

@@ -72,6 +72,7 @@ pub(crate) fn read_npy_volume(bytes: &[u8], path: &Path) -> Result<Volume, IoErr
     };
     let dims = [nx, ny, nz];
     checked_len(dims).map_err(|e| IoError::malformed(path, e.to_string()))?;
+    isokit_field::check_grid_budget(dims).map_err(|e| IoError::malformed(path, e.to_string()))?;
     Ok(Volume {
         dims,
         origin: Vec3::ZERO,

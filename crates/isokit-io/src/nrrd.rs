@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use isokit_field::checked_len;
 
-use crate::util::{Endian, Scalar, gunzip, parse_f64, read_file, show, tokens};
+use crate::util::{Endian, Scalar, gunzip, parse_f64, read_referenced, show, tokens};
 use crate::{IoError, NrrdEncoding, Volume, atomic_write};
 
 fn nrrd_type(t: &str) -> Option<Scalar> {
@@ -154,6 +154,7 @@ pub(crate) fn read_nrrd(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
     };
     let dims = [nx, ny, nz];
     let n = checked_len(dims).map_err(|e| bad(e.to_string()))?;
+    isokit_field::check_grid_budget(dims).map_err(|e| bad(e.to_string()))?;
     let encoding = match get("encoding").ok_or_else(|| bad("header lacks 'encoding'".into()))? {
         "raw" => Encoding::Raw,
         "gzip" | "gz" => Encoding::Gzip,
@@ -266,13 +267,15 @@ pub(crate) fn read_nrrd(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
                 ));
             }
             let file: PathBuf = path.parent().unwrap_or(Path::new("")).join(name);
-            Some(read_file(&file).map_err(|e| match e {
-                IoError::Io { source, .. } => bad(format!(
-                    "cannot read data file {}: {source}",
-                    file.display()
-                )),
-                other => other,
-            })?)
+            // Raw samples at a known offset: exactly the bytes the header declares. Other
+            // layouts read the whole (regular) file, within the memory budget.
+            let exact =
+                (encoding == Encoding::Raw && line_skip == 0 && byte_skip >= 0).then(|| {
+                    (n as u64)
+                        .saturating_mul(scalar.size() as u64)
+                        .saturating_add(byte_skip as u64)
+                });
+            Some(read_referenced(path, "data file", &file, exact)?)
         }
         None => None,
     };

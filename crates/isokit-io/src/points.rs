@@ -14,17 +14,20 @@ pub enum PointFormat {
     Ply,
     /// Text (`.xyz`): one point per line, `x y z` or `x y z nx ny nz`, `#` comments.
     Xyz,
+    /// Wavefront OBJ (`.obj`) read as its `v` lines (faces ignored); read only.
+    Obj,
 }
 
 impl PointFormat {
     /// The extensions [`PointFormat::from_path`] accepts, for messages.
-    pub const EXTENSIONS: &'static str = ".ply or .xyz";
+    pub const EXTENSIONS: &'static str = ".ply, .xyz or .obj (read only)";
 
     /// The format named by a path's extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Self, IoError> {
         match extension(path).as_deref() {
             Some("ply") => Ok(PointFormat::Ply),
             Some("xyz") => Ok(PointFormat::Xyz),
+            Some("obj") => Ok(PointFormat::Obj),
             _ => Err(IoError::UnknownFormat {
                 path: path.to_path_buf(),
                 expected: Self::EXTENSIONS,
@@ -34,9 +37,9 @@ impl PointFormat {
 }
 
 /// Reads a point cloud by extension: `.ply` (ASCII or binary; the vertex element, with
-/// normals when `nx ny nz` are all present; other elements such as faces are skipped) or
+/// normals when `nx ny nz` are all present; other elements such as faces are skipped),
 /// `.xyz` (text, 3 or 6 whitespace- or comma-separated columns, the same on every line;
-/// `#` starts a comment; a file without any point is an error).
+/// `#` starts a comment; a file without any point is an error) or `.obj` (every `v` line).
 pub fn read_points(path: &Path) -> Result<PointCloud, IoError> {
     let format = PointFormat::from_path(path)?;
     let bytes = read_file(path)?;
@@ -56,6 +59,7 @@ fn read_points_from(bytes: &[u8], format: PointFormat, path: &Path) -> Result<Po
     match format {
         PointFormat::Ply => ply::read_ply_points(bytes, path),
         PointFormat::Xyz => read_xyz(bytes, path),
+        PointFormat::Obj => crate::obj::read_obj_points(bytes, path),
     }
 }
 
@@ -65,6 +69,10 @@ pub fn write_points(path: &Path, cloud: &PointCloud) -> Result<(), IoError> {
     match PointFormat::from_path(path)? {
         PointFormat::Ply => ply::write_ply_points(path, cloud),
         PointFormat::Xyz => write_xyz(path, cloud),
+        PointFormat::Obj => Err(IoError::unsupported(
+            path,
+            "point clouds are written as .ply or .xyz, not .obj",
+        )),
     }
 }
 

@@ -7,18 +7,93 @@ use std::path::Path;
 use crate::IoError;
 
 /// Reads a whole file; an operating-system failure becomes [`IoError::Io`] naming the file.
+///
+/// A regular file's size is checked against the memory budget
+/// ([`isokit_field::memory`]) before reading; anything else (a pipe, a device such as
+/// `/dev/zero`) is read up to the budget and refused beyond it, so no input can claim
+/// unbounded memory.
 pub fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
-    std::fs::read(path).map_err(|e| IoError::io(path, e))
+    let mut f = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let meta = f.metadata().map_err(|e| IoError::io(path, e))?;
+    let budget = isokit_field::memory::budget();
+    let over = |bytes: u128| {
+        isokit_field::memory::check_within(
+            budget,
+            &format!("reading {}", path.display()),
+            bytes,
+            "read a smaller file, or raise the budget",
+        )
+        .map_err(|e| IoError::invalid_input(path, e.to_string()))
+    };
+    if meta.is_file() {
+        over(u128::from(meta.len()))?;
+    }
+    let mut out = Vec::new();
+    (&mut f)
+        .take(budget.saturating_add(1))
+        .read_to_end(&mut out)
+        .map_err(|e| IoError::io(path, e))?;
+    if out.len() as u64 > budget {
+        over(out.len() as u128)?;
+    }
+    Ok(out)
+}
+
+/// Reads a file that another file refers to (a glTF buffer, a detached NRRD's data): it
+/// must be a regular file, and with `exact = Some(n)` only its first `n` bytes are read
+/// (refused when it is shorter); otherwise the whole file ([`read_file`]). Errors are
+/// [`IoError::Malformed`] naming the referring file `from` and `what` refers.
+pub(crate) fn read_referenced(
+    from: &Path,
+    what: &str,
+    file: &Path,
+    exact: Option<u64>,
+) -> Result<Vec<u8>, IoError> {
+    let bad = |why: String| IoError::malformed(from, format!("{what} {}: {why}", file.display()));
+    let meta = std::fs::metadata(file).map_err(|e| bad(format!("cannot be read: {e}")))?;
+    if !meta.is_file() {
+        return Err(bad("is not a regular file".into()));
+    }
+    let Some(n) = exact else {
+        return read_file(file).map_err(|e| match e {
+            IoError::Io { source, .. } => bad(format!("cannot be read: {source}")),
+            other => other,
+        });
+    };
+    if meta.len() < n {
+        return Err(bad(format!(
+            "holds {} bytes, fewer than the {n} declared",
+            meta.len()
+        )));
+    }
+    isokit_field::memory::check(
+        &format!("reading {}", file.display()),
+        u128::from(n),
+        "read a smaller file, or raise the budget",
+    )
+    .map_err(|e| bad(e.to_string()))?;
+    let mut out = Vec::new();
+    std::fs::File::open(file)
+        .and_then(|f| f.take(n).read_to_end(&mut out))
+        .map_err(|e| bad(format!("cannot be read: {e}")))?;
+    if (out.len() as u64) < n {
+        return Err(bad(format!(
+            "holds {} bytes, fewer than the {n} declared",
+            out.len()
+        )));
+    }
+    Ok(out)
 }
 
 /// The lower-case extension, with `.nii.gz` (and other `.X.gz`) kept as one extension
 /// `nii.gz`.
+/// The rest of the name need not be UTF-8 (extensions are ASCII; other bytes are ignored).
 pub(crate) fn extension(path: &Path) -> Option<String> {
-    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+    let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
     if name.ends_with(".nii.gz") && name.len() > ".nii.gz".len() {
         return Some("nii.gz".to_string());
     }
-    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
     Some(ext)
 }
 

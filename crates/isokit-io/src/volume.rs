@@ -7,7 +7,7 @@ use glam::Vec3;
 use isokit_field::{Aabb, FieldError, Grid, checked_len};
 
 use crate::util::{extension, read_file};
-use crate::{IoError, nifti, npy, nrrd};
+use crate::{IoError, lattice, nifti, npy, nrrd};
 
 /// A dense node-centered volume as stored in files: sample `(i, j, k)` sits at
 /// `origin + spacing * (i, j, k)` (component-wise) and is stored at `i + nx * (j + ny * k)`
@@ -208,7 +208,9 @@ impl VolumeFormat {
 ///   is positive) and `space origin`, or from `spacings` and `axis mins`; default spacing 1,
 ///   origin 0. Coordinates are taken in the file's space (RAS, LPS, …) without conversion.
 /// - `.npy`: a 3-D array of shape `(nz, ny, nx)` in C order (so x is fastest in memory),
-///   any numeric dtype; NumPy files carry no geometry, so origin is 0 and spacing 1.
+///   any numeric dtype. NumPy files carry no geometry: origin and spacing come from the
+///   lattice sidecar `<file>.npy.json` when there is one ([`crate::lattice`]), else origin
+///   is 0 and spacing 1.
 /// - `.nii` / `.nii.gz`: NIfTI-1 of either byte order; datatypes uint8, int16, int32,
 ///   float32, float64, int8, uint16, uint32 (and int64/uint64); `scl_slope`/`scl_inter`
 ///   applied (slope 0 means none). Geometry from the sform when `sform_code > 0`, else from
@@ -228,7 +230,13 @@ impl VolumeFormat {
 pub fn read_volume(path: &Path) -> Result<Volume, IoError> {
     let format = VolumeFormat::from_path(path)?;
     let bytes = read_file(path)?;
-    read_volume_from(&bytes, format, path)
+    let mut volume = read_volume_from(&bytes, format, path)?;
+    if format == VolumeFormat::Npy
+        && let Some(lattice) = lattice::read_sidecar(path)?
+    {
+        lattice::apply(&mut volume, &lattice, path)?;
+    }
+    Ok(volume)
 }
 
 /// Reads a volume from bytes in memory; `name` is used in messages and as the location
@@ -250,7 +258,8 @@ fn read_volume_from(bytes: &[u8], format: VolumeFormat, path: &Path) -> Result<V
 }
 
 /// Writes a volume atomically by extension: `.nrrd` (gzip-encoded float, see
-/// [`write_nrrd`]) or `.npy` (f32, shape `(nz, ny, nx)`; origin and spacing are lost).
+/// [`write_nrrd`]) or `.npy` (f32, shape `(nz, ny, nx)`; origin and spacing are lost: use
+/// [`crate::lattice::write_npy_volume`] to keep them in the sidecar).
 pub fn write_volume(path: &Path, volume: &Volume) -> Result<(), IoError> {
     match extension(path).as_deref() {
         Some("nrrd") => nrrd::write_nrrd(path, volume, NrrdEncoding::Gzip),

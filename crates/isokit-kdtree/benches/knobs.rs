@@ -7,7 +7,7 @@
 //! the dependency tree lean; each cell is the best of three runs.
 
 use glam::{DVec3, Vec3};
-use isokit_io::generate;
+use isokit_field::generate;
 use isokit_kdtree::{BuildParams, MeshOptions, MeshSdf, QueryStats, SignMode};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -29,7 +29,7 @@ fn main() {
             .into_iter()
             .map(|p| p.as_dvec3())
             .collect();
-        for leaf in [2, 4, 8, 16] {
+        for leaf in [2, 4, 8, 16, 32, 64] {
             for overlap in [0.0, 0.05, 0.1, 0.3, 1.0] {
                 let tree = BuildParams {
                     leaf_size: leaf,

@@ -30,5 +30,5 @@ pub mod pseudonormal;
 pub mod tree;
 pub mod triangle;
 
-pub use mesh::{MeshError, MeshHit, MeshOptions, MeshSdf, SignMethod, SignMode};
+pub use mesh::{GridFill, MeshError, MeshHit, MeshOptions, MeshSdf, SignMethod, SignMode};
 pub use tree::{BuildParams, KdTree, QueryStats};

@@ -162,16 +162,39 @@ impl MeshSdf {
     /// Builds the tree and the sign data. Validates indices and coordinates; empty meshes
     /// are an error.
     pub fn new(mesh: &TriMesh, opts: MeshOptions) -> Result<Self, MeshError> {
-        if mesh.triangles.is_empty() {
+        let positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+        Self::build(positions, mesh.triangles.clone(), Some(mesh), opts)
+    }
+
+    /// [`MeshSdf::new`] for vertices given in f64 (e.g. a NumPy float64 array): distances,
+    /// closest points and signs are computed from these coordinates exactly as given, not
+    /// from their f32 roundings. The tree's boxes are rounded outward to f32, so pruning
+    /// stays conservative. The mesh checks that choose the sign method (watertight,
+    /// oriented, degenerate triangles) look at the f32 roundings.
+    pub fn from_f64(
+        positions: &[DVec3],
+        triangles: &[[u32; 3]],
+        opts: MeshOptions,
+    ) -> Result<Self, MeshError> {
+        Self::build(positions.to_vec(), triangles.to_vec(), None, opts)
+    }
+
+    fn build(
+        positions: Vec<DVec3>,
+        triangles: Vec<[u32; 3]>,
+        mesh: Option<&TriMesh>,
+        opts: MeshOptions,
+    ) -> Result<Self, MeshError> {
+        if triangles.is_empty() {
             return Err(MeshError::Empty);
         }
         if !(opts.winding_beta.is_finite() && opts.winding_beta >= 1.0) {
             return Err(MeshError::BadBeta(opts.winding_beta));
         }
-        let nv = mesh.positions.len();
-        for (t, tri) in mesh.triangles.iter().enumerate() {
+        let nv = positions.len();
+        for (t, tri) in triangles.iter().enumerate() {
             for &i in tri {
-                match mesh.positions.get(i as usize) {
+                match positions.get(i as usize) {
                     None => {
                         return Err(MeshError::IndexOutOfRange {
                             triangle: t,
@@ -179,31 +202,40 @@ impl MeshSdf {
                             vertices: nv,
                         });
                     }
-                    Some(p) if !p.is_finite() => return Err(MeshError::NonFinite(i as usize)),
+                    Some(p) if !p.is_finite() || !p.as_vec3().is_finite() => {
+                        return Err(MeshError::NonFinite(i as usize));
+                    }
                     _ => {}
                 }
             }
         }
-        let positions: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
-        let triangles = mesh.triangles.clone();
         let boxes: Vec<Aabb> = triangles
             .iter()
-            .map(|t| Aabb::from_points(t.iter().map(|&i| &mesh.positions[i as usize])))
+            .map(|t| outward_box(t.map(|i| positions[i as usize])))
             .collect();
         let tree = KdTree::build(&boxes, opts.tree);
         let bounds = tree.bounds();
+        // The validation (for the sign choice) runs on f32 positions.
+        let validated = || match mesh {
+            Some(m) => m.validate(),
+            None => TriMesh {
+                positions: positions.iter().map(|p| p.as_vec3()).collect(),
+                triangles: triangles.clone(),
+            }
+            .validate(),
+        };
 
         let mut box_bound = true;
         let (method, reason) = match opts.sign {
             SignMode::Unsigned => (SignMethod::Unsigned, "requested".to_string()),
             SignMode::Winding => (SignMethod::Winding, "requested".to_string()),
             SignMode::Pseudonormal => {
-                let r = mesh.validate();
+                let r = validated();
                 box_bound = r.watertight && r.consistently_oriented;
                 (SignMethod::Pseudonormal, "requested".to_string())
             }
             SignMode::Auto => {
-                let r = mesh.validate();
+                let r = validated();
                 if r.watertight && r.consistently_oriented && r.degenerate_triangles == 0 {
                     (
                         SignMethod::Pseudonormal,
@@ -649,6 +681,53 @@ impl MeshSdf {
     }
 }
 
+/// What [`MeshSdf::fill_grid`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GridFill {
+    /// Nodes visited and triangles tested over all samples.
+    pub stats: QueryStats,
+    /// Samples with `|d| < band` (all finite samples when the band is infinite).
+    pub band_samples: u64,
+}
+
+impl MeshSdf {
+    /// Overwrites every sample of `grid` with the signed distance clamped to `±band`
+    /// ([`MeshSdf::signed_distance_band`]; `f64::INFINITY` for exact distances everywhere),
+    /// at f64 sample positions, one z-slice per parallel task. Along each slice's rows every
+    /// query is warm-started from the previous sample's closest triangle (neighbouring
+    /// samples share it more often than not), which leaves the values unchanged and makes
+    /// the searches shorter. Progress goes to `job` (stage `"sdf"`, one unit per sample);
+    /// cancellation is checked per slice.
+    pub fn fill_grid(
+        &self,
+        grid: &mut isokit_field::Grid,
+        band: f64,
+        job: &Job,
+    ) -> Result<GridFill, Cancelled> {
+        isokit_field::fill_slices(
+            grid,
+            job,
+            "sdf",
+            |_, positions, values| {
+                let mut fill = GridFill::default();
+                let mut hint = None;
+                for (p, v) in positions.zip(values.iter_mut()) {
+                    let (d, t) = self.signed_distance_band_near(p, band, hint, &mut fill.stats);
+                    hint = t.or(hint);
+                    *v = d as f32;
+                    fill.band_samples += u64::from((v.abs() as f64) < band);
+                }
+                fill
+            },
+            |mut a, b| {
+                a.stats += b.stats;
+                a.band_samples += b.band_samples;
+                a
+            },
+        )
+    }
+}
+
 impl Field for MeshSdf {
     /// In parallel, in Morton order with warm starts ([`MeshSdf::query_points`]).
     fn values(&self, points: &[Vec3], out: &mut [f32]) {
@@ -709,6 +788,25 @@ impl Field for MeshSdf {
     }
 }
 
+/// The f32 box holding three f64 points: each bound rounded outward, so the box contains
+/// the exact triangle (and equals the plain box when the points are f32 values).
+fn outward_box(corners: [DVec3; 3]) -> Aabb {
+    let lo = corners[0].min(corners[1]).min(corners[2]);
+    let hi = corners[0].max(corners[1]).max(corners[2]);
+    let down = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) > x { f.next_down() } else { f }
+    };
+    let up = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) < x { f.next_up() } else { f }
+    };
+    Aabb::new(
+        Vec3::new(down(lo.x), down(lo.y), down(lo.z)),
+        Vec3::new(up(hi.x), up(hi.y), up(hi.z)),
+    )
+}
+
 /// Unsigned distance from `p` to the mesh by testing every triangle: the O(n) exact
 /// reference the tree is checked against. Triangles with out-of-range indices are skipped;
 /// infinity for a mesh without triangles.
@@ -738,6 +836,78 @@ mod tests {
             ("open cube", generate::open_cube(0.5)),
             ("degenerate", generate::degenerate_mesh()),
         ]
+    }
+
+    /// The warm-started grid fill equals cold per-sample queries, and counts the band.
+    #[test]
+    fn grid_fill_equals_cold_queries() {
+        let mesh = generate::torus(1.0, 0.35, 32, 16);
+        let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
+        for band in [0.1, f64::INFINITY] {
+            let mut g = isokit_field::Grid::covering(sdf.bounds(), 20, 0.2).unwrap();
+            let fill = sdf.fill_grid(&mut g, band, &Job::default()).unwrap();
+            let mut inside = 0;
+            for ([i, j, k], v) in g.iter() {
+                let p = g.origin().as_dvec3()
+                    + g.spacing() as f64 * DVec3::new(i as f64, j as f64, k as f64);
+                let want = sdf.signed_distance_band(p, band, &mut QueryStats::default());
+                assert!((f64::from(v) - want).abs() <= 1e-6, "{v} vs {want}");
+                inside += u64::from((v.abs() as f64) < band);
+            }
+            assert_eq!(fill.band_samples, inside);
+            assert!(fill.stats.prims_tested > 0);
+            if band.is_infinite() {
+                assert_eq!(inside, g.len() as u64);
+            }
+        }
+    }
+
+    #[test]
+    fn f64_vertices_give_f64_distances() {
+        // Vertices that f32 cannot hold: the distances follow the f64 coordinates, and the
+        // outward-rounded boxes lose no closest triangle.
+        let base = generate::icosphere(Vec3::ZERO, 1.0, 2);
+        let shift = DVec3::new(1e-9, -3e-9, 2e-9);
+        let pos: Vec<DVec3> = base
+            .positions
+            .iter()
+            .map(|p| p.as_dvec3() * (1.0 + 1e-9) + shift)
+            .collect();
+        let sdf = MeshSdf::from_f64(&pos, &base.triangles, MeshOptions::default()).unwrap();
+        assert_eq!(sdf.sign_method(), SignMethod::Pseudonormal);
+        let brute = |p: DVec3| {
+            base.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| pos[i as usize]);
+                    closest_point(p, a, b, c).dist2
+                })
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        };
+        let mut r = SplitMix64::new(5);
+        let mut st = QueryStats::default();
+        for _ in 0..500 {
+            let p = DVec3::new(r.next_f64(), r.next_f64(), r.next_f64()) * 3.0 - 1.5;
+            let h = sdf.query(p, &mut st).unwrap();
+            let want = brute(p);
+            assert!(
+                (h.distance.abs() - want).abs() <= 1e-15 * (1.0 + want),
+                "{p}"
+            );
+        }
+        // On a vertex that f32 rounds away, the distance is exactly 0.
+        let h = sdf.query(pos[7], &mut st).unwrap();
+        assert_eq!(h.distance, 0.0);
+        assert!(
+            MeshSdf::from_f64(
+                &[DVec3::splat(1e40); 3],
+                &[[0, 1, 2]],
+                MeshOptions::default()
+            )
+            .is_err()
+        );
+        assert!(MeshSdf::from_f64(&pos, &[[0, 1, 99_999]], MeshOptions::default()).is_err());
     }
 
     #[test]

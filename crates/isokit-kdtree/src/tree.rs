@@ -48,6 +48,29 @@ impl Default for BuildParams {
 }
 
 impl BuildParams {
+    /// Largest leaf size [`BuildParams::check_leaf_size`] accepts.
+    pub const MAX_LEAF_SIZE: usize = 1 << 16;
+
+    /// A leaf size a user gave: 1 to [`BuildParams::MAX_LEAF_SIZE`].
+    pub fn check_leaf_size(n: usize) -> Result<usize, String> {
+        if (1..=Self::MAX_LEAF_SIZE).contains(&n) {
+            Ok(n)
+        } else {
+            Err(format!("{n} must be 1 to {}", Self::MAX_LEAF_SIZE))
+        }
+    }
+
+    /// A maximum overlap a user gave: a fraction of a node's extent, 0 to 1.
+    pub fn check_max_overlap(x: f32) -> Result<f32, String> {
+        if (0.0..=1.0).contains(&x) {
+            Ok(x)
+        } else {
+            Err(format!(
+                "{x} must be a fraction of the node's extent from 0 to 1"
+            ))
+        }
+    }
+
     /// The classic kd-tree baseline (no overlap) with the same leaf size.
     pub fn classic() -> Self {
         Self {

@@ -122,6 +122,16 @@ pub enum MeshingError {
         /// The limit for both (`u32::MAX`).
         limit: usize,
     },
+    /// The mesh would not fit the memory budget ([`isokit_field::memory`]); found while
+    /// meshing, before the pieces are welded.
+    #[error(transparent)]
+    OverBudget(#[from] isokit_field::FieldError),
+}
+
+/// Bytes one piece holds while meshing and welding: a key and a position per vertex (twice,
+/// sorted copy included) and a triangle (twice, remapped copy included).
+fn piece_bytes(vertices: usize, triangles: usize) -> u64 {
+    (vertices as u64) * 2 * (8 + 12) + (triangles as u64) * 2 * 12
 }
 
 /// Meshes the isosurface `f = opts.iso` of a dense grid (see the [module](self) docs for the
@@ -802,10 +812,34 @@ impl Geometry {
         s: usize,
         sample: impl Fn(usize, usize, usize) -> f32 + Sync,
     ) -> Result<(TriMesh, Stats), MeshingError> {
+        // Pieces are counted as they are made, against the memory budget: a mesh too large
+        // stops the meshing once it has used the budget, not when the allocator gives up.
+        let budget = isokit_field::memory::budget();
+        let held = std::sync::atomic::AtomicU64::new(0);
         let pieces: Vec<BlockMesh> = blocks
             .par_iter()
-            .filter_map(|&c| self.run_block(c, s, &sample))
+            .filter_map(|&c| {
+                if held.load(std::sync::atomic::Ordering::Relaxed) > budget {
+                    return None;
+                }
+                let p = self.run_block(c, s, &sample)?;
+                held.fetch_add(
+                    piece_bytes(p.positions.len(), p.triangles.len()),
+                    std::sync::atomic::Ordering::Relaxed,
+                );
+                Some(p)
+            })
             .collect();
+        let held = held.into_inner();
+        if held > budget {
+            let cells = blocks.len() as u128 * (s as u128).pow(3);
+            isokit_field::memory::check_within(
+                budget,
+                &format!("the mesh of the isosurface (of up to {cells} cells)"),
+                held as u128,
+                "mesh a coarser grid, or raise the budget",
+            )?;
+        }
         let blocks_total = (0..3)
             .map(|a| {
                 let (lo, hi) = self.block_range(a, s);

@@ -121,6 +121,17 @@ pub fn molecule_scene(mol: &Molecule, opts: &MoleculeOptions) -> Result<SplatSce
             "needs more than 16,777,216 quadrics",
         ));
     }
+    // The scene, and the per-quadric set-up and bins a splat of it holds.
+    isokit_field::memory::check(
+        &format!(
+            "the scene of {} atoms and {} bonds ({total} quadrics)",
+            mol.atoms.len(),
+            mol.bonds.len()
+        ),
+        total as u128
+            * (std::mem::size_of::<Quadric>() + std::mem::size_of::<Vec3>() + 160) as u128,
+        "render the space-filling style (no bonds) or a part of the molecule, or raise the budget",
+    )?;
     let mut scene = SplatScene {
         quadrics: Vec::with_capacity(total),
         colors: Vec::with_capacity(total),

@@ -93,6 +93,10 @@ pub struct BuildOptions {
     pub max_cells: usize,
 }
 
+/// Bytes per cell held while building (the cell set, node map and work lists), for the
+/// memory budget.
+const BYTES_PER_CELL: u128 = 64;
+
 /// Default [`BuildOptions::max_cells`]: 50 million cells.
 pub const DEFAULT_MAX_CELLS: usize = 50_000_000;
 
@@ -527,7 +531,10 @@ impl Ctx {
         s: &mut impl Sampler,
         mut frontier: Vec<Cell>,
     ) -> Result<(), OctreeError> {
+        // Cells split at the previous level, for the growth projection below.
+        let mut previous: Option<(u32, usize)> = None;
         while !frontier.is_empty() {
+            let level = frontier.iter().map(|c| c.level).min().unwrap_or(0);
             let mut next = Vec::new();
             for chunk in frontier.chunks(BATCH) {
                 // Cells above the minimum level are subdivided without looking.
@@ -569,7 +576,33 @@ impl Ctx {
                         limit: self.max_cells,
                     });
                 }
+                isokit_field::memory::check(
+                    &format!("the octree's {} cells and their nodes", set.len()),
+                    set.len() as u128 * BYTES_PER_CELL,
+                    "raise --error, lower --max-level, or raise the budget",
+                )?;
             }
+            // Refuse early what cannot fit: at the growth of the last two levels (a surface
+            // quadruples its cells per level), the levels still to come would reach several
+            // times the cell limit.
+            let splits = next.len() / 8;
+            if let Some((l0, p)) = previous
+                && l0 + 1 == level
+                && level >= 3
+                && p > 0
+            {
+                let r = (splits as f64 / p as f64).min(8.0);
+                let remaining = self.l.saturating_sub(level + 1) as i32;
+                if r >= 2.0 && remaining > 0 {
+                    let more = splits as f64 * (r.powi(remaining + 1) - r) / (r - 1.0);
+                    if set.len() as f64 + more > 4.0 * self.max_cells as f64 {
+                        return Err(OctreeError::TooManyCells {
+                            limit: self.max_cells,
+                        });
+                    }
+                }
+            }
+            previous = Some((level, splits));
             frontier = next;
         }
         Ok(())

@@ -16,7 +16,7 @@ pub enum OctreeError {
         why: &'static str,
     },
     /// The domain to sample is empty or not finite.
-    #[error("domain {0:?} is empty or not finite; give explicit bounds")]
+    #[error("domain {0} is empty or not finite; give explicit bounds")]
     BadDomain(isokit_field::Aabb),
     /// The field returned NaN or an infinite value at a sample.
     #[error("the field is not finite at ({x}, {y}, {z}): {value}")]

@@ -13,6 +13,9 @@
 //!   the signed distance to the closest sample away from the surface ([`far`], ERRATA 6). It
 //!   is a [`isokit_field::Field`]. Comparison variants: [`Weighting::Shepard`] and
 //!   [`Weighting::Nie04`].
+//! - [`cloud_to_grid`] and [`query_cloud`]: the field sampled on a grid (densely, or lazily
+//!   by bricks within a narrow band) and at given points; what `isokit points` and
+//!   `isokit query` call.
 //!
 //! Not for: clouds without a surface (volumetric scatter), or exact distances (use a mesh
 //! and `isokit-kdtree`); the field is an approximation whose error is stated below.
@@ -134,12 +137,17 @@
 pub mod eigen;
 mod error;
 pub mod far;
+mod grid;
 pub mod knn;
 pub mod normals;
 mod sdf;
 pub mod solve;
 
 pub use error::PointsError;
+pub use grid::{
+    BandStats, CloudGridError, CloudGridOptions, CloudGridStats, CloudQuery, cloud_to_grid,
+    query_cloud,
+};
 pub use normals::{NormalOptions, NormalReport, estimate_normals};
 pub use sdf::{
     BuildStats, DEFAULT_DAMPING, Evaluation, NormalSource, PointSdf, PointSdfOptions, Solver,

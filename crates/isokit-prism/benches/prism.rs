@@ -167,28 +167,17 @@ fn main() {
             .0
         });
         // The reference: the kd-tree's band-limited distance at every sample of the grid
-        // (what `isokit sdf --method kdtree --band` computes). The band samples are the ones
-        // where *it* says |d| < band, so a band sample the prisms left at ±band is compared
-        // too, not skipped.
+        // (what `isokit sdf --method kdtree --band` computes, `MeshSdf::fill_grid`). The band
+        // samples are the ones where *it* says |d| < band, so a band sample the prisms left
+        // at ±band is compared too, not skipped.
         let [nx, ny, _] = dims;
         let h = spacing as f64;
         let o = origin.as_dvec3();
         let sdf = MeshSdf::new(&c.mesh, Default::default()).expect("mesh");
         let (t_kd_grid, reference) = best(1, || {
             let mut g2 = Grid::new(dims, origin, spacing).expect("grid");
-            g2.data_mut()
-                .par_chunks_mut(nx * ny)
-                .enumerate()
-                .for_each(|(k, slice)| {
-                    let mut st = QueryStats::default();
-                    let mut hint = None;
-                    for (n, v) in slice.iter_mut().enumerate() {
-                        let p = o + h * DVec3::new((n % nx) as f64, (n / nx) as f64, k as f64);
-                        let (d, t) = sdf.signed_distance_band_near(p, band, hint, &mut st);
-                        hint = t.or(hint);
-                        *v = d as f32;
-                    }
-                });
+            sdf.fill_grid(&mut g2, band, &Default::default())
+                .expect("not cancelled");
             g2
         });
         let samples: Vec<(usize, DVec3)> = reference

@@ -148,6 +148,23 @@ pub enum Engine<'a> {
     Gpu(&'a PrismGpu),
 }
 
+impl<'a> From<Option<&'a PrismGpu>> for Engine<'a> {
+    /// The GPU when there is one, else the CPU twin.
+    fn from(gpu: Option<&'a PrismGpu>) -> Self {
+        gpu.map_or(Engine::Cpu, Engine::Gpu)
+    }
+}
+
+impl Engine<'_> {
+    /// Where the scan runs, for reports: `GPU <adapter>` or `CPU, <n> threads`.
+    pub fn describe(&self) -> String {
+        match self {
+            Engine::Gpu(g) => format!("GPU {}", g.gpu().describe()),
+            Engine::Cpu => format!("CPU, {} threads", rayon::current_num_threads()),
+        }
+    }
+}
+
 /// What one scan did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ScanStats {

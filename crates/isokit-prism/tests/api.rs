@@ -167,3 +167,17 @@ fn outside_can_stay_nan_and_extreme_scales_work() {
         }
     }
 }
+
+/// `--backend cpu` opens no device; the CPU engine says where it runs.
+#[test]
+fn cpu_choice_opens_no_device() {
+    let (gpu, note) = isokit_prism::PrismGpu::choose(isokit_gpu::BackendChoice::Cpu).unwrap();
+    assert!(gpu.is_none() && note.is_none());
+    let engine = Engine::from(gpu.as_ref());
+    assert!(matches!(engine, Engine::Cpu));
+    assert!(
+        engine.describe().starts_with("CPU, "),
+        "{}",
+        engine.describe()
+    );
+}

@@ -62,8 +62,13 @@ impl RenderError {
     }
 }
 
-/// Checks an image size against [`MAX_IMAGE_SIDE`] and [`MAX_IMAGE_PIXELS`] before anything
-/// is allocated; takes `u64` so that any number a user types can be checked.
+/// Bytes held per pixel while rendering, for the memory budget: the G-buffer sample (64),
+/// its sample count, the shaded linear and 8-bit images and working copies.
+pub const BYTES_PER_PIXEL: u64 = 128;
+
+/// Checks an image size against [`MAX_IMAGE_SIDE`] and [`MAX_IMAGE_PIXELS`], and what it
+/// holds ([`BYTES_PER_PIXEL`] each) against the memory budget ([`isokit_field::memory`]),
+/// before anything is allocated; takes `u64` so that any number a user types can be checked.
 ///
 /// ```
 /// use isokit_render::check_image_size;
@@ -79,5 +84,10 @@ pub fn check_image_size(width: u64, height: u64) -> Result<(u32, u32), RenderErr
     {
         return Err(RenderError::ImageSize { width, height });
     }
+    isokit_field::memory::check(
+        &format!("the G-buffer and image of {width}x{height} pixels"),
+        u128::from(width * height) * u128::from(BYTES_PER_PIXEL),
+        "render a smaller image (--width, --height), or raise the budget",
+    )?;
     Ok((width as u32, height as u32))
 }

@@ -109,7 +109,7 @@ mod volume;
 pub use raycast::cpu as kernel;
 
 pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, HALF_RESOLUTION, NOT_RESIDENT};
-pub use error::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};
+pub use error::{BYTES_PER_PIXEL, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};
 pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};

@@ -1,10 +1,15 @@
 //! The GPU twin against the CPU twin (on lavapipe in CI): the same G-buffer within stated
-//! tolerances on several scenes (a sphere in a 64³ grid, perspective and orthographic; the
+//! tolerances on many scenes (a sphere in a 64³ grid, perspective and orthographic; the
 //! trefoil knot's lazily sampled band; thin sheets; a cache too small for the active
 //! bricks; both inside conventions with caps; a multi-view display; other filters and
 //! refinements), and the same images. On failure the images and their differences are
 //! written to a folder whose path the message gives. Skips with a printed reason where no
 //! adapter exists, fails instead when `ISOKIT_REQUIRE_GPU=1`.
+//!
+//! This is the claim that the twins agree, scene by scene; that each twin is right is the
+//! claim of the conformance suites (`raycast.rs`, `csg.rs`, `downsample.rs`, `flow.rs`),
+//! whose reference checks run on both twins with the tolerances below
+//! ([`common::twin::raycast_tol`], one definition for both).
 //!
 //! What "agree" means (why not bit for bit: see `isokit_render::gpu`):
 //! - **hit mask**: equal, except at most `mask_px` pixels, each on the CPU mask's edge (a
@@ -20,44 +25,22 @@
 
 use glam::Vec3;
 use isokit_field::{Camera, Projection};
-use isokit_gpu::{Gpu, GpuOptions, testing};
 use isokit_render::gpu::{GpuRenderer, raycast_shader, shade_shader};
 use isokit_render::{
     BrickCache, DEFAULT_CACHE_BYTES, Filter, Frame, Image, Inside, Layout, MultiView, RefineMethod,
     RenderOptions, Shading, ShadingMode, Volume, render, render_multiview, render_view, shade,
 };
 use std::path::PathBuf;
-use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::sync::MutexGuard;
 
 mod common;
+use common::twin::raycast_tol;
 use common::*;
 
-// ---------------------------------------------------------------------------------------
-// One GPU renderer for the whole file (opening lavapipe and compiling the kernels takes a
-// few seconds); tests take turns.
-// ---------------------------------------------------------------------------------------
-
-static RENDERER: OnceLock<Result<Mutex<GpuRenderer>, String>> = OnceLock::new();
-
+/// The test binary's GPU renderer ([`common::twin::gpu_renderer`]: opened once, the default
+/// cache and dispatch sizes for each test, `ran`/`skipped` reported for CI's count).
 fn renderer(test: &str) -> Option<MutexGuard<'static, GpuRenderer>> {
-    let slot = RENDERER.get_or_init(|| {
-        Gpu::new(&GpuOptions::default())
-            .map(|g| Mutex::new(GpuRenderer::new(g).expect("kernels compile")))
-            .map_err(|e| e.to_string())
-    });
-    match slot {
-        Ok(m) => {
-            let mut r = m.lock().unwrap_or_else(|e| e.into_inner());
-            testing::ran(test, &r.describe());
-            r.set_cache_bytes(DEFAULT_CACHE_BYTES);
-            r.set_max_rays_per_dispatch(isokit_render::gpu::DEFAULT_MAX_RAYS_PER_DISPATCH);
-            Some(r)
-        }
-        Err(reason) => {
-            testing::skipped(test, reason);
-            None
-        }
-    }
+    common::twin::gpu_renderer(test)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -86,18 +69,16 @@ struct Tol {
     image_mean: f64,
 }
 
-/// Measured on lavapipe and llvmpipe-GL over every scene below (64³-class grids, `t` up to
-/// ~100 voxels): hit masks and ids equal, no outlier, |ΔZ| and |ΔP| at most 5.3e-5 voxel,
-/// normals 3.6e-4°, curvatures 6.1e-5 relative, the same field evaluations on every ray,
-/// Phong images equal in 8 bits. The bounds leave room for other drivers' rounding.
+/// The shared tolerances ([`raycast_tol`], with what was measured on lavapipe and
+/// llvmpipe-GL over every scene below).
 const TOL: Tol = Tol {
-    mask_px: 2,
-    outliers: 2,
-    z_voxel: 1e-4,
-    normal_deg: 0.01,
-    k_rel: 1e-3,
-    k_floor: 1.0,
-    image_mean: 0.05,
+    mask_px: raycast_tol::MASK_PX,
+    outliers: raycast_tol::OUTLIERS,
+    z_voxel: raycast_tol::Z_VOXEL,
+    normal_deg: raycast_tol::NORMAL_DEG,
+    k_rel: raycast_tol::K_REL,
+    k_floor: raycast_tol::K_FLOOR,
+    image_mean: raycast_tol::IMAGE_MEAN,
 };
 
 /// What a comparison measured.
@@ -631,9 +612,9 @@ fn gpu_shading_equals_cpu_shading() {
                 lights.len()
             );
             let bound = if mode == ShadingMode::Reflection {
-                2e-2
+                raycast_tol::SHADE_LINEAR_REFLECTION
             } else {
-                1e-5
+                raycast_tol::SHADE_LINEAR
             };
             assert!(
                 linear <= bound && mean < 0.02 && worst <= 2,
@@ -648,38 +629,6 @@ fn gpu_shading_equals_cpu_shading() {
             }
         }
     }
-}
-
-/// Refused input is an error on the GPU path too, never a panic: a G-buffer that does not
-/// match its uniforms, a zero-brick cache, bad options, an orthographic multi-view.
-#[test]
-fn gpu_refuses_bad_input() {
-    let Some(mut gpu) = renderer("gpu_refuses_bad_input") else {
-        return;
-    };
-    let v = volume(sphere_grid(24));
-    let cam = perspective(Vec3::Z * 3.0, 16, 16);
-    let f = gpu.render(&v, &cam, &RenderOptions::default()).unwrap();
-    let mut u = f.uniforms;
-    u.width = 17;
-    assert!(gpu.shade(&f.gbuffer, &u, &Shading::default()).is_err());
-    assert!(gpu.set_cache_bricks(0).is_err());
-    let bad = RenderOptions {
-        r0: 0.0,
-        ..Default::default()
-    };
-    assert!(gpu.render(&v, &cam, &bad).is_err());
-    let ortho = orthographic(Vec3::Z * 3.0, Vec3::ZERO, 2.0, 8, 8);
-    let opts = RenderOptions::default();
-    assert!(
-        gpu.render_multiview(&v, &ortho, &opts, &MultiView::new(4, 0.1))
-            .is_err()
-    );
-    let sh = Shading {
-        curvature_scale: -1.0,
-        ..Default::default()
-    };
-    assert!(gpu.shade(&f.gbuffer, &f.uniforms, &sh).is_err());
 }
 
 /// The `flow` mode (curvature-aligned LIC, its own pass over the whole image) on the GPU
@@ -740,7 +689,7 @@ fn gpu_flow_equals_cpu_flow() {
                 f.gbuffer.hit_count()
             );
             assert!(
-                linear <= 1e-5 && mean < 0.02 && worst <= 2,
+                linear <= raycast_tol::SHADE_LINEAR && mean < 0.02 && worst <= 2,
                 "{name}: linear {linear}, 8-bit mean {mean}, max {worst}"
             );
             for (p, q) in f.gbuffer.pixels().iter().zip(&g.pixels) {

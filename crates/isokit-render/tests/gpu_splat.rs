@@ -6,6 +6,11 @@
 //! Skips with a printed reason where no adapter exists, fails instead when
 //! `ISOKIT_REQUIRE_GPU=1`.
 //!
+//! This is the claim that the twins agree, scene by scene; that each twin is right (against
+//! analytic intersections, curvatures, shadows, outlines) is the claim of the conformance
+//! suite `splat.rs`, whose reference checks run on both twins with the tolerances below
+//! (`common::twin::splat_tol`, one definition for both).
+//!
 //! What "agree" means (why not bit for bit: see `isokit_render::gpu::splat`):
 //! - **hit mask**: equal except at most [`MASK_PX`] pixels per scene, each on the edge of
 //!   the CPU's mask (a ray grazing a silhouette, where the discriminant's rounding decides);
@@ -45,24 +50,11 @@ use isokit_render::{GSample, Image};
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
-/// Pixels whose hit status may differ per scene (grazing rays).
-const MASK_PX: usize = 6;
-/// Pixels, where both hit, that may see different objects.
-const OBJECT_PX: usize = 2;
-/// Relative depth tolerance.
-const DEPTH_REL: f32 = 1e-5;
-/// Normal tolerance, radians.
-const NORMAL_RAD: f32 = 1e-3;
-/// Curvature tolerance, relative to the pixel's largest |k|.
-const K_REL: f32 = 1e-3;
-/// Principal direction tolerance, radians.
-const DIR1_RAD: f32 = 1e-2;
-/// Mean absolute difference of shaded images per channel.
-const IMAGE_MEAN: f64 = 1e-3;
-/// Largest difference of a shaded channel on all but `IMAGE_PX` pixels.
-const IMAGE_MAX: f32 = 0.05;
-/// Shaded pixels that may differ by more than `IMAGE_MAX`.
-const IMAGE_PX: usize = 4;
+mod common;
+// The tolerances, one definition shared with the conformance suite `splat.rs`.
+use common::twin::splat_tol::{
+    DEPTH_REL, DIR1_RAD, IMAGE_MAX, IMAGE_MEAN, IMAGE_PX, K_REL, MASK_PX, NORMAL_RAD, OBJECT_PX,
+};
 
 // ---------------------------------------------------------------------------------------
 // Renderers: one opened as `GpuRenderer::open` does (bilinear outline fetches where the

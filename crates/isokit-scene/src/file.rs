@@ -219,10 +219,115 @@ impl SceneFormat {
 /// Parses scene text into the typed scene (through one serde view for both syntaxes: TOML
 /// is read into the same JSON value first). Errors name `file`, the node path
 /// (`shape.union[1].sphere.radius`) and the problem.
+///
+/// Nesting deeper than [`MAX_NESTING`] brackets (or dotted TOML keys) is refused before
+/// parsing; below it the parse has no recursion limit of its own (a 100-deep `transform`
+/// chain nests 200 brackets) and runs on a thread with a stack sized for the cap.
 pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, SceneError> {
+    let depth = nesting_depth(text, format);
+    if depth > MAX_NESTING {
+        return Err(SceneError::new(
+            file,
+            "",
+            format!(
+                "nesting deeper than {MAX_NESTING} levels (brackets or dotted keys) is not read; this file nests at least {depth}"
+            ),
+        ));
+    }
+    if depth <= 64 {
+        return parse_nested(text, format, file);
+    }
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .name("scene parse".into())
+            .stack_size(PARSE_STACK)
+            .spawn_scoped(s, || parse_nested(text, format, file))
+            .map_err(|e| SceneError::new(file, "", format!("cannot start the parser: {e}")))?
+            .join()
+            .unwrap_or_else(|_| Err(SceneError::new(file, "", "the parser failed")))
+    })
+}
+
+/// The deepest nesting [`parse`] reads: brackets of JSON, brackets and dotted keys of TOML.
+/// A node nests two levels (`{"transform": {"of": …}}`), so this allows chains of 500 nodes.
+pub const MAX_NESTING: usize = 1000;
+
+/// The parser thread's stack: room for [`MAX_NESTING`] levels of the derived deserializers in
+/// unoptimized builds.
+const PARSE_STACK: usize = 256 << 20;
+
+/// An upper bound of the nesting depth of scene text, without parsing: the deepest run of
+/// open brackets outside strings (JSON and TOML), plus for TOML the most dots in one line's
+/// key (dotted keys nest tables).
+pub fn nesting_depth(text: &str, format: SceneFormat) -> usize {
+    let b = text.as_bytes();
+    let (mut depth, mut max, mut i) = (0usize, 0usize, 0usize);
+    // TOML: dots of the current line's key part (before its first `=` outside strings).
+    let (mut key_dots, mut in_key) = (0usize, true);
+    let toml = format == SceneFormat::Toml;
+    while i < b.len() {
+        match b[i] {
+            b'"' | b'\'' if toml || b[i] == b'"' => {
+                let q = b[i];
+                let triple = toml && b[i..].starts_with(&[q, q, q]);
+                i += if triple { 3 } else { 1 };
+                while i < b.len() {
+                    if q == b'"' && b[i] == b'\\' {
+                        i += 2;
+                        continue;
+                    }
+                    if triple {
+                        if b[i..].starts_with(&[q, q, q]) {
+                            i += 3;
+                            break;
+                        }
+                    } else if b[i] == q || (toml && b[i] == b'\n') {
+                        i += 1;
+                        break;
+                    }
+                    i += 1;
+                }
+                continue;
+            }
+            b'#' if toml => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            b'[' | b'{' => {
+                depth += 1;
+                max = max.max(depth + key_dots);
+            }
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            b'.' if toml && in_key => {
+                key_dots += 1;
+                max = max.max(depth + key_dots);
+            }
+            b'=' if toml => in_key = false,
+            b'\n' if toml => {
+                key_dots = 0;
+                in_key = true;
+            }
+            b',' if toml && depth > 0 => in_key = true,
+            _ => {}
+        }
+        i += 1;
+    }
+    max
+}
+
+fn parse_nested(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, SceneError> {
     let value: serde_json::Value = match format {
-        SceneFormat::Json => serde_json::from_str(text)
-            .map_err(|e| SceneError::new(file, "", format!("invalid JSON: {e}")))?,
+        SceneFormat::Json => {
+            use serde::Deserialize;
+            let mut de = serde_json::Deserializer::from_str(text);
+            // Depth is bounded by `nesting_depth` above.
+            de.disable_recursion_limit();
+            serde_json::Value::deserialize(&mut de)
+                .and_then(|v| de.end().map(|()| v))
+                .map_err(|e| SceneError::new(file, "", format!("invalid JSON: {e}")))?
+        }
         SceneFormat::Toml => {
             let table: toml::Value = toml::from_str(text).map_err(|e| {
                 // The message and where, without the quoted source line (which may be long).

@@ -89,6 +89,29 @@ pub fn open_field(name: &str, mesh: MeshOptions) -> Result<FieldInput, SceneErro
                     v.resample_uniform(s)
                 }
                 .map_err(io)?;
+                // A field for an octree (or a query) must be finite, and hold a surface.
+                let bad = grid.data().iter().filter(|x| !x.is_finite()).count();
+                if bad > 0 {
+                    return Err(SceneError::new(
+                        name,
+                        "",
+                        format!(
+                            "{bad} of its {} samples are not finite (NaN or infinite); a field needs finite samples",
+                            grid.len()
+                        ),
+                    ));
+                }
+                if let Some((lo, hi)) = grid.min_max()
+                    && (lo > 0.0 || hi < 0.0)
+                {
+                    return Err(SceneError::new(
+                        name,
+                        "",
+                        format!(
+                            "holds no surface: its samples range from {lo} to {hi} and never reach 0, the isovalue of a distance field"
+                        ),
+                    ));
+                }
                 let bounds = grid.bounds();
                 Ok(FieldInput {
                     field: Box::new(SampledField::new(grid, Filter::Trilinear)),

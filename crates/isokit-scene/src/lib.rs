@@ -39,7 +39,8 @@
 //! A scene is a table whose key `shape` holds the tree, with optional `version` (1),
 //! `camera`, `lights`, `shading` and `sampling` tables. Paths inside a scene are relative to
 //! the scene file. Errors name the file, the node path (`shape.difference[1].mesh`) and the
-//! problem ([`SceneError`]). See [`node`] for the vocabulary and [`file`] for the settings.
+//! problem ([`SceneError`]). See [`node`] for the vocabulary and [`file`](mod@file) for the
+//! settings.
 //!
 //! ## What is computed
 //! [`Scene::sample`] never fills the dense grid: the sampler evaluates one point per brick

@@ -820,4 +820,51 @@ impl Node {
             of: Box::new(self),
         })
     }
+
+    /// `{"transform": {"scale": s, "rotate": r, "translate": t, "of": self}}` with the parts
+    /// given (applied in that order: scale, rotation, translation); `self` unchanged when
+    /// none is.
+    pub fn transformed(
+        self,
+        scale: Option<f32>,
+        rotate: Option<Rotation>,
+        translate: Option<[f32; 3]>,
+    ) -> Self {
+        if scale.is_none() && rotate.is_none() && translate.is_none() {
+            return self;
+        }
+        Node::Transform(TransformSpec {
+            translate,
+            rotate,
+            scale,
+            of: Box::new(self),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transformed_wraps_only_when_a_part_is_given() {
+        let s = Node::sphere(1.0, [0.0; 3]);
+        assert_eq!(s.clone().transformed(None, None, None), s);
+        let r = Rotation {
+            axis: [0.0, 0.0, 1.0],
+            degrees: 90.0,
+        };
+        let t = s
+            .clone()
+            .transformed(Some(2.0), Some(r.clone()), Some([1.0, 0.0, 0.0]));
+        assert_eq!(
+            t,
+            Node::Transform(TransformSpec {
+                translate: Some([1.0, 0.0, 0.0]),
+                rotate: Some(r),
+                scale: Some(2.0),
+                of: Box::new(s),
+            })
+        );
+    }
 }

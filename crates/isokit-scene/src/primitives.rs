@@ -216,6 +216,66 @@ impl PrimitiveKind {
             .collect::<Vec<_>>()
             .join(" ")
     }
+
+    /// The primitive with the parameters `given` (name and value, any order) and the defaults
+    /// for the others, built once to check the values. Parameters the kind does not take are
+    /// an error naming them and the ones it does take ([`ParamError::NotTaken`]), all at
+    /// once, so a user sees every mistake in one message.
+    pub fn node_with(self, given: &[(&str, Param)]) -> Result<PrimitiveNode, ParamError> {
+        let takes: Vec<&'static str> = self.params().iter().map(|(n, _)| *n).collect();
+        let unused: Vec<String> = given
+            .iter()
+            .filter(|(n, _)| !takes.contains(n))
+            .map(|(n, _)| (*n).to_owned())
+            .collect();
+        if !unused.is_empty() {
+            return Err(ParamError::NotTaken {
+                kind: self.cli_name(),
+                unused,
+                takes,
+            });
+        }
+        let mut node = self.default_node();
+        for (n, v) in given {
+            node.set(n, *v).map_err(ParamError::Invalid)?;
+        }
+        node.build()?;
+        Ok(node)
+    }
+}
+
+/// Why [`PrimitiveKind::node_with`] refused its parameters.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    /// Parameters the primitive does not take; the message names them as options
+    /// (`--radius`), as [`PrimitiveKind::usage`] does.
+    #[error(
+        "{kind} does not take {}; its options are {}",
+        options(unused),
+        options(takes)
+    )]
+    NotTaken {
+        /// The primitive's command-line name.
+        kind: &'static str,
+        /// The parameters it does not take, in the order given.
+        unused: Vec<String>,
+        /// The parameters it takes, in help order.
+        takes: Vec<&'static str>,
+    },
+    /// A value of the wrong type (a vector for a number).
+    #[error("{0}")]
+    Invalid(String),
+    /// A value out of range (a negative radius).
+    #[error(transparent)]
+    Build(#[from] FieldError),
+}
+
+fn options<S: AsRef<str>>(names: &[S]) -> String {
+    names
+        .iter()
+        .map(|n| format!("--{}", n.as_ref()))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 primitives! {
@@ -237,15 +297,16 @@ primitives! {
         half: [f32; 3] = [1.0, 0.75, 0.5],
     } => |n, v| Cuboid::new(v(n.center), v(n.half))?;
 
-    /// A box with rounded edges: the box of half extents `half` grown by `radius`.
+    /// A box of outer half extents `half` with its edges and corners rounded by `radius`
+    /// (the points within `radius` of the box of half extents `half − radius`).
     RoundedBox, RoundedBoxNode, "rounded_box", cli "rounded-box", aliases ["rounded_box"],
-    note "radius: edge rounding",
+    note "half: outer half extents; radius: edge rounding",
     {
         /// Centre.
         center: [f32; 3] = [0.0; 3],
-        /// Half extents of the inner box, each > 0.
+        /// Outer half extents, each > 0.
         half: [f32; 3] = [1.0, 0.75, 0.5],
-        /// Rounding radius, > 0.
+        /// Rounding radius, from 0 to the smallest half extent.
         radius: f32 = 0.2,
     } => |n, v| RoundedBox::new(v(n.center), v(n.half), n.radius)?;
 
@@ -336,6 +397,31 @@ mod tests {
             assert_eq!(k.default_node().kind(), k);
         }
         assert_eq!(PrimitiveKind::from_name("cube"), None);
+    }
+
+    #[test]
+    fn nodes_take_their_own_parameters_only() {
+        for &k in PrimitiveKind::ALL {
+            assert_eq!(k.node_with(&[]).unwrap(), k.default_node());
+        }
+        let torus = PrimitiveKind::Torus;
+        let n = torus.node_with(&[("minor", Param::Number(0.1))]).unwrap();
+        assert!(n.params().contains(&("minor", Param::Number(0.1))));
+        let e = torus
+            .node_with(&[("radius", Param::Number(2.0)), ("ra", Param::Number(1.0))])
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "torus does not take --radius, --ra; its options are --center, --major, --minor"
+        );
+        let e = PrimitiveKind::Box
+            .node_with(&[("half", Param::Number(-1.0))])
+            .unwrap_err();
+        assert!(matches!(e, ParamError::Build(_)), "{e}");
+        let e = torus
+            .node_with(&[("major", Param::Vector([1.0; 3]))])
+            .unwrap_err();
+        assert!(matches!(e, ParamError::Invalid(_)), "{e}");
     }
 
     #[test]

@@ -375,9 +375,15 @@ impl Renderer {
         let bounds = volume.bounds();
         let (w, h) = (settings.width, settings.height);
         let (scene_camera, scene_shading, lights) = specs.unwrap_or((None, None, Vec::new()));
+        // A bad camera names where it came from: the scene's `camera` table, or the settings.
+        let node = if settings.camera.is_none() && scene_camera.is_some() {
+            "camera"
+        } else {
+            ""
+        };
         let camera_spec = settings.camera.clone().or(scene_camera);
-        let camera =
-            camera_for(camera_spec.as_ref(), bounds, settings.projection, w, h).map_err(err)?;
+        let camera = camera_for(camera_spec.as_ref(), bounds, settings.projection, w, h)
+            .map_err(|e| SceneError::new(target_name(target), node, format!("camera: {e}")))?;
         let mut shading = shading_for(scene_shading.as_ref(), &lights).map_err(err)?;
         if let Some(m) = settings.mode {
             shading.mode = m;
@@ -435,6 +441,18 @@ impl Renderer {
         name: &str,
     ) -> Result<Frame, SceneError> {
         self.render_view_of(p, Some(k), name)
+    }
+
+    /// Every view of a prepared multi-view target, each rendered alone (what the display
+    /// shows from each eye position), as shaded images in view order; empty when the target
+    /// is not multi-view.
+    pub fn render_views(&mut self, p: &Prepared<'_>, name: &str) -> Result<Vec<Image>, SceneError> {
+        let Some(mv) = p.multiview() else {
+            return Ok(Vec::new());
+        };
+        (0..mv.views)
+            .map(|k| Ok(self.render_view(p, k, name)?.image))
+            .collect()
     }
 
     fn render_view_of(

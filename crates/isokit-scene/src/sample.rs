@@ -163,6 +163,28 @@ impl Scene {
         Ok((grid, stats))
     }
 
+    /// [`Scene::sample_job`] made dense: the band clamped to `±band` on the whole lattice
+    /// ([`band_to_grid`]), what a volume file of the scene holds. The dense grid is checked
+    /// against the memory budget ([`isokit_field::memory`]) before anything is sampled.
+    pub fn sample_grid_job(
+        &self,
+        opts: &SampleOptions,
+        job: &Job,
+    ) -> Result<(Grid, SampleStats), SceneError> {
+        let plan = self.plan(opts)?;
+        let [nx, ny, nz] = plan.dims;
+        isokit_field::memory::check(
+            &format!("the dense output grid of {nx} x {ny} x {nz} samples"),
+            isokit_field::memory::grid_bytes(plan.dims),
+            "lower the resolution (sampling.resolution or --res), or write a mesh (.obj, .ply, .stl, .off) instead, or raise the budget",
+        )
+        .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
+        let (bricks, stats) = self.sample_job(opts, job)?;
+        let grid = band_to_grid(&bricks, stats.band)
+            .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
+        Ok((grid, stats))
+    }
+
     /// Samples every node of the same lattice [`Scene::sample`] uses, in full (no
     /// clamping, no pruning): the baseline lazy sampling is measured against.
     pub fn sample_dense(&self, opts: &SampleOptions) -> Result<(Grid, SampleStats), SceneError> {
@@ -206,12 +228,9 @@ impl Scene {
             } else {
                 isokit_gpu::BackendChoice::Auto
             };
-            isokit_gpu::choose_backend(choice, &Default::default())
+            isokit_prism::PrismGpu::choose(choice)
                 .map_err(|e| SceneError::new(self.name(), "sampling", format!("prism band: {e}")))?
-                .gpu
-                .map(isokit_prism::PrismGpu::new)
-                .transpose()
-                .map_err(|e| SceneError::new(self.name(), "sampling", format!("prism band: {e}")))?
+                .0
         } else {
             None
         };
@@ -310,6 +329,12 @@ impl Scene {
             }
         };
         let pad = if explicit { 0.0 } else { band + 2.0 * h0 };
+        if let Some(why) = Grid::padding_problem(domain, res, pad) {
+            return Err(err(
+                "sampling.band",
+                format!("{band} (the band, or --band, pads the domain by its width) {why}"),
+            ));
+        }
         if domain.expanded(pad).size().max_element() <= 0.0 {
             return Err(err(
                 "sampling.bounds",
@@ -354,9 +379,7 @@ pub fn band_to_grid(bricks: &BrickGrid, band: f32) -> Result<Grid, isokit_field:
     Ok(grid)
 }
 
-/// Clamps a grid's samples to `±band`.
+/// Clamps a grid's samples to `±band` ([`Grid::clamp_to_band`]).
 pub fn clamp_to_band(grid: &mut Grid, band: f32) {
-    grid.data_mut()
-        .par_iter_mut()
-        .for_each(|v| *v = v.clamp(-band, band));
+    grid.clamp_to_band(band);
 }

@@ -126,3 +126,31 @@ fn a_cancelled_job_stops_the_rendering() {
         .unwrap_err();
     assert!(e.to_string().contains("cancelled"), "{e}");
 }
+
+/// A multi-view target renders each of its views alone, the same as one `render_view` call
+/// per view; a plain target has none.
+#[test]
+fn every_view_renders_alone() {
+    let scene = Scene::from_node(isokit_scene::Node::sphere(0.6, [0.0; 3])).unwrap();
+    let mut settings = RenderSettings {
+        width: 24,
+        height: 16,
+        resolution: Some(24),
+        ..RenderSettings::default()
+    };
+    let mut r = Renderer::cpu();
+    let job = Job::default();
+    let p = r
+        .prepare(RenderTarget::Scene(&scene), &settings, &job)
+        .unwrap();
+    assert!(r.render_views(&p, "t").unwrap().is_empty());
+    settings.multiview = Some(isokit_render::MultiView::new(3, 0.05));
+    let p = r
+        .prepare(RenderTarget::Scene(&scene), &settings, &job)
+        .unwrap();
+    let views = r.render_views(&p, "t").unwrap();
+    assert_eq!(views.len(), 3);
+    for (k, image) in views.iter().enumerate() {
+        assert_eq!(*image, r.render_view(&p, k as u32, "t").unwrap().image);
+    }
+}

@@ -1,83 +1,19 @@
 //! `isokit octree INPUT --max-level L …`: an adaptively sampled field in a hashed octree,
 //! with its size, build time and error against the exact field.
 
+mod args;
 mod bench;
 mod summary;
 
+pub use args::Args;
 pub use bench::{BenchArgs, bench};
 
 use super::check_output;
-use super::mesh_args::MeshKnobs;
 use anyhow::{Result, bail};
 use isokit_io::{Volume, write_volume};
 use isokit_octree::{BuildOptions, Construction, HashedOctree, Octree, errors, test_points};
 use isokit_scene::input::open_field;
 use serde_json::json;
-use std::path::PathBuf;
-
-/// Arguments of `isokit octree`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
-    /// A mesh (.obj .gltf .glb .ply .stl .off: exact distance through the kd-tree), a volume
-    /// (.nrrd .nhdr .npy .nii .nii.gz: its trilinear reconstruction, which is then also the
-    /// reference for the error), a scene file (.json, .toml), or a primitive name with its
-    /// default size (sphere, box, rounded-box, torus, capsule, cylinder, cone, ellipsoid; see
-    /// `isokit sample --help`).
-    pub input: String,
-    /// Finest level (the root is level 0; 2^L cells a side), at most 21.
-    #[arg(long)]
-    pub max_level: u32,
-    /// Cells above this level are always subdivided [default: min(2, max level)].
-    #[arg(long)]
-    pub min_level: Option<u32>,
-    /// Error bound in world units: half for the cells' trilinear reconstruction at their test
-    /// points, half for hanging nodes [default: a tenth of a finest cell].
-    #[arg(long)]
-    pub error: Option<f32>,
-    /// Extra levels of test points per cell (for small features of general fields), 0 to 4.
-    #[arg(long, default_value_t = 0)]
-    pub lookahead: u32,
-    /// Half-width of the band around the surface where the bound holds, in world units
-    /// [default: two finest cells].
-    #[arg(long)]
-    pub band: Option<f32>,
-    /// Half-width of the band where the test points lie [default: two finest cells].
-    #[arg(long)]
-    pub test_band: Option<f32>,
-    /// Evaluate the whole finest grid and coalesce (guaranteed feature capture; refused when
-    /// the dense grid is too large).
-    #[arg(long)]
-    pub bottom_up: bool,
-    /// Leave hanging nodes interpolated without refining their coarse leaves (the thesis's
-    /// construction; the bound then holds only where no hanging node is near).
-    #[arg(long)]
-    pub no_hanging_refinement: bool,
-    /// Stop with an error beyond this many cells (a tree costs about 20 to 60 bytes per cell
-    /// while it is built).
-    #[arg(long, default_value_t = isokit_octree::DEFAULT_MAX_CELLS)]
-    pub max_cells: usize,
-    /// Margin around the input's bounds in world units [default: 10% of the diagonal for
-    /// meshes and primitives, 0 for volumes].
-    #[arg(long)]
-    pub padding: Option<f32>,
-    /// Export the tree sampled on a grid (.nrrd or .npy).
-    #[arg(short, long)]
-    pub output: Option<PathBuf>,
-    /// Level of the exported grid (2^level + 1 samples a side) [default: min(max level, 8)].
-    #[arg(long)]
-    pub export_level: Option<u32>,
-    /// Random test points within the band (independent of the construction).
-    #[arg(long, default_value_t = 20_000)]
-    pub test_points: usize,
-    /// Seed of the test points.
-    #[arg(long, default_value_t = 2026)]
-    pub seed: u64,
-    /// Print one JSON object.
-    #[arg(long)]
-    pub json: bool,
-    #[command(flatten)]
-    pub knobs: MeshKnobs,
-}
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {

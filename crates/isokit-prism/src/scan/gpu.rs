@@ -73,6 +73,16 @@ impl PrismGpu {
         Self::new(Gpu::new(&isokit_gpu::GpuOptions::default())?)
     }
 
+    /// Resolves a backend request by the one policy of [`isokit_gpu::choose_backend`] and
+    /// compiles the kernel on the device it opens. `None` means the CPU twin, with the reason
+    /// when `auto` passed over the GPU (callers tell the user).
+    pub fn choose(
+        choice: isokit_gpu::BackendChoice,
+    ) -> Result<(Option<Self>, Option<String>), GpuError> {
+        let chosen = isokit_gpu::choose_backend(choice, &isokit_gpu::GpuOptions::default())?;
+        Ok((chosen.gpu.map(Self::new).transpose()?, chosen.reason))
+    }
+
     /// The device.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu

@@ -101,6 +101,11 @@ pub struct SplatOptions {
 /// whose boxes cover more is refused with an error rather than exhausting memory.
 pub const MAX_BIN_ENTRIES: u64 = 1 << 30;
 
+/// Largest number of fragments (pixel centres inside quadric boxes, summed) the CPU twin
+/// splats in one pass: a protein of 6,500 atoms at 1024x768 has 2.5 million; 20,000
+/// coincident atoms have 15 billion. Beyond it the pass is refused at once.
+pub const MAX_FRAGMENTS: u64 = 1 << 30;
+
 /// Counts of a splat pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SplatStats {
@@ -363,6 +368,11 @@ fn splat_core(
     depth_only: bool,
 ) -> Result<(Vec<TileOut>, SplatStats), RenderError> {
     scene.check()?;
+    isokit_field::memory::check(
+        &format!("the set-ups of {} quadrics", scene.len()),
+        scene.len() as u128 * (std::mem::size_of::<QuadricSetup>() as u128 + 8),
+        "splat fewer quadrics, or raise the budget",
+    )?;
     let t0 = Instant::now();
     let set = setups(scene, view);
     let near_t: Vec<f32> = if exhaustive {
@@ -397,10 +407,32 @@ fn splat_core(
             "exceeds the CPU splatter's 2^30 binning limit; render a smaller image or fewer overlapping quadrics",
         ));
     }
+    isokit_field::memory::check(
+        &format!(
+            "the tile bins of {} quadrics ({entries} tile and quadric pairs)",
+            set.len()
+        ),
+        u128::from(entries) * 4 + u128::from(tx * ty) * 24,
+        "render a smaller image or fewer overlapping quadrics, or raise the budget",
+    )?;
     let fragments: u64 = ranges
         .iter()
         .map(|r| u64::from(r[2].saturating_sub(r[0])) * u64::from(r[3].saturating_sub(r[1])))
         .sum();
+    // Occlusion culling works per quadric, so quadrics piled on one another (thousands of
+    // coincident atoms) are all evaluated at every pixel they cover: refused when that is
+    // more than the CPU twin can do in reasonable time.
+    if fragments > MAX_FRAGMENTS {
+        return Err(RenderError::bad(
+            "scene",
+            format!(
+                "{} quadrics whose boxes cover {fragments} pixels ({:.0} times the {w}x{h} image)",
+                set.len(),
+                fragments as f64 / (f64::from(w) * f64::from(h))
+            ),
+            "exceeds the CPU splatter's 2^30 fragments (overlapping or coincident quadrics); remove duplicates, render a smaller image or use --backend gpu",
+        ));
+    }
     // Bin set-up indices into tiles (scene order within each tile).
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tx * ty) as usize];
     for (k, r) in ranges.iter().enumerate() {

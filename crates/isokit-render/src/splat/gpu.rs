@@ -266,6 +266,10 @@ fn render_pipeline(
 
 impl SplatPipelines {
     fn new(gpu: &Gpu) -> Result<Self, GpuError> {
+        // Refused in one line before any pipeline is made where the adapter cannot render
+        // to the targets (GL adapters and Rgba32Float).
+        gpu.check_render_formats(&GBUFFER_FORMATS, "the splatter's G-buffer")?;
+        gpu.check_render_formats(&[SHADOW_FORMAT], "the splatter's shadow map")?;
         // The G-buffer pipeline counts hits with an atomic add in the fragment shader where
         // the adapter allows storage writes there; else the same shader without the count.
         let counting = module(gpu, &splat_shader(true)).and_then(|m| {

@@ -1,6 +1,9 @@
-//! Scenes and cameras shared by the CPU (`raycast.rs`) and GPU (`gpu.rs`) tests.
+//! Scenes and cameras shared by the render tests, and the two backends of their conformance
+//! suites ([`twin`]).
 // Each test binary uses a different subset.
 #![allow(dead_code)]
+
+pub mod twin;
 
 use glam::Vec3;
 use isokit_field::{Camera, Grid, Projection};

@@ -3,67 +3,17 @@
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
 //! while ray casting (Sigg 2006, Sec. 6.4.3).
 
-use super::args::{CsgArgs, InsideArg, MultiViewArgs, RaycastArgs, shading_names};
+mod args;
+mod summary;
+
+pub use args::Args;
+
 use super::{check_output, read_grid};
 use anyhow::{Context, Result, bail};
 use isokit_field::Job;
 use isokit_render::{Layout, Volume, check_image_size};
 use isokit_scene::{RenderSettings, RenderTarget, Renderer, Scene, SceneFormat};
 use std::path::{Path, PathBuf};
-
-/// Arguments of `isokit render`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
-    /// A scene file (.json, .toml) or a volume (.nrrd .nhdr .npy .nii .nii.gz).
-    pub input: PathBuf,
-    /// Output image (.png).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
-    pub width: u64,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
-    pub height: u64,
-    /// Shading mode [default: the scene's `shading.mode`, else phong].
-    #[arg(long, value_parser = shading_names())]
-    pub shading: Option<String>,
-    /// Isovalue [default: 0, or for a volume whose values do not reach 0 the middle of its
-    /// range].
-    #[arg(long)]
-    pub iso: Option<f32>,
-    /// Which side of the isovalue is inside.
-    #[arg(long, value_enum, default_value_t = InsideArg::Below)]
-    pub inside: InsideArg,
-    /// Backend: auto (`ISOKIT_BACKEND=cpu|gpu` when set, else a hardware GPU when one
-    /// exists and the CPU otherwise), cpu, gpu (any adapter, software ones included; an
-    /// error without one).
-    #[arg(long, value_enum, default_value_t = super::args::Backend::Auto)]
-    pub backend: super::args::Backend,
-    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
-    #[arg(long)]
-    pub gbuffer: Option<PathBuf>,
-    /// Render again whenever the input or a file it references changes (polling), keeping
-    /// the last good image when a rendering fails. Stop with Ctrl-C.
-    #[arg(long)]
-    pub watch: bool,
-    /// With --watch: stop after this many renderings (for scripts and tests).
-    #[arg(long, hide = true)]
-    pub watch_renders: Option<u32>,
-    /// Scene sampling: samples along the longest side [default: `sampling.resolution`,
-    /// else 128].
-    #[arg(long)]
-    pub res: Option<usize>,
-    #[command(flatten)]
-    pub knobs: RaycastArgs,
-    #[command(flatten)]
-    pub multiview: MultiViewArgs,
-    #[command(flatten)]
-    pub csg: CsgArgs,
-    /// Print what the rendering did as one JSON object on stdout.
-    #[arg(long)]
-    pub stats: bool,
-}
 
 fn is_scene(path: &Path) -> bool {
     SceneFormat::from_path(path).is_some()
@@ -195,40 +145,7 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
     if let Some(g) = &a.gbuffer {
         frame.gbuffer.write_exr(g)?;
     }
-    let st = &frame.stats;
-    eprintln!(
-        "{what}; {}: {}x{}{} {} image: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
-        st.device,
-        frame.uniforms.width,
-        st.height,
-        s.multiview
-            .map_or(String::new(), |m| format!(" {}-view", m.views)),
-        st.mode,
-        st.hits,
-        st.caps,
-        st.samples_per_ray,
-        st.blocks_active,
-        st.blocks_total,
-        st.bricks_active,
-        st.bricks_total,
-        st.passes,
-        st.bricks_loaded,
-        st.prepare_seconds,
-        st.trace_seconds,
-        st.shade_seconds,
-        a.output.display(),
-        a.gbuffer
-            .as_ref()
-            .map_or(String::new(), |g| format!(", {}", g.display()))
-    );
-    if a.stats {
-        let mut j = serde_json::to_value(st)?;
-        if let Some(o) = j.as_object_mut() {
-            o.remove("sampling");
-            o.insert("output".into(), a.output.display().to_string().into());
-        }
-        println!("{j}");
-    }
+    summary::print(a, s, &frame, &what)?;
     Ok(files)
 }
 
@@ -239,11 +156,9 @@ fn views(
     p: &isokit_scene::Prepared<'_>,
     name: &str,
 ) -> Result<Vec<isokit_render::Image>> {
-    let (Some(mv), Some(dir)) = (p.multiview(), &a.multiview.views_out) else {
+    let Some(dir) = &a.multiview.views_out else {
         return Ok(Vec::new());
     };
     std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
-    (0..mv.views)
-        .map(|k| Ok(renderer.render_view(p, k, name)?.image))
-        .collect()
+    Ok(renderer.render_views(p, name)?)
 }

@@ -1,0 +1,76 @@
+"""Rendering: frames, G-buffers, cameras, notebooks' PNGs, molecules."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+import isokit
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+
+
+def test_render_a_shape():
+    s = isokit.sphere(0.8) - isokit.box(half=0.4, center=(0.6, 0.6, 0.6))
+    fr = s.render(width=96, height=64, backend="cpu")
+    assert fr.image.shape == (64, 96, 4) and fr.image.dtype == np.uint8
+    assert np.array_equal(np.asarray(fr), fr.image)
+    g = fr.gbuffer
+    assert list(g) == list(isokit.GBUFFER_CHANNELS)
+    assert all(v.shape == (64, 96) and v.dtype == np.float32 for v in g.values())
+    hit = g["A"] > 0
+    assert 0.1 < hit.mean() < 0.9
+    # Hit positions lie on the surface; normals are unit.
+    P = np.stack([g["P.X"], g["P.Y"], g["P.Z"]], axis=-1)[hit]
+    assert np.abs(s(P.astype(np.float64))).max() < 5e-3
+    N = np.stack([g["N.X"], g["N.Y"], g["N.Z"]], axis=-1)[hit]
+    assert np.allclose(np.linalg.norm(N, axis=1), 1, atol=1e-3)
+    assert fr.stats["hits"] == int(hit.sum()) - fr.stats["caps"] or fr.stats["hits"] > 0
+    assert fr.stats["backend"] == "cpu"
+
+
+def test_cameras_and_shading_modes():
+    s = isokit.torus()
+    a = s.render(width=64, height=48, camera=isokit.Camera(eye=(0, 0, 4)), backend="cpu")
+    b = s.render(width=64, height=48, camera={"eye": [0, 0, 4]}, backend="cpu")
+    assert np.array_equal(a.image, b.image)
+    # Looking down the torus's axis: the hole in the middle is background.
+    assert a.gbuffer["A"][24, 32] == 0 and a.gbuffer["A"][24, 32 + 14] > 0
+    for mode in ("normal", "curvature"):
+        assert s.render(width=32, height=24, shading=mode, backend="cpu").image.any()
+    assert "phong" in isokit.SHADING_MODES
+    with pytest.raises(ValueError, match="shading mode"):
+        s.render(width=32, height=24, shading="curvture")
+    with pytest.raises(ValueError, match="keys are"):
+        s.render(camera={"eye": [0, 0, 3], "fovy": 30})
+
+
+def test_png_for_notebooks(tmp_path):
+    s = isokit.capsule()
+    png = s._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    f = s.sample(res=32)
+    assert f._repr_png_()[:4] == b"\x89PNG"
+    fr = s.render(width=40, height=30, backend="cpu")
+    fr.save(tmp_path / "c.png")
+    fr.save_gbuffer(tmp_path / "c.exr")
+    assert (tmp_path / "c.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "c.exr").stat().st_size > 0
+
+
+def test_render_a_field():
+    f = isokit.sphere(0.5).sample(res=32)
+    fr = f.render(width=48, height=48, backend="cpu")
+    assert fr.gbuffer["A"].any()
+
+
+def test_molecule():
+    path = ROOT / "data" / "molecules" / "1a8o.cif.gz"
+    if not path.exists():
+        pytest.skip("data/molecules/1a8o.cif.gz is not in this checkout")
+    m = isokit.molecule(path)
+    assert m.atoms > 100
+    fr = m.render(width=64, height=48, style="spacefill", backend="cpu")
+    assert fr.image.shape == (48, 64, 4) and fr.gbuffer["A"].any()
+    with pytest.raises(ValueError, match="style"):
+        m.render(style="ribbons")

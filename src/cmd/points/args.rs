@@ -1,0 +1,138 @@
+//! The arguments of `isokit points` and the library settings they make.
+
+use isokit_field::PointCloud;
+use isokit_points::{
+    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, Solver, Weighting,
+};
+use std::path::PathBuf;
+
+/// Where the normals come from.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Normals {
+    /// The cloud's own normals (PLY nx ny nz, or XYZ with six columns).
+    Given,
+    /// Estimated: PCA over the k nearest, oriented over a minimum spanning tree.
+    Estimate,
+}
+
+/// Weights of the partition of unity.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Weights {
+    /// (1 − r²/R²)³ with a sparse solve for interpolation (002 Eq. 4.10).
+    PolyGauss,
+    /// Shepard's inverse-square weights over the k nearest.
+    Shepard,
+    /// Truncated inverse-square weights of Nie04 (002 Eq. 4.9), `--nie04-neighbours` per
+    /// support.
+    Nie04,
+}
+
+/// Solver for the constants of the poly-gauss weights.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolverArg {
+    /// Damped least squares (LSQR), damping `--damping`: well posed on every cloud.
+    Lsqr,
+    /// The plain interpolation system by GMRES(50), Jacobi-preconditioned, stopped at
+    /// `--max-iter`.
+    Gmres,
+    /// The plain interpolation system by BiCGSTAB, Jacobi-preconditioned.
+    Bicgstab,
+}
+
+/// Arguments of `isokit points`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Point cloud (.ply or .xyz).
+    pub cloud: PathBuf,
+    /// Output volume (.nrrd or .npy).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples along the longest side of the padded bounds.
+    #[arg(long, default_value_t = 64)]
+    pub res: usize,
+    /// Narrow band: evaluate only the bricks that may come within W of the surface and
+    /// clamp the output to ±W (the sign is kept). Without it every sample is evaluated.
+    #[arg(long)]
+    pub band: Option<f32>,
+    /// Brick edge in samples for `--band` (a power of two from 2 to 256). Small bricks
+    /// follow the surface more closely (4: 34% of a 128-grid evaluated around a torus, 8:
+    /// 53%), at one extra evaluation per brick.
+    #[arg(long, default_value_t = 4)]
+    pub brick: usize,
+    /// Nearest samples per evaluation (partition of unity support).
+    #[arg(long, default_value_t = 16)]
+    pub k: usize,
+    /// Nearest samples for the far-field statistics.
+    #[arg(long, default_value_t = 64)]
+    pub far_k: usize,
+    /// Turn the far-field blend off (near field everywhere).
+    #[arg(long)]
+    pub no_far: bool,
+    /// Where normals come from [default: given when the cloud has them, else estimate].
+    #[arg(long, value_enum)]
+    pub normals: Option<Normals>,
+    /// Neighbours for normal estimation.
+    #[arg(long, default_value_t = 16)]
+    pub normal_k: usize,
+    /// Partition-of-unity weights.
+    #[arg(long, value_enum, default_value_t = Weights::PolyGauss)]
+    pub weights: Weights,
+    /// Neighbours inside each sample's support for `--weights nie04`.
+    #[arg(long, default_value_t = 18)]
+    pub nie04_neighbours: usize,
+    /// Solver for the constants (poly-gauss weights only).
+    #[arg(long, value_enum, default_value_t = SolverArg::Lsqr)]
+    pub solver: SolverArg,
+    /// Damping λ of the LSQR solve: small values interpolate the samples closely, large
+    /// ones (1 and more, with a larger `--k`) average noisy samples.
+    #[arg(long, default_value_t = isokit_points::DEFAULT_DAMPING)]
+    pub damping: f64,
+    /// Iteration limit of the solve.
+    #[arg(long, default_value_t = PointSdfOptions::default().max_iter)]
+    pub max_iter: usize,
+    /// Margin around the cloud bounds in world units [default: 10% of the diagonal].
+    #[arg(long)]
+    pub padding: Option<f32>,
+}
+
+impl Args {
+    /// The library's settings; `cloud` decides the default normals (given when it has
+    /// them, else estimated).
+    pub fn options(&self, cloud: &PointCloud) -> CloudGridOptions {
+        let estimate = NormalOptions {
+            k: self.normal_k,
+            ..NormalOptions::default()
+        };
+        let normals = match self.normals {
+            Some(Normals::Given) => NormalSource::Given,
+            Some(Normals::Estimate) => NormalSource::Estimate(estimate),
+            None => NormalSource::for_cloud(cloud, estimate),
+        };
+        let field = PointSdfOptions {
+            k: self.k,
+            far_k: self.far_k,
+            far_field: !self.no_far,
+            weighting: match self.weights {
+                Weights::PolyGauss => Weighting::PolyGauss,
+                Weights::Shepard => Weighting::Shepard,
+                Weights::Nie04 => Weighting::Nie04 {
+                    neighbours: self.nie04_neighbours,
+                },
+            },
+            solver: match self.solver {
+                SolverArg::Lsqr => Solver::Lsqr,
+                SolverArg::Gmres => Solver::Gmres,
+                SolverArg::Bicgstab => Solver::Bicgstab,
+            },
+            damping: self.damping,
+            max_iter: self.max_iter,
+            ..PointSdfOptions::default()
+        };
+        CloudGridOptions {
+            field,
+            normals: Some(normals),
+            band: self.band,
+            brick: self.brick,
+        }
+    }
+}

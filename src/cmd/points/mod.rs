@@ -1,0 +1,100 @@
+//! `isokit points CLOUD --res N -o out.nrrd`: a point cloud's approximate signed distance
+//! (partition of unity of linear fields, far-field blend) sampled on a grid.
+
+mod args;
+
+pub use args::Args;
+
+use super::check_output;
+use anyhow::{Context, Result, bail};
+use isokit_io::{Volume, read_points, write_volume};
+use isokit_points::{NormalOptions, Solver, cloud_to_grid};
+
+/// Runs the command.
+pub fn run(a: Args) -> Result<()> {
+    check_output(&a.output, &[".nrrd", ".npy"])?;
+    if let Some(w) = a.band
+        && !(w.is_finite() && w > 0.0)
+    {
+        bail!("--band {w} must be finite and positive");
+    }
+    if !(a.brick.is_power_of_two() && (2..=256).contains(&a.brick)) {
+        bail!(
+            "--brick {}: the brick size must be a power of two from 2 to 256",
+            a.brick
+        );
+    }
+    let cloud = read_points(&a.cloud)?;
+    let mut grid = super::padded_grid(&a.cloud, cloud.bounds(), a.res, a.padding)?;
+    let opts = a.options(&cloud);
+    let field = opts.field;
+    let st = cloud_to_grid(&cloud, &mut grid, &opts, &super::progress::job())
+        .with_context(|| a.cloud.display().to_string())?;
+    match &st.normals {
+        Some(r) => eprintln!(
+            "normals: estimated (k = {}): {} unreliable ({:.2}%, surface variation > {}), {} component(s), {} flipped by the orientation",
+            r.k,
+            r.unreliable.len(),
+            100.0 * r.unreliable_fraction(),
+            NormalOptions::default().max_variation,
+            r.components,
+            r.flipped
+        ),
+        None => eprintln!("normals: given"),
+    }
+    let b = &st.build;
+    eprintln!(
+        "field: {} samples ({} duplicates removed), {} weights, k = {}, far field {}",
+        b.samples,
+        b.duplicates_removed,
+        field.weighting.name(),
+        b.k,
+        if field.far_field { "on" } else { "off" }
+    );
+    if let Some(s) = b.solve {
+        let damping = if field.solver == Solver::Lsqr {
+            format!(" (damping {})", s.damping)
+        } else {
+            String::new()
+        };
+        let end = if s.converged {
+            "converged"
+        } else {
+            "iteration limit"
+        };
+        eprintln!(
+            "solve: {}{damping}, {} unknowns, {} non-zeros, {} iterations ({end}), relative residual {:.2e}, max |f| at the samples {:.2e}, {:.2} s",
+            field.solver.name(),
+            s.unknowns,
+            s.nonzeros,
+            s.iterations,
+            s.relative_residual,
+            s.max_sample_value,
+            s.seconds
+        );
+    }
+    eprintln!("build: {:.2} s", st.build_seconds);
+    let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
+    write_volume(&a.output, &Volume::from(grid))?;
+    let how = match st.band {
+        Some(s) => format!(
+            "band {}: {:.2}% of the dense samples evaluated ({} of {} bricks of {}^3 kept)",
+            s.band,
+            100.0 * s.evaluated_fraction,
+            s.bricks_kept,
+            s.bricks_total,
+            s.brick
+        ),
+        None => "dense: 100% of the samples evaluated".to_string(),
+    };
+    let secs = st.sample_seconds;
+    eprintln!(
+        "{} x {} x {} samples, spacing {spacing}, {how} in {secs:.2} s ({:.0} samples/s of the dense grid) -> {}",
+        dims[0],
+        dims[1],
+        dims[2],
+        len as f64 / secs.max(1e-12),
+        a.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,61 @@
+//! The arguments of `isokit render`.
+
+use crate::cmd::args::{Backend, InsideArg, shading_names};
+use crate::cmd::csg_args::CsgArgs;
+use crate::cmd::multiview_args::MultiViewArgs;
+use crate::cmd::raycast_args::RaycastArgs;
+use std::path::PathBuf;
+
+/// Arguments of `isokit render`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A scene file (.json, .toml) or a volume (.nrrd .nhdr .npy .nii .nii.gz).
+    pub input: PathBuf,
+    /// Output image (.png).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub width: u64,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub height: u64,
+    /// Shading mode [default: the scene's `shading.mode`, else phong].
+    #[arg(long, value_parser = shading_names())]
+    pub shading: Option<String>,
+    /// Isovalue [default: 0, or for a volume whose values do not reach 0 the middle of its
+    /// range].
+    #[arg(long)]
+    pub iso: Option<f32>,
+    /// Which side of the isovalue is inside.
+    #[arg(long, value_enum, default_value_t = InsideArg::Below)]
+    pub inside: InsideArg,
+    /// Backend: auto (`ISOKIT_BACKEND=cpu|gpu` when set, else a hardware GPU when one
+    /// exists and the CPU otherwise), cpu, gpu (any adapter, software ones included; an
+    /// error without one).
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
+    #[arg(long)]
+    pub gbuffer: Option<PathBuf>,
+    /// Render again whenever the input or a file it references changes (polling), keeping
+    /// the last good image when a rendering fails. Stop with Ctrl-C.
+    #[arg(long)]
+    pub watch: bool,
+    /// With --watch: stop after this many renderings (for scripts and tests).
+    #[arg(long, hide = true)]
+    pub watch_renders: Option<u32>,
+    /// Scene sampling: samples along the longest side [default: `sampling.resolution`,
+    /// else 128].
+    #[arg(long)]
+    pub res: Option<usize>,
+    #[command(flatten)]
+    pub knobs: RaycastArgs,
+    #[command(flatten)]
+    pub multiview: MultiViewArgs,
+    #[command(flatten)]
+    pub csg: CsgArgs,
+    /// Print what the rendering did as one JSON object on stdout.
+    #[arg(long)]
+    pub stats: bool,
+}

@@ -1,0 +1,46 @@
+//! What `isokit render` prints about a frame: one line on stderr, and with `--stats` the
+//! frame's counters as one JSON object on stdout.
+
+use super::Args;
+use anyhow::Result;
+use isokit_scene::{Frame, RenderSettings};
+
+/// Prints the line about `frame` (`what`: the input, as the command describes it) and, with
+/// `--stats`, the JSON object (the frame's stats less the scene sampling, plus the output).
+pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<()> {
+    let st = &frame.stats;
+    eprintln!(
+        "{what}; {}: {}x{}{} {} image: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
+        st.device,
+        frame.uniforms.width,
+        st.height,
+        s.multiview
+            .map_or(String::new(), |m| format!(" {}-view", m.views)),
+        st.mode,
+        st.hits,
+        st.caps,
+        st.samples_per_ray,
+        st.blocks_active,
+        st.blocks_total,
+        st.bricks_active,
+        st.bricks_total,
+        st.passes,
+        st.bricks_loaded,
+        st.prepare_seconds,
+        st.trace_seconds,
+        st.shade_seconds,
+        a.output.display(),
+        a.gbuffer
+            .as_ref()
+            .map_or(String::new(), |g| format!(", {}", g.display()))
+    );
+    if a.stats {
+        let mut j = serde_json::to_value(st)?;
+        if let Some(o) = j.as_object_mut() {
+            o.remove("sampling");
+            o.insert("output".into(), a.output.display().to_string().into());
+        }
+        println!("{j}");
+    }
+    Ok(())
+}
