@@ -555,8 +555,15 @@ struct Segment {
 fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segment {
     var ta = t0;
     var ra = residual_at(ray, t0);
-    if (first_block && ra < 0.0) {
-        return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+    if (ra < 0.0) {
+        if (first_block) {
+            return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+        }
+        // Inside at the entry of a later block: the crossing lies at its face
+        // (raycast/cpu.rs: entry_crossing).
+        if ((U.flags & FLAG_CAPS) != 0u) {
+            return Segment(SEG_CROSSING, t0, 0.0, t0, ra);
+        }
     }
     let len = t1 - t0;
     if (!(len > 0.0)) {
@@ -601,8 +608,15 @@ fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segmen
 fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32) -> Segment {
     var t = t0;
     var r = residual_at(ray, t0);
-    if (first_block && r < 0.0) {
-        return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+    if (r < 0.0) {
+        if (first_block) {
+            return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+        }
+        // Inside at the entry of a later block: the crossing lies at its face
+        // (raycast/cpu.rs: entry_crossing).
+        if ((U.flags & FLAG_CAPS) != 0u) {
+            return Segment(SEG_CROSSING, t0, 0.0, t0, r);
+        }
     }
     let len = t1 - t0;
     if (!(len > 0.0)) {
@@ -651,6 +665,10 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
     var ra = ra0;
     var tb = tb0;
     var rb = rb0;
+    if (ta == tb) {
+        // The empty bracket of a block entry (raycast/cpu.rs: entry_crossing).
+        return ta;
+    }
     var wa = ra;
     var wb = rb;
     var last = 0;

@@ -1210,6 +1210,25 @@ pub enum Segment {
     },
 }
 
+/// A block whose first sample (at `t0`, residual `r < 0`) lies inside although it is not
+/// the ray's first: with caps on, every earlier sample of the ray was outside (an inside
+/// first sample would have been a cap), so the crossing lies at the face the ray entered by,
+/// between the previous block's last sample and this one. The two blocks evaluate the face
+/// from different cells (fraction 1 of the last cell against 0 of the next) and positions,
+/// so their residuals can disagree in sign by rounding where the surface meets the face;
+/// without this rule such a ray would step on inside the solid and miss it. The crossing is
+/// returned as the empty bracket `[t0, t0]` ([`refine`] keeps it). With caps off a ray may
+/// have started inside, and no crossing is claimed.
+#[inline]
+pub fn entry_crossing(u: &Uniforms, t0: f32, r: f32) -> Option<Segment> {
+    (u.flags & FLAG_CAPS != 0).then_some(Segment::Crossing {
+        ta: t0,
+        ra: 0.0,
+        tb: t0,
+        rb: r,
+    })
+}
+
 /// Samples the segment `[t0, t1]` of a block for the first crossing from outside to inside
 /// (see the module docs, step 4). `first` asks for the cap test on the first sample.
 pub fn march_segment(
@@ -1223,8 +1242,13 @@ pub fn march_segment(
 ) -> Segment {
     let mut ta = t0;
     let mut ra = ray.residual_at(u, pool, t0, samples);
-    if first && ra < 0.0 {
-        return Segment::Cap;
+    if ra < 0.0 {
+        if first {
+            return Segment::Cap;
+        }
+        if let Some(entry) = entry_crossing(u, t0, ra) {
+            return entry;
+        }
     }
     let len = t1 - t0;
     if len.is_nan() || len <= 0.0 {
@@ -1288,8 +1312,13 @@ pub fn march_sphere(
 ) -> Segment {
     let mut t = t0;
     let mut r = ray.residual_at(u, pool, t0, samples);
-    if first && r < 0.0 {
-        return Segment::Cap;
+    if r < 0.0 {
+        if first {
+            return Segment::Cap;
+        }
+        if let Some(entry) = entry_crossing(u, t0, r) {
+            return entry;
+        }
     }
     let len = t1 - t0;
     if len.is_nan() || len <= 0.0 {
@@ -1368,6 +1397,10 @@ pub fn refine(
     mut rb: f32,
     samples: &mut u32,
 ) -> f32 {
+    if ta == tb {
+        // The empty bracket of a block entry ([`entry_crossing`]).
+        return ta;
+    }
     let (mut wa, mut wb) = (ra, rb);
     let mut last = 0i32;
     // Residual per voxel of the first bracket: |rm| / slope estimates the distance to the
