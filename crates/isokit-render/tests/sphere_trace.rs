@@ -96,7 +96,7 @@ fn random_scene(seed: u64) -> Vec<(Op, Prim)> {
                 Op::Intersection => (rng.vec(-0.15, 0.15), 2.0),
                 _ => (rng.vec(-0.5, 0.5), 1.0),
             };
-            let prim = if rng.next() % 2 == 0 {
+            let prim = if rng.next().is_multiple_of(2) {
                 Prim::Sphere(c, grow * rng.range(0.15, 0.45))
             } else {
                 Prim::Box(c, grow * rng.vec(0.08, 0.35))

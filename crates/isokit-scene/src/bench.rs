@@ -272,7 +272,7 @@ fn ms(t: Instant) -> f64 {
 
 /// The twin a row is traced and shaded on.
 enum Twin<'a> {
-    Cpu(BrickCache),
+    Cpu(Box<BrickCache>),
     Gpu(&'a mut GpuRenderer),
 }
 
@@ -312,7 +312,7 @@ fn row(
     let px = (o.size, o.height.unwrap_or(o.size));
     let mut twin = match gpu {
         Some(g) => Twin::Gpu(g),
-        None => Twin::Cpu(BrickCache::for_volume(v)),
+        None => Twin::Cpu(Box::new(BrickCache::for_volume(v))),
     };
     let t = Instant::now();
     twin.render(v, &camera(case.shape, px, -2.0)?, opts)?;
