@@ -63,7 +63,12 @@ fn a_band_volume_renders_like_the_dense_one() {
     let h = a.spacing();
     for (p, q) in sa.gbuffer.pixels().iter().zip(sb.gbuffer.pixels()) {
         assert_eq!(p.id, q.id);
-        assert!((p.depth - q.depth).abs() <= 1e-3 * h, "{} {}", p.depth, q.depth);
+        assert!(
+            (p.depth - q.depth).abs() <= 1e-3 * h,
+            "{} {}",
+            p.depth,
+            q.depth
+        );
         assert!(p.normal.angle_between(q.normal) < 1e-3 || p.id == 0);
     }
 }
