@@ -156,6 +156,43 @@ fn render_reports_warm_frames() {
     assert_eq!(w.len(), 3, "{warm}");
     assert!(w.iter().all(|x| x.as_f64().unwrap() > 0.0), "{warm}");
     assert_eq!(warm["hits"], cold["hits"]);
+    // --search fixed (the adaptive fixed-rate search) hits the same pixels with more
+    // samples per ray; --lipschitz 1 (honest for this distance field) the same.
+    let with = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--backend",
+            "cpu",
+            "--stats",
+        ];
+        args.extend_from_slice(extra);
+        json(&isokit_ok(&args))
+    };
+    let fixed = with(&["--search", "fixed"]);
+    assert_eq!(fixed["hits"], cold["hits"]);
+    let spr = |j: &serde_json::Value| j["samples_per_ray"].as_f64().unwrap();
+    assert!(spr(&fixed) > spr(&cold), "{fixed} {cold}");
+    let given = with(&["--lipschitz", "1"]);
+    assert_eq!(given["hits"], cold["hits"]);
+    assert!(
+        !isokit(&[
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--search",
+            "zigzag"
+        ])
+        .status
+        .success()
+    );
 }
 
 /// Mean absolute difference of two 8-bit RGBA images' colour channels.
