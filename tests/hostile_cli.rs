@@ -24,6 +24,19 @@ fn run_limited(prefix: &str, args: &[&str], envs: &[(&str, &str)], limit: u64) -
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // Both pipes drained while waiting: a child that writes more than a pipe holds would
+    // otherwise block until the limit.
+    let drain = |r: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            if let Some(mut r) = r {
+                let _ = r.read_to_end(&mut buf);
+            }
+            buf
+        })
+    };
+    let stdout = drain(child.stdout.take().map(|r| Box::new(r) as _));
+    let stderr = drain(child.stderr.take().map(|r| Box::new(r) as _));
     loop {
         if child.try_wait().unwrap().is_some() {
             break;
@@ -35,7 +48,12 @@ fn run_limited(prefix: &str, args: &[&str], envs: &[(&str, &str)], limit: u64) -
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    let out = child.wait_with_output().unwrap();
+    let status = child.wait().unwrap();
+    let out = Output {
+        status,
+        stdout: stdout.join().unwrap(),
+        stderr: stderr.join().unwrap(),
+    };
     (out, t0.elapsed().as_secs_f64())
 }
 
@@ -126,7 +144,7 @@ fn each_stage_refuses_what_does_not_fit() {
                 "scene",
                 &write(&d, "m.json", r#"{"shape":{"sphere":{}}}"#),
                 "--res",
-                "1500",
+                "1200",
                 "-o",
                 &out("m.obj"),
             ]
@@ -141,6 +159,10 @@ fn each_stage_refuses_what_does_not_fit() {
                 &data("molecules/7ddo.pdb.gz"),
                 "-o",
                 &out("m.png"),
+                "--width",
+                "64",
+                "--height",
+                "64",
                 "--max-memory",
                 "2M",
             ]

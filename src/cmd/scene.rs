@@ -97,11 +97,17 @@ pub fn run(a: Args) -> Result<()> {
     if triangles == Some(0) {
         eprintln!("warning: the surface does not cross the sampled domain; the mesh is empty");
     }
-    let queried: Vec<String> = stats
-        .sources
+    // The most queried sources first; a union of thousands of primitives names six.
+    let mut sources: Vec<_> = stats.sources.iter().collect();
+    sources.sort_by(|a, b| b.query_fraction.total_cmp(&a.query_fraction));
+    let mut queried: Vec<String> = sources
         .iter()
+        .take(6)
         .map(|s| format!("{} {:.2}%", s.node, 100.0 * s.query_fraction))
         .collect();
+    if sources.len() > 6 {
+        queried.push(format!("{} more", sources.len() - 6));
+    }
     eprintln!(
         "{} x {} x {} lattice, spacing {}, band {}: {:.2}% of the dense samples evaluated in {:.2} s{} (sources queried: {}) -> {}",
         stats.dims[0],

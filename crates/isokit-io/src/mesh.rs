@@ -55,7 +55,8 @@ impl MeshFormat {
 
 /// Reads a triangle mesh, choosing the format by extension (see [`MeshFormat`]).
 ///
-/// Polygons are triangulated (a fan, or a strip above 16 vertices). Every returned index is in range. What each reader
+/// Polygons are triangulated (a fan, or levels of ears above 16 vertices). Every returned
+/// index is in range. What each reader
 /// supports:
 /// - OBJ: `v` and `f` (any polygon, `v/vt/vn` forms, negative indices), all objects and
 ///   groups merged into one mesh; texture coordinates, normals, lines, points and materials
@@ -123,35 +124,40 @@ pub fn write_stl_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
     stl::write_stl(path, mesh, true)
 }
 
-/// Polygons with more vertices than this are triangulated as a strip instead of a fan.
+/// Polygons with more vertices than this are triangulated by ear levels instead of a fan.
 const FAN_LIMIT: usize = 16;
 
 /// Triangulates a polygon given as indices, appending to `out`, keeping its orientation:
-/// a fan around the first vertex for small polygons, a zigzag strip (vertices taken
-/// alternately from both ends) for polygons of more than 16 vertices. A fan of thousands of
-/// slivers shares one vertex, which no spatial index can separate (a 400,000-vertex polygon
-/// made every distance query test most of its triangles); the strip's triangles are local
-/// chords. Both are the same surface for a planar convex polygon.
+/// a fan around the first vertex for small polygons; above 16 vertices, by levels of ears
+/// (triangles of three consecutive vertices, every other vertex cut off per level, until 16
+/// remain and are fanned). A fan of thousands of slivers shares one vertex, which no spatial
+/// index can separate (a 400,000-vertex polygon made every distance query test most of its
+/// triangles); the ears of each level are local, and only the last few levels are large.
+/// Both are the same surface for a planar convex polygon.
 pub(crate) fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
-    let n = poly.len();
-    if n < 3 {
+    let fan_of = |ring: &[u32], out: &mut Vec<[u32; 3]>| {
+        for w in 1..ring.len().saturating_sub(1) {
+            out.push([ring[0], ring[w], ring[w + 1]]);
+        }
+    };
+    if poly.len() <= FAN_LIMIT {
+        fan_of(poly, out);
         return;
     }
-    if n <= FAN_LIMIT {
-        for w in 1..n - 1 {
-            out.push([poly[0], poly[w], poly[w + 1]]);
+    let mut ring = poly.to_vec();
+    while ring.len() > FAN_LIMIT {
+        let m = ring.len();
+        let mut next = Vec::with_capacity(m / 2 + 2);
+        let mut i = 0;
+        while i + 2 < m {
+            out.push([ring[i], ring[i + 1], ring[i + 2]]);
+            next.push(ring[i]);
+            i += 2;
         }
-        return;
+        next.extend_from_slice(&ring[i..]);
+        ring = next;
     }
-    let (mut a, mut b) = (0, n - 1);
-    while a + 1 < b {
-        out.push([poly[a], poly[a + 1], poly[b]]);
-        a += 1;
-        if a + 1 < b {
-            out.push([poly[a], poly[b - 1], poly[b]]);
-            b -= 1;
-        }
-    }
+    fan_of(&ring, out);
 }
 
 /// A face normal (unit, or zero for a degenerate triangle).
@@ -172,7 +178,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn large_polygons_become_strips_of_the_same_orientation() {
+    fn large_polygons_become_ear_levels_of_the_same_orientation() {
         for n in [3usize, 4, 16, 17, 18, 1001] {
             let poly: Vec<u32> = (0..n as u32).collect();
             let mut t = Vec::new();
@@ -191,8 +197,14 @@ mod tests {
             }
             let exact = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
             assert!((area - exact).abs() < 1e-9, "{n}: {area} vs {exact}");
-            if n > FAN_LIMIT {
-                assert!(t.iter().filter(|x| x.contains(&0)).count() <= 2);
+            // No vertex is shared by a fan of slivers: one ear per level, then the last fan.
+            let levels = (n as f64 / FAN_LIMIT as f64).log2().ceil().max(0.0) as usize;
+            for v in 0..n as u32 {
+                let k = t.iter().filter(|x| x.contains(&v)).count();
+                assert!(
+                    k <= 2 * levels + FAN_LIMIT,
+                    "{n}: vertex {v} in {k} triangles"
+                );
             }
         }
     }

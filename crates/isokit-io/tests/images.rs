@@ -214,6 +214,13 @@ fn atomic_write_keeps_existing_file_on_failure() {
 #[test]
 fn detect_kind_by_extension() {
     let dir = TempDir::new("kind");
+    // OBJ files are looked into: faces make a mesh, vertices alone a point cloud.
+    std::fs::write(dir.path("a.OBJ"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.path("b.obj"), "v 0 0 0\nv 1 0 0\n").unwrap();
+    assert_eq!(
+        detect_kind(&dir.path("b.obj")).unwrap(),
+        FileKind::PointCloud
+    );
     for (name, kind) in [
         ("a.OBJ", FileKind::Mesh),
         ("a.glb", FileKind::Mesh),
