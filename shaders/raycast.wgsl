@@ -5,8 +5,8 @@
 // next pass's list.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
 // ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT, HALF_RESOLUTION,
-// RANGE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl and common/curvature.wgsl
-// (curvature, used by surface_sample; any_orthonormal).
+// RANGE_MARGIN, REFINE_TOLERANCE, SLOPE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl
+// and common/curvature.wgsl (curvature, used by surface_sample; any_orthonormal).
 // CPU twin: crates/isokit-render/src/raycast/cpu.rs, function by function in the same order.
 
 // Rust: raycast/gpu.rs Params (32 bytes).
@@ -41,6 +41,9 @@ struct RayState {
 @group(0) @binding(6) var<storage, read_write> lists: array<u32>;
 @group(0) @binding(7) var<storage, read_write> states: array<RayState>;
 @group(0) @binding(8) var<storage, read_write> gbuf: array<GPixel>;
+// Per block: slope bounds along x, y, z per voxel and the Chebyshev distance in blocks to the
+// nearest active block (raycast/cpu.rs: TraceData::block_info).
+@group(0) @binding(9) var<storage, read> block_info: array<vec4<f32>>;
 
 // Field evaluations of this invocation's ray (raycast/cpu.rs: the `samples` counters).
 var<private> samples: u32;
@@ -49,13 +52,8 @@ fn residual(f: f32) -> f32 {
     return (f - U.iso) * U.inside_sign;
 }
 
-fn block_active(r: vec2<f32>) -> bool {
-    if ((U.flags & FLAG_SKIP_EMPTY) == 0u) {
-        return true;
-    }
-    let eps = RANGE_MARGIN * max(abs(r.x), abs(r.y));
-    return r.x - eps <= U.iso && U.iso <= r.y + eps;
-}
+// Which blocks are active (raycast/cpu.rs: block_active) the host decides: their skip
+// distance in `block_info` is 0.
 
 struct BoxHit {
     t0: f32,
@@ -95,15 +93,20 @@ struct Exit {
     axis: u32,
 }
 
-// Where the ray leaves block `cell`, from the block index alone.
-fn block_exit(cell: vec3<i32>, o: vec3<f32>, d: vec3<f32>) -> Exit {
-    let b = f32(U.block);
+// Where the ray crosses the plane x_a = m · block, from o and inv = 1 / d along the axis
+// (raycast/cpu.rs: plane_t).
+fn plane_t(m: i32, o: f32, inv: f32) -> f32 {
+    return (f32(m) * f32(U.block) - o) * inv;
+}
+
+// Where the ray leaves block `cell`, from the block index alone (the lowest of tied axes)
+// (raycast/cpu.rs: block_exit_inv).
+fn block_exit(cell: vec3<i32>, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>) -> Exit {
     var t = F32_MAX;
     var axis = 0u;
     for (var a = 0u; a < 3u; a++) {
         if (d[a] != 0.0) {
-            let edge = f32(cell[a] + select(0, 1, d[a] > 0.0)) * b;
-            let ta = (edge - o[a]) / d[a];
+            let ta = plane_t(cell[a] + select(0, 1, d[a] > 0.0), o[a], inv[a]);
             if (ta < t) {
                 t = ta;
                 axis = a;
@@ -111,6 +114,69 @@ fn block_exit(cell: vec3<i32>, o: vec3<f32>, d: vec3<f32>) -> Exit {
         }
     }
     return Exit(t, axis);
+}
+
+struct Jump {
+    t: f32,
+    axis: u32,
+    next: vec3<i32>,
+}
+
+// Plane m of axis a crossed before the cube's exit (t, e) (raycast/cpu.rs: jump, `crossed`).
+fn crossed(m: i32, a: u32, o: f32, inv: f32, t: f32, e: u32) -> bool {
+    let tm = plane_t(m, o, inv);
+    return tm < t || (tm == t && a < e);
+}
+
+// Across the inactive cube of blocks within k − 1 of `cell` (raycast/cpu.rs: jump).
+fn jump(cell: vec3<i32>, k: i32, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, bd: vec3<i32>) -> Jump {
+    let r = k - 1;
+    let lo = max(cell - vec3<i32>(r), vec3<i32>(0));
+    let hi = min(cell + vec3<i32>(r), bd - vec3<i32>(1));
+    var t = F32_MAX;
+    var e = 0u;
+    for (var a = 0u; a < 3u; a++) {
+        if (d[a] != 0.0) {
+            let m = select(lo[a], hi[a] + 1, d[a] > 0.0);
+            let ta = plane_t(m, o[a], inv[a]);
+            if (ta < t) {
+                t = ta;
+                e = a;
+            }
+        }
+    }
+    var next = cell;
+    let b = f32(U.block);
+    for (var a = 0u; a < 3u; a++) {
+        if (a == e) {
+            next[a] = select(lo[a] - 1, hi[a] + 1, d[a] > 0.0);
+            continue;
+        }
+        if (d[a] == 0.0) {
+            continue;
+        }
+        let guess = i32((o[a] + t * d[a]) * (1.0 / b));
+        if (d[a] > 0.0) {
+            var g = clamp(guess, cell[a], hi[a]);
+            while (g > cell[a] && !crossed(g, a, o[a], inv[a], t, e)) {
+                g -= 1;
+            }
+            while (g < hi[a] && crossed(g + 1, a, o[a], inv[a], t, e)) {
+                g += 1;
+            }
+            next[a] = g;
+        } else {
+            var g = clamp(guess, lo[a], cell[a]);
+            while (g < cell[a] && !crossed(g + 1, a, o[a], inv[a], t, e)) {
+                g += 1;
+            }
+            while (g > lo[a] && crossed(g, a, o[a], inv[a], t, e)) {
+                g -= 1;
+            }
+            next[a] = g;
+        }
+    }
+    return Jump(t, e, next);
 }
 
 fn block_index(cell: vec3<i32>) -> u32 {
@@ -142,7 +208,7 @@ fn locate(slot: u32, cell: vec3<i32>, p: vec3<f32>) -> Located {
     if ((slot & HALF_RESOLUTION) != 0u) {
         return locate_half(slot, cell, lo, hi, q);
     }
-    let c = clamp(vec3<i32>(floor(q)), lo, hi - vec3<i32>(1));
+    let c = clamp(vec3<i32>(q), lo, hi - vec3<i32>(1)); // q >= 0: truncation is the floor
     let first = cell / i32(U.brick / U.block) * i32(U.brick) - vec3<i32>(1);
     let side = U.brick_side;
     return Located(slot * channels() * side * side * side, c - first, q - vec3<f32>(c), q, side, 0u);
@@ -154,7 +220,7 @@ fn locate_half(slot: u32, cell: vec3<i32>, lo: vec3<i32>, hi: vec3<i32>, q: vec3
     let pc = (q - vec3<f32>(corner)) * 0.5;
     let clo = (lo - corner) / 2;
     let chi = (hi - corner + vec3<i32>(1)) / 2;
-    let c = clamp(vec3<i32>(floor(pc)), clo, chi - vec3<i32>(1));
+    let c = clamp(vec3<i32>(pc), clo, chi - vec3<i32>(1)); // pc >= 0
     let side = U.brick / 2u + 3u;
     let base = (slot & ~HALF_RESOLUTION) * channels() * side * side * side;
     return Located(base, c + vec3<i32>(1), pc - vec3<f32>(c), q, side, 1u);
@@ -187,16 +253,18 @@ fn fetch(base: u32, side: u32, c: vec3<i32>, t: vec3<f32>) -> f32 {
     return lerp(lerp(x00, x10, t.y), lerp(x01, x11, t.y), t.z);
 }
 
-// isokit_field::filter::{bspline_weights, bspline_weights_d1, TwoFetch}.
+// The cubic B-spline weights of samples i − 1 .. i + 2 and their derivatives
+// (raycast/cpu.rs: bspline4, bspline4_d1, bspline4_d2; ERRATA 2, 3).
 fn bspline_weights(a: f32) -> vec4<f32> {
+    let sixth = 1.0 / 6.0;
     let b = 1.0 - a;
     let a2 = a * a;
     let a3 = a2 * a;
     return vec4<f32>(
-        b * b * b / 6.0,
-        (3.0 * a3 - 6.0 * a2 + 4.0) / 6.0,
-        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) / 6.0,
-        a3 / 6.0,
+        b * b * b * sixth,
+        (3.0 * a3 - 6.0 * a2 + 4.0) * sixth,
+        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * sixth,
+        a3 * sixth,
     );
 }
 
@@ -211,52 +279,41 @@ fn bspline_weights_d1(a: f32) -> vec4<f32> {
     );
 }
 
-// Per-axis taps of the 8-fetch scheme: cells c + cell[i], positions t[i], weights w[i].
-struct Taps {
-    cell: vec3<i32>,
-    t: vec3<f32>,
-    w: vec3<f32>,
-    n: u32,
+fn bspline_weights_d2(a: f32) -> vec4<f32> {
+    return vec4<f32>(1.0 - a, 3.0 * a - 2.0, 1.0 - 3.0 * a, a);
 }
 
-// Two fetches at i − 1 + t0 and i + 1 + t1 (TwoFetch::from_weights).
-fn taps_two(w: vec4<f32>) -> Taps {
-    let g0 = w.x + w.y;
-    let g1 = w.z + w.w;
-    return Taps(vec3<i32>(-1, 1, 0), vec3<f32>(w.y / g0, w.w / g1, 0.0), vec3<f32>(g0, g1, 0.0), 2u);
+// a · b summed as (x + z) + (y + w) (raycast/cpu.rs: dot4).
+fn dot4(a: vec4<f32>, b: vec4<f32>) -> f32 {
+    let p = a * b;
+    return (p.x + p.z) + (p.y + p.w);
 }
 
-// Second derivative: x − 1, x, x + 1 weighted (1, −2, 1).
-fn taps_three(a: f32) -> Taps {
-    return Taps(vec3<i32>(-1, 0, 1), vec3<f32>(a), vec3<f32>(1.0, -2.0, 1.0), 3u);
+// First of the 4×4×4 samples around a located point (raycast/cpu.rs: taps_window).
+fn taps_origin(l: Located) -> u32 {
+    let side = l.side;
+    return l.base + u32(l.cell.x - 1) + side * (u32(l.cell.y - 1) + side * u32(l.cell.z - 1));
 }
 
-fn fetch_sum(l: Located, x: Taps, y: Taps, z: Taps) -> f32 {
-    var sx = 0.0;
-    for (var ix = 0u; ix < x.n; ix++) {
-        var sy = 0.0;
-        for (var iy = 0u; iy < y.n; iy++) {
-            var sz = 0.0;
-            for (var iz = 0u; iz < z.n; iz++) {
-                let c = l.cell + vec3<i32>(x.cell[ix], y.cell[iy], z.cell[iz]);
-                let t = vec3<f32>(x.t[ix], y.t[iy], z.t[iz]);
-                sz += z.w[iz] * fetch(l.base, l.side, c, t);
-            }
-            sy += y.w[iy] * sz;
+// Row (j, k) of the neighbourhood: 4 samples along x (raycast/cpu.rs: taps_row).
+fn taps_row(i0: u32, side: u32, j: u32, k: u32) -> vec4<f32> {
+    let i = i0 + side * (j + side * k);
+    return vec4<f32>(pool[i], pool[i + 1u], pool[i + 2u], pool[i + 3u]);
+}
+
+// The tricubic B-spline by its 64 taps (raycast/cpu.rs: tricubic_taps).
+fn tricubic_taps(l: Located) -> f32 {
+    let wx = bspline_weights(l.frac.x);
+    let wy = bspline_weights(l.frac.y);
+    let wz = bspline_weights(l.frac.z);
+    let i0 = taps_origin(l);
+    var acc = vec4<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        for (var j = 0u; j < 4u; j++) {
+            acc += taps_row(i0, l.side, j, k) * (wy[j] * wz[k]);
         }
-        sx += x.w[ix] * sy;
     }
-    return sx;
-}
-
-fn value_at(filter_code: u32, l: Located) -> f32 {
-    if (filter_code == FILTER_TRILINEAR) {
-        return fetch(l.base, l.side, l.cell, l.frac);
-    }
-    let bx = taps_two(bspline_weights(l.frac.x));
-    let by = taps_two(bspline_weights(l.frac.y));
-    let bz = taps_two(bspline_weights(l.frac.z));
-    return fetch_sum(l, bx, by, bz);
+    return dot4(acc, wx);
 }
 
 struct GradHess {
@@ -264,86 +321,154 @@ struct GradHess {
     h: mat3x3<f32>,
 }
 
+// Gradient (and with `hessian` the Hessian) of the tricubic B-spline from the same 64 taps
+// in one pass (raycast/cpu.rs: tricubic_taps_gradient, tricubic_taps_hessian).
+fn tricubic_taps_derivatives(l: Located, hessian: bool) -> GradHess {
+    let f = l.frac;
+    let wx = bspline_weights(f.x);
+    let wy = bspline_weights(f.y);
+    let wz = bspline_weights(f.z);
+    let dx = bspline_weights_d1(f.x);
+    let dy = bspline_weights_d1(f.y);
+    let dz = bspline_weights_d1(f.z);
+    let i0 = taps_origin(l);
+    var a0 = vec4<f32>(0.0);
+    var a1 = vec4<f32>(0.0);
+    var a2 = vec4<f32>(0.0);
+    if (!hessian) {
+        for (var k = 0u; k < 4u; k++) {
+            for (var j = 0u; j < 4u; j++) {
+                let row = taps_row(i0, l.side, j, k);
+                a0 += row * (wy[j] * wz[k]);
+                a1 += row * (dy[j] * wz[k]);
+                a2 += row * (wy[j] * dz[k]);
+            }
+        }
+        return GradHess(vec3<f32>(dot4(a0, dx), dot4(a1, wx), dot4(a2, wx)), mat3x3<f32>());
+    }
+    let ex = bspline_weights_d2(f.x);
+    let ey = bspline_weights_d2(f.y);
+    let ez = bspline_weights_d2(f.z);
+    var a3 = vec4<f32>(0.0);
+    var a4 = vec4<f32>(0.0);
+    var a5 = vec4<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        for (var j = 0u; j < 4u; j++) {
+            let row = taps_row(i0, l.side, j, k);
+            a0 += row * (wy[j] * wz[k]);
+            a1 += row * (dy[j] * wz[k]);
+            a2 += row * (wy[j] * dz[k]);
+            a3 += row * (ey[j] * wz[k]);
+            a4 += row * (wy[j] * ez[k]);
+            a5 += row * (dy[j] * dz[k]);
+        }
+    }
+    let g = vec3<f32>(dot4(a0, dx), dot4(a1, wx), dot4(a2, wx));
+    let hxy = dot4(a1, dx);
+    let hxz = dot4(a2, dx);
+    let hyz = dot4(a5, wx);
+    let h = mat3x3<f32>(
+        vec3<f32>(dot4(a0, ex), hxy, hxz),
+        vec3<f32>(hxy, dot4(a3, wx), hyz),
+        vec3<f32>(hxz, hyz, dot4(a4, wx)),
+    );
+    return GradHess(g, h);
+}
+
+// The value the ray caster searches with (raycast/cpu.rs: sample_value).
+fn sample_value(filter_code: u32, l: Located) -> f32 {
+    if (filter_code == FILTER_TRILINEAR) {
+        return fetch(l.base, l.side, l.cell, l.frac);
+    }
+    return tricubic_taps(l);
+}
+
 fn sample_at(i: u32, side: u32, dx: u32, dy: u32, dz: u32) -> f32 {
     return pool[i + dx + side * (dy + side * dz)];
 }
 
-// For a brick stored at half resolution the coarse derivatives are scaled back to grid
-// units (raycast/cpu.rs: gradient_hessian_at).
-fn gradient_hessian_at(filter_code: u32, l: Located) -> GradHess {
-    let gh = stored_gradient_hessian(filter_code, l);
+// Gradient and (with `hessian`) Hessian in grid units; half-resolution bricks scaled back
+// (raycast/cpu.rs: sample_gradient_hessian).
+fn sample_gradient_hessian(filter_code: u32, l: Located, hessian: bool) -> GradHess {
+    var gh: GradHess;
+    if (filter_code == FILTER_TRILINEAR) {
+        gh = trilinear_gradient_hessian(l);
+    } else {
+        gh = tricubic_taps_derivatives(l, hessian);
+    }
     if (l.half != 0u) {
         return GradHess(gh.g * 0.5, gh.h * 0.25);
     }
     return gh;
 }
 
-fn stored_gradient_hessian(filter_code: u32, l: Located) -> GradHess {
+// The trilinear interpolant's gradient and Hessian (zero diagonal) in the stored brick's
+// units (raycast/cpu.rs: stored_gradient_hessian).
+fn trilinear_gradient_hessian(l: Located) -> GradHess {
     let side = l.side;
-    if (filter_code == FILTER_TRILINEAR) {
-        let i = l.base + u32(l.cell.x) + side * (u32(l.cell.y) + side * u32(l.cell.z));
-        let t = l.frac;
-        // Differences along each axis at the four edges, interpolated over the other two.
-        let ex00 = sample_at(i, side, 1u, 0u, 0u) - sample_at(i, side, 0u, 0u, 0u);
-        let ex10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 0u, 1u, 0u);
-        let ex01 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 0u, 0u, 1u);
-        let ex11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 0u, 1u, 1u);
-        let ey00 = sample_at(i, side, 0u, 1u, 0u) - sample_at(i, side, 0u, 0u, 0u);
-        let ey10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 1u, 0u, 0u);
-        let ey01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 0u, 1u);
-        let ey11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 0u, 1u);
-        let ez00 = sample_at(i, side, 0u, 0u, 1u) - sample_at(i, side, 0u, 0u, 0u);
-        let ez10 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 1u, 0u, 0u);
-        let ez01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 1u, 0u);
-        let ez11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 1u, 0u);
-        let gx = lerp(lerp(ex00, ex10, t.y), lerp(ex01, ex11, t.y), t.z);
-        let gy = lerp(lerp(ey00, ey10, t.x), lerp(ey01, ey11, t.x), t.z);
-        let gz = lerp(lerp(ez00, ez10, t.x), lerp(ez01, ez11, t.x), t.y);
-        let hxy = lerp(ex10 - ex00, ex11 - ex01, t.z);
-        let hxz = lerp(ex01 - ex00, ex11 - ex10, t.y);
-        let hyz = lerp(ey01 - ey00, ey11 - ey10, t.x);
-        let h = mat3x3<f32>(
-            vec3<f32>(0.0, hxy, hxz),
-            vec3<f32>(hxy, 0.0, hyz),
-            vec3<f32>(hxz, hyz, 0.0),
-        );
-        return GradHess(vec3<f32>(gx, gy, gz), h);
-    }
-    let b = array<Taps, 3>(
-        taps_two(bspline_weights(l.frac.x)),
-        taps_two(bspline_weights(l.frac.y)),
-        taps_two(bspline_weights(l.frac.z)),
-    );
-    let d = array<Taps, 3>(
-        taps_two(bspline_weights_d1(l.frac.x)),
-        taps_two(bspline_weights_d1(l.frac.y)),
-        taps_two(bspline_weights_d1(l.frac.z)),
-    );
-    let g = vec3<f32>(
-        fetch_sum(l, d[0], b[1], b[2]),
-        fetch_sum(l, b[0], d[1], b[2]),
-        fetch_sum(l, b[0], b[1], d[2]),
-    );
-    let hxx = fetch_sum(l, taps_three(l.frac.x), b[1], b[2]);
-    let hyy = fetch_sum(l, b[0], taps_three(l.frac.y), b[2]);
-    let hzz = fetch_sum(l, b[0], b[1], taps_three(l.frac.z));
-    let hxy = fetch_sum(l, d[0], d[1], b[2]);
-    let hxz = fetch_sum(l, d[0], b[1], d[2]);
-    let hyz = fetch_sum(l, b[0], d[1], d[2]);
+    let i = l.base + u32(l.cell.x) + side * (u32(l.cell.y) + side * u32(l.cell.z));
+    let t = l.frac;
+    // Differences along each axis at the four edges, interpolated over the other two.
+    let ex00 = sample_at(i, side, 1u, 0u, 0u) - sample_at(i, side, 0u, 0u, 0u);
+    let ex10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 0u, 1u, 0u);
+    let ex01 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 0u, 0u, 1u);
+    let ex11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 0u, 1u, 1u);
+    let ey00 = sample_at(i, side, 0u, 1u, 0u) - sample_at(i, side, 0u, 0u, 0u);
+    let ey10 = sample_at(i, side, 1u, 1u, 0u) - sample_at(i, side, 1u, 0u, 0u);
+    let ey01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 0u, 1u);
+    let ey11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 0u, 1u);
+    let ez00 = sample_at(i, side, 0u, 0u, 1u) - sample_at(i, side, 0u, 0u, 0u);
+    let ez10 = sample_at(i, side, 1u, 0u, 1u) - sample_at(i, side, 1u, 0u, 0u);
+    let ez01 = sample_at(i, side, 0u, 1u, 1u) - sample_at(i, side, 0u, 1u, 0u);
+    let ez11 = sample_at(i, side, 1u, 1u, 1u) - sample_at(i, side, 1u, 1u, 0u);
+    let gx = lerp(lerp(ex00, ex10, t.y), lerp(ex01, ex11, t.y), t.z);
+    let gy = lerp(lerp(ey00, ey10, t.x), lerp(ey01, ey11, t.x), t.z);
+    let gz = lerp(lerp(ez00, ez10, t.x), lerp(ez01, ez11, t.x), t.y);
+    let hxy = lerp(ex10 - ex00, ex11 - ex01, t.z);
+    let hxz = lerp(ex01 - ex00, ex11 - ex10, t.y);
+    let hyz = lerp(ey01 - ey00, ey11 - ey10, t.x);
     let h = mat3x3<f32>(
-        vec3<f32>(hxx, hxy, hxz),
-        vec3<f32>(hxy, hyy, hyz),
-        vec3<f32>(hxz, hyz, hzz),
+        vec3<f32>(0.0, hxy, hxz),
+        vec3<f32>(hxy, 0.0, hyz),
+        vec3<f32>(hxz, hyz, 0.0),
     );
-    return GradHess(g, h);
+    return GradHess(vec3<f32>(gx, gy, gz), h);
 }
 
-// A ray inside one resident block (raycast/cpu.rs: SegmentRay).
+// A ray inside one resident block, with the block's constants of `locate` (raycast/cpu.rs:
+// SegmentRay, SegmentRay::new).
 struct SegmentRay {
     o: vec3<f32>,
     d: vec3<f32>,
     cell: vec3<i32>,
     slot: u32,
+    lo: vec3<i32>,
+    hi: vec3<i32>,
+    first: vec3<i32>,
+    t0: f32,
+    p0: vec3<f32>, // o + t0 · d: samples at p0 + (t − t0) · d
+}
+
+fn segment_ray(o: vec3<f32>, d: vec3<f32>, cell: vec3<i32>, slot: u32, t0: f32) -> SegmentRay {
+    let b = i32(U.block);
+    let top = vec3<i32>(U.dims) - vec3<i32>(1);
+    let lo = cell * b;
+    let hi = min(lo + vec3<i32>(b), top);
+    let first = cell / i32(U.brick / U.block) * i32(U.brick) - vec3<i32>(1);
+    return SegmentRay(o, d, cell, slot, lo, hi, first, t0, o + t0 * d);
+}
+
+// `locate` of the ray's point at t from the block's constants (raycast/cpu.rs:
+// SegmentRay::locate_at).
+fn locate_at(ray: SegmentRay, t: f32) -> Located {
+    let p = ray.p0 + (t - ray.t0) * ray.d;
+    if ((ray.slot & HALF_RESOLUTION) != 0u) {
+        return locate(ray.slot, ray.cell, p);
+    }
+    let q = clamp(p, vec3<f32>(ray.lo), vec3<f32>(ray.hi));
+    let c = clamp(vec3<i32>(q), ray.lo, ray.hi - vec3<i32>(1));
+    let side = U.brick_side;
+    return Located(ray.slot * channels() * side * side * side, c - ray.first, q - vec3<f32>(c), q, side, 0u);
 }
 
 // Combines the residuals of the two fields (raycast/cpu.rs: combine); ties go to A.
@@ -387,18 +512,31 @@ fn owner_is_b(a: f32, b: f32) -> bool {
 
 // The residual of the (combined) field (raycast/cpu.rs: combined_residual).
 fn combined_residual(filter_code: u32, l: Located) -> f32 {
-    let a = residual(value_at(filter_code, l));
+    let a = residual(sample_value(filter_code, l));
     if (U.combine == COMBINE_NONE) {
         return a;
     }
-    let b = residual(value_at(filter_code, channel_b(l)));
+    let b = residual(sample_value(filter_code, channel_b(l)));
     return combine(a, b);
 }
 
 fn residual_at(ray: SegmentRay, t: f32) -> f32 {
     samples += 1u;
-    let l = locate(ray.slot, ray.cell, ray.o + t * ray.d);
+    let l = locate_at(ray, t);
     return combined_residual(U.search_filter, l);
+}
+
+// The bound on the residual's slope along the ray in a block, per voxel (raycast/cpu.rs:
+// ray_slope): the measured one, or a given one (U.delta > 0) unless the samples refute it.
+fn ray_slope(d: vec3<f32>, info: vec4<f32>) -> f32 {
+    let a = abs(d);
+    let measured = a.x * info.x + a.y * info.y + a.z * info.z;
+    let given = U.delta;
+    var slope = measured;
+    if (given > 0.0 && max(max(info.x, info.y), info.z) <= given) {
+        slope = given * (a.x + a.y + a.z);
+    }
+    return slope * (1.0 + SLOPE_MARGIN);
 }
 
 const SEG_EMPTY: u32 = 0u;
@@ -417,8 +555,15 @@ struct Segment {
 fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segment {
     var ta = t0;
     var ra = residual_at(ray, t0);
-    if (first_block && ra < 0.0) {
-        return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+    if (ra < 0.0) {
+        if (first_block) {
+            return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+        }
+        // Inside at the entry of a later block: the crossing lies at its face
+        // (raycast/cpu.rs: entry_crossing).
+        if ((U.flags & FLAG_CAPS) != 0u) {
+            return Segment(SEG_CROSSING, t0, 0.0, t0, ra);
+        }
     }
     let len = t1 - t0;
     if (!(len > 0.0)) {
@@ -458,6 +603,53 @@ fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segmen
     return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
 }
 
+// Sphere tracing of [t0, t1] by the block's slope bound, steps of at least 1 / (r0 · fine)
+// (raycast/cpu.rs: march_sphere).
+fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32) -> Segment {
+    var t = t0;
+    var r = residual_at(ray, t0);
+    if (r < 0.0) {
+        if (first_block) {
+            return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
+        }
+        // Inside at the entry of a later block: the crossing lies at its face
+        // (raycast/cpu.rs: entry_crossing).
+        if ((U.flags & FLAG_CAPS) != 0u) {
+            return Segment(SEG_CROSSING, t0, 0.0, t0, r);
+        }
+    }
+    let len = t1 - t0;
+    if (!(len > 0.0)) {
+        return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
+    }
+    let min_step = 1.0 / (U.r0 * f32(U.fine));
+    let max_steps = u32(ceil(len / min_step)) + 1u;
+    for (var n = 0u; n < max_steps; n++) {
+        var step = r / slope;
+        if (!(step >= min_step)) {
+            step = min_step;
+        }
+        let tn = t + step;
+        if (tn >= t1) {
+            if (step > min_step && r >= 0.0) {
+                return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
+            }
+            let rn = residual_at(ray, t1);
+            if (r >= 0.0 && rn < 0.0) {
+                return Segment(SEG_CROSSING, t, r, t1, rn);
+            }
+            return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
+        }
+        let rn = residual_at(ray, tn);
+        if (r >= 0.0 && rn < 0.0) {
+            return Segment(SEG_CROSSING, t, r, tn, rn);
+        }
+        t = tn;
+        r = rn;
+    }
+    return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
+}
+
 // Root of the linear interpolant (Eq. 6.4), or the midpoint when not a number.
 fn secant(ta: f32, ra: f32, tb: f32, rb: f32) -> f32 {
     let t = ta + (tb - ta) * (ra / (ra - rb));
@@ -473,9 +665,17 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
     var ra = ra0;
     var tb = tb0;
     var rb = rb0;
+    if (ta == tb) {
+        // The empty bracket of a block entry (raycast/cpu.rs: entry_crossing).
+        return ta;
+    }
     var wa = ra;
     var wb = rb;
     var last = 0;
+    var tol = REFINE_TOLERANCE * abs(ra - rb) / abs(tb - ta);
+    if (!is_finite(tol)) {
+        tol = 0.0;
+    }
     for (var s = 0u; s < U.refine_steps; s++) {
         var tm: f32;
         if ((U.flags & FLAG_SECANT) == 0u) {
@@ -484,6 +684,7 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
             tm = secant(ta, wa, tb, wb);
         }
         let rm = residual_at(ray, tm);
+        let close = abs(rm) <= tol;
         if (rm < 0.0) {
             tb = tm;
             rb = rm;
@@ -501,6 +702,9 @@ fn refine(ray: SegmentRay, ta0: f32, ra0: f32, tb0: f32, rb0: f32) -> f32 {
             }
             last = -1;
         }
+        if (close) {
+            break;
+        }
     }
     return secant(ta, ra, tb, rb);
 }
@@ -515,40 +719,52 @@ struct Owned {
     id: u32,
 }
 
-// Gradient, Hessian and id of the operand owning a hit (raycast/cpu.rs: owner_gradient_hessian).
+// Gradient, Hessian (with FLAG_CURVATURE) and id of the operand owning a hit
+// (raycast/cpu.rs: owner_gradient_hessian).
 fn owner_gradient_hessian(l: Located) -> Owned {
+    let hess = (U.flags & FLAG_CURVATURE) != 0u;
     if (U.combine == COMBINE_NONE) {
-        let gh = gradient_hessian_at(U.shading_filter, l);
+        let gh = sample_gradient_hessian(U.shading_filter, l, hess);
         return Owned(gh.g, gh.h, ID_SURFACE);
     }
     let lb = channel_b(l);
     if (U.combine == COMBINE_MORPH) {
-        let ga = gradient_hessian_at(U.shading_filter, l);
-        let gb = gradient_hessian_at(U.shading_filter, lb);
+        let ga = sample_gradient_hessian(U.shading_filter, l, hess);
+        let gb = sample_gradient_hessian(U.shading_filter, lb, hess);
         let wa = 1.0 - U.morph_t;
         let wb = U.morph_t;
         return Owned(wa * ga.g + wb * gb.g, ga.h * wa + gb.h * wb, ID_SURFACE);
     }
-    let a = residual(value_at(U.search_filter, l));
-    let b = residual(value_at(U.search_filter, lb));
+    let a = residual(sample_value(U.search_filter, l));
+    let b = residual(sample_value(U.search_filter, lb));
     if (!owner_is_b(a, b)) {
-        let gh = gradient_hessian_at(U.shading_filter, l);
+        let gh = sample_gradient_hessian(U.shading_filter, l, hess);
         return Owned(gh.g, gh.h, ID_SURFACE);
     }
-    let gh = gradient_hessian_at(U.shading_filter, lb);
+    let gh = sample_gradient_hessian(U.shading_filter, lb, hess);
     if (U.combine == COMBINE_DIFFERENCE) {
         return Owned(-gh.g, gh.h * -1.0, ID_SURFACE_B);
     }
     return Owned(gh.g, gh.h, ID_SURFACE_B);
 }
 
-// The G-buffer sample at ray parameter t (raycast/cpu.rs: surface_sample).
+// The G-buffer sample at ray parameter t (raycast/cpu.rs: surface_sample); without
+// FLAG_CURVATURE the normal only.
 fn surface_sample(ray: SegmentRay, t: f32) -> GPixel {
-    let l = locate(ray.slot, ray.cell, ray.o + t * ray.d);
+    let l = locate_at(ray, t);
     let gh = owner_gradient_hessian(l);
     let inv = 1.0 / U.spacing;
     let position = U.origin + U.spacing * l.p;
     let depth = t * U.spacing;
+    if ((U.flags & FLAG_CURVATURE) == 0u) {
+        let gs = gh.g * inv * U.inside_sign;
+        let len = sqrt(dot(gs, gs));
+        if (is_finite3(gh.g) && is_finite(len) && len > MIN_GRADIENT) {
+            let n = gs / len;
+            return GPixel(position, depth, n, 1.0, 0.0, 0.0, gh.id, 0u, any_orthonormal(n), 0.0);
+        }
+        return GPixel(position, depth, -ray.d, 1.0, 0.0, 0.0, gh.id, 0u, any_orthonormal(ray.d), 0.0);
+    }
     let c = curvature(gh.g * inv, gh.h * (inv * inv));
     if (c.ok) {
         return GPixel(position, depth, c.normal, 1.0, c.k1, c.k2, gh.id, 0u, c.dir1, 0.0);
@@ -603,12 +819,19 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
         first_block = true;
     }
     let dir_step = vec3<i32>(select(-1, 1, d.x > 0.0), select(-1, 1, d.y > 0.0), select(-1, 1, d.z > 0.0));
+    let sphere = (U.flags & FLAG_SPHERE) != 0u;
+    let inv = vec3<f32>(1.0) / d;
     let max_steps = U.block_dims.x + U.block_dims.y + U.block_dims.z + 3u;
     for (var n = 0u; n < max_steps; n++) {
-        let ex = block_exit(cell, o, d);
-        let t1 = min(ex.t, t_exit);
-        let range = block_range[block_index(cell)];
-        if (block_active(range)) {
+        let idx = block_index(cell);
+        // Skip distance 0 exactly where block_active holds (raycast/cpu.rs: trace_pixel).
+        let info = block_info[idx];
+        var bexit = Exit(0.0, 0u);
+        var have_exit = false;
+        if (info.w == 0.0) {
+            bexit = block_exit(cell, o, d, inv);
+            have_exit = true;
+            let t1 = min(bexit.t, t_exit);
             let brick = brick_of_block(cell);
             let slot = reference[brick];
             if (slot == NOT_RESIDENT) {
@@ -617,11 +840,16 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
                 return Traced(false, miss_pixel(), state);
             }
             atomicStore(&counters[P.used + brick], 1u);
-            let ray = SegmentRay(o, d, cell, slot);
+            let ray = segment_ray(o, d, cell, slot, t_in);
             let caps = first_block && (U.flags & FLAG_CAPS) != 0u;
             var seg = Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
             if (t1 > t_in || caps) {
-                seg = march_segment(ray, t_in, max(t1, t_in), caps);
+                if (sphere) {
+                    let slope = ray_slope(d, info);
+                    seg = march_sphere(ray, t_in, max(t1, t_in), caps, slope);
+                } else {
+                    seg = march_segment(ray, t_in, max(t1, t_in), caps);
+                }
             }
             if (seg.kind == SEG_CAP) {
                 return finished(cap_sample(o, d, t_in, bx.axis));
@@ -630,15 +858,37 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
                 let t = refine(ray, seg.ta, seg.ra, seg.tb, seg.rb);
                 return finished(surface_sample(ray, t));
             }
-        } else if (first_block && (U.flags & FLAG_CAPS) != 0u && residual(range.x) < 0.0 && residual(range.y) < 0.0) {
-            return finished(cap_sample(o, d, t_in, bx.axis));
+        } else if (first_block && (U.flags & FLAG_CAPS) != 0u) {
+            let range = block_range[idx];
+            if (residual(range.x) < 0.0 && residual(range.y) < 0.0) {
+                return finished(cap_sample(o, d, t_in, bx.axis));
+            }
         }
         first_block = false;
+        let k = i32(info.w);
+        var t_out: f32;
+        var axis: u32;
+        var next = cell;
+        if (k >= 2) {
+            // Every block within k − 1 of this one is inactive: cross them at once.
+            let j = jump(cell, k, o, d, inv, bd);
+            t_out = j.t;
+            axis = j.axis;
+            next = j.next;
+        } else {
+            if (!have_exit) {
+                bexit = block_exit(cell, o, d, inv);
+            }
+            t_out = bexit.t;
+            axis = bexit.axis;
+            next[axis] += dir_step[axis];
+        }
+        let t1 = min(t_out, t_exit);
         if (t1 >= t_exit) {
             break;
         }
-        cell[ex.axis] += dir_step[ex.axis];
-        if (cell[ex.axis] < 0 || cell[ex.axis] >= bd[ex.axis]) {
+        cell = next;
+        if (cell[axis] < 0 || cell[axis] >= bd[axis]) {
             break;
         }
         t_in = max(t1, t_in);

@@ -60,7 +60,7 @@ enum Command {
     /// Render the bundled demo scene (a mesh blended with a sphere, curvature-shaded) to
     /// demo.png, printing each stage and its time.
     Demo(cmd::demo::Args),
-    /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`).
+    /// In-process comparisons to run on your own machine (`bench kdtree`, `bench octree`, `bench render`).
     #[command(subcommand)]
     Bench(cmd::bench::Bench),
 }

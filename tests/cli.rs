@@ -740,6 +740,54 @@ fn octree_refuses_bad_input_with_one_line() {
     assert_clear_error(&isokit(&["octree", "sphere"]), "isokit octree --help");
 }
 
+/// `isokit bench render --json` at a tiny size: the documented keys, one row per scene and
+/// mode, and the default mode's hit mask equal to the r0 = 8 reference's on every scene.
+#[test]
+fn bench_render_reports_warm_frames_per_scene_and_mode() {
+    let v = json(&isokit(&[
+        "bench", "render", "--json", "--size", "48", "--res", "40", "--frames", "1",
+    ]));
+    let scenes = v["scenes"]
+        .as_array()
+        .unwrap_or_else(|| panic!("scenes: {v}"));
+    assert_eq!(scenes.len(), 3, "{v}");
+    let frame_ms = v["frame_ms"].as_array().unwrap();
+    assert_eq!(frame_ms.len(), 3);
+    assert!(frame_ms.iter().all(|x| x.as_f64().unwrap() > 0.0), "{v}");
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3 * 4, "three scenes, four modes: {v}");
+    for r in rows {
+        for k in [
+            "scene",
+            "mode",
+            "frame_ms",
+            "samples_per_ray",
+            "mask_pixels",
+            "mean_dz_voxels",
+        ] {
+            assert!(!r[k].is_null(), "{k} in {r}");
+        }
+        assert!(r["samples_per_ray"].as_f64().unwrap() > 0.0, "{r}");
+        if r["mode"] == "phong" {
+            assert_eq!(
+                r["mask_pixels"], 0,
+                "default mode against the reference: {r}"
+            );
+            assert!(r["mean_dz_voxels"].as_f64().unwrap() < 1e-2, "{r}");
+        }
+    }
+    for (i, s) in scenes.iter().enumerate() {
+        let default = rows
+            .iter()
+            .find(|r| &r["scene"] == s && r["mode"] == "phong")
+            .unwrap_or_else(|| panic!("no default row for {s}"));
+        assert_eq!(
+            default["frame_ms"], frame_ms[i],
+            "frame_ms[{i}] is {s}'s default row"
+        );
+    }
+}
+
 #[test]
 fn bench_octree_reports_both_trees_per_level() {
     let v = json(&isokit(&[

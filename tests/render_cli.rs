@@ -119,6 +119,82 @@ fn render_a_volume_with_the_inside_above() {
     assert!(below["caps"].as_u64().unwrap() > 300, "{below}");
 }
 
+/// `--warm-frames N`: N more frames of the same camera with the brick cache kept, listed in
+/// `--stats` as `warm_trace_seconds`; the image is the first frame's.
+#[test]
+fn render_reports_warm_frames() {
+    let dir = scratch("render-warm");
+    let mut g = isokit::Grid::new([33; 3], glam::Vec3::splat(-1.0), 2.0 / 32.0).unwrap();
+    for ([i, j, k], _) in g.clone().iter() {
+        let p = g.position(i, j, k);
+        g.set(i, j, k, p.length() - 0.6);
+    }
+    let vol = dir.join("s.nrrd");
+    isokit::io::write_volume(&vol, &isokit::io::Volume::from(g)).unwrap();
+    let png = dir.join("s.png");
+    let run = |warm: &str| {
+        json(&isokit_ok(&[
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--backend",
+            "cpu",
+            "--stats",
+            "--warm-frames",
+            warm,
+        ]))
+    };
+    let cold = run("0");
+    assert!(cold.get("warm_trace_seconds").is_none(), "{cold}");
+    let warm = run("3");
+    let w = warm["warm_trace_seconds"].as_array().unwrap();
+    assert_eq!(w.len(), 3, "{warm}");
+    assert!(w.iter().all(|x| x.as_f64().unwrap() > 0.0), "{warm}");
+    assert_eq!(warm["hits"], cold["hits"]);
+    // --search fixed (the adaptive fixed-rate search) hits the same pixels with more
+    // samples per ray; --lipschitz 1 (honest for this distance field) the same.
+    let with = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--backend",
+            "cpu",
+            "--stats",
+        ];
+        args.extend_from_slice(extra);
+        json(&isokit_ok(&args))
+    };
+    let fixed = with(&["--search", "fixed"]);
+    assert_eq!(fixed["hits"], cold["hits"]);
+    let spr = |j: &serde_json::Value| j["samples_per_ray"].as_f64().unwrap();
+    assert!(spr(&fixed) > spr(&cold), "{fixed} {cold}");
+    let given = with(&["--lipschitz", "1"]);
+    assert_eq!(given["hits"], cold["hits"]);
+    assert!(
+        !isokit(&[
+            "render",
+            vol.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--search",
+            "zigzag"
+        ])
+        .status
+        .success()
+    );
+}
+
 /// Mean absolute difference of two 8-bit RGBA images' colour channels.
 fn mean_rgb8(a: &[u8], b: &[u8]) -> f64 {
     assert_eq!(a.len(), b.len());

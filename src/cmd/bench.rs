@@ -21,6 +21,10 @@ pub enum Bench {
     /// accesses near the surface of a sphere and of a trefoil tube, levels 5 to 10, and
     /// bytes per cell of both.
     Octree(super::octree::BenchArgs),
+    /// Warm frames of the CPU ray caster at 512² on a sphere sampled at 256³, the trefoil
+    /// band and a CT-like density (sum of Gaussians): frame time, samples per ray, and the
+    /// hit mask and depths against the fixed-rate reference at 8 samples per voxel.
+    Render(super::bench_render::RenderBenchArgs),
 }
 
 /// Arguments of `isokit bench kdtree`.
@@ -51,6 +55,7 @@ pub fn run(b: Bench) -> Result<()> {
     match b {
         Bench::Kdtree(a) => kdtree(a),
         Bench::Octree(a) => super::octree::bench(a),
+        Bench::Render(a) => super::bench_render::bench(a),
     }
 }
 

@@ -3,6 +3,7 @@
 
 pub mod args;
 pub mod bench;
+pub mod bench_render;
 pub mod convert;
 pub mod csg_args;
 pub mod demo;

@@ -66,6 +66,15 @@ pub struct RaycastArgs {
     /// volume's diagonal].
     #[arg(long)]
     pub curvature_scale: Option<f32>,
+    /// Intersection search: sphere (sphere tracing by the reconstruction's slope bound per
+    /// block, measured from the samples or --lipschitz) or fixed (the adaptive fixed-rate
+    /// search, r0 and n).
+    #[arg(long, default_value = "sphere")]
+    pub search: String,
+    /// A bound on |∇f| (field units per world unit) for sphere tracing instead of the
+    /// bounds measured per block; blocks whose samples refute it use their measured bound.
+    #[arg(long)]
+    pub lipschitz: Option<f32>,
 }
 
 impl RaycastArgs {
@@ -85,6 +94,8 @@ impl RaycastArgs {
                 Refine::Secant => RefineMethod::Secant,
             },
             skip_empty: !self.no_skip,
+            search: self.search.parse().map_err(anyhow::Error::msg)?,
+            lipschitz: self.lipschitz,
             cache_policy: match self.cache_policy {
                 CachePolicyArg::Passes => CachePolicy::Passes,
                 CachePolicyArg::Downsample => CachePolicy::Downsample,

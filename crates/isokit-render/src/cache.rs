@@ -82,11 +82,104 @@ pub struct BrickCache {
     /// second field in `mixed_rb`.
     mixed_ra: Vec<[f32; 2]>,
     mixed_rb: Vec<[f32; 2]>,
+    /// Per block, the slope bounds of the stored samples under the downsampled assignment
+    /// (as `mixed_ra` for the ranges); second field in `mixed_sb`.
+    mixed_sa: Vec<[f32; 3]>,
+    mixed_sb: Vec<[f32; 3]>,
+    /// Bumped whenever what the pool stores changes other than brick by brick (a new
+    /// volume, a downsampled assignment made or dropped): part of `block_info`'s key.
+    generation: u64,
+    /// What the kernel steps by per block ([`crate::kernel::TraceData::block_info`]) and
+    /// the key it was computed for.
+    block_info: Vec<[f32; 4]>,
+    block_info_key: Option<BlockInfoKey>,
     /// The search filter the downsampled assignment's hanging samples are matched for.
     mixed_filter: crate::Filter,
     /// Per brick, its detail ([`Volume::brick_detail`]), NaN until computed.
     detail: Vec<f32>,
 }
+
+/// What [`BrickCache::block_info`] was computed for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct BlockInfoKey {
+    iso: u32,
+    inside: u32,
+    skip: u32,
+    combine: u32,
+    morph: u32,
+    generation: u64,
+}
+
+/// Per block (x fastest, `dims` blocks per axis), the Chebyshev distance in blocks to the
+/// nearest `active` block, at most 255 (0 for an active block; 255 also when none is
+/// active): every block within distance `d − 1` of a block at distance `d` is inactive, so
+/// a ray may cross that cube of `(2d − 1)³` blocks in one step. The exact chessboard
+/// distance transform by two raster passes over the 26-neighbourhood.
+pub(crate) fn skip_distances(active: &[bool], dims: [usize; 3]) -> Vec<u8> {
+    let [nx, ny, nz] = dims;
+    debug_assert_eq!(active.len(), nx * ny * nz);
+    let mut d: Vec<u8> = active.iter().map(|&a| if a { 0 } else { 255 }).collect();
+    let at = |x: usize, y: usize, z: usize| x + nx * (y + ny * z);
+    let pass = |d: &mut Vec<u8>, forward: bool| {
+        let idx = |i: usize, n: usize| if forward { i } else { n - 1 - i };
+        let step: i64 = if forward { -1 } else { 1 };
+        for zi in 0..nz {
+            let z = idx(zi, nz);
+            for yi in 0..ny {
+                let y = idx(yi, ny);
+                for xi in 0..nx {
+                    let x = idx(xi, nx);
+                    let mut best = d[at(x, y, z)];
+                    if best == 0 {
+                        continue;
+                    }
+                    // The 13 neighbours already visited in this raster order.
+                    for (dz, dy, dx) in NEIGHBOURS_BEFORE {
+                        let (qx, qy, qz) = (
+                            x as i64 + step * dx,
+                            y as i64 + step * dy,
+                            z as i64 + step * dz,
+                        );
+                        if qx < 0
+                            || qy < 0
+                            || qz < 0
+                            || qx >= nx as i64
+                            || qy >= ny as i64
+                            || qz >= nz as i64
+                        {
+                            continue;
+                        }
+                        let q = d[at(qx as usize, qy as usize, qz as usize)];
+                        best = best.min(q.saturating_add(1));
+                    }
+                    d[at(x, y, z)] = best;
+                }
+            }
+        }
+    };
+    pass(&mut d, true);
+    pass(&mut d, false);
+    d
+}
+
+/// The neighbours `(dz, dy, dx)` (each 0 or 1, scaled by the pass direction) that precede a
+/// block in raster order x fastest: the previous slice, the previous row, the previous
+/// block (for the backward pass negated: those that follow).
+const NEIGHBOURS_BEFORE: [(i64, i64, i64); 13] = [
+    (1, 1, 1),
+    (1, 1, 0),
+    (1, 1, -1),
+    (1, 0, 1),
+    (1, 0, 0),
+    (1, 0, -1),
+    (1, -1, 1),
+    (1, -1, 0),
+    (1, -1, -1),
+    (0, 1, 1),
+    (0, 1, 0),
+    (0, 1, -1),
+    (0, 0, 1),
+];
 
 /// Bricks filled per batch of a downsampled assignment (bounds the staging memory).
 const FILL_BATCH: usize = 64;
@@ -117,6 +210,11 @@ impl BrickCache {
             mixed: Vec::new(),
             mixed_ra: Vec::new(),
             mixed_rb: Vec::new(),
+            mixed_sa: Vec::new(),
+            mixed_sb: Vec::new(),
+            generation: 0,
+            block_info: Vec::new(),
+            block_info_key: None,
             mixed_filter: crate::Filter::Tricubic,
             detail: vec![f32::NAN; volume.brick_count()],
         })
@@ -209,6 +307,9 @@ impl BrickCache {
         self.mixed.clear();
         self.mixed_ra.clear();
         self.mixed_rb.clear();
+        self.mixed_sa.clear();
+        self.mixed_sb.clear();
+        self.generation += 1;
         self.detail = vec![f32::NAN; volume.brick_count()];
     }
 
@@ -227,6 +328,9 @@ impl BrickCache {
         self.mixed.clear();
         self.mixed_ra.clear();
         self.mixed_rb.clear();
+        self.mixed_sa.clear();
+        self.mixed_sb.clear();
+        self.generation += 1;
         self.pool.clear();
         self.slot_brick.clear();
         self.last_used.clear();
@@ -238,6 +342,62 @@ impl BrickCache {
     /// field, second field or empty).
     pub(crate) fn mixed_ranges(&self) -> (&[[f32; 2]], &[[f32; 2]]) {
         (&self.mixed_ra, &self.mixed_rb)
+    }
+
+    /// The slope bounds of the field the ray caster searches under the downsampled
+    /// assignment (as [`Volume::trace_slopes`], of the stored samples).
+    pub(crate) fn mixed_slopes(&self, volume: &Volume) -> Vec<[f32; 3]> {
+        match volume.combine() {
+            None => self.mixed_sa.clone(),
+            Some(c) => crate::volume::combined_slopes(c, &self.mixed_sa, &self.mixed_sb),
+        }
+    }
+
+    /// What the kernel steps by per block for the frame `u` describes
+    /// ([`crate::kernel::TraceData::block_info`]): the slope bounds of what the pool stores
+    /// and the Chebyshev distance in blocks to the nearest block active under `u` for the
+    /// block ranges `ranges` ([`skip_distances`]). Computed when the isovalue, the side,
+    /// the switches, the combination or what the pool stores changed, else kept; the flag
+    /// says whether it was computed now (the GPU uploads it then).
+    pub(crate) fn block_info(
+        &mut self,
+        volume: &Volume,
+        ranges: &[[f32; 2]],
+        u: &crate::Uniforms,
+    ) -> (&[[f32; 4]], bool) {
+        let key = BlockInfoKey {
+            iso: u.iso.to_bits(),
+            inside: u.inside_sign.to_bits(),
+            skip: u.flags & crate::kernel::FLAG_SKIP_EMPTY,
+            combine: u.combine,
+            morph: u.morph_t.to_bits(),
+            generation: self.generation,
+        };
+        if self.block_info_key == Some(key) {
+            return (&self.block_info, false);
+        }
+        let slopes = if self.is_mixed() {
+            std::borrow::Cow::Owned(self.mixed_slopes(volume))
+        } else {
+            volume.trace_slopes()
+        };
+        let active: Vec<bool> = ranges
+            .iter()
+            .map(|&r| crate::kernel::block_active(u, r))
+            .collect();
+        let dist = skip_distances(&active, volume.block_dims());
+        self.block_info = slopes
+            .iter()
+            .zip(dist)
+            .map(|(s, d)| [s[0], s[1], s[2], f32::from(d)])
+            .collect();
+        self.block_info_key = Some(key);
+        (&self.block_info, true)
+    }
+
+    /// What [`BrickCache::block_info`] computed last (empty before).
+    pub(crate) fn current_block_info(&self) -> &[[f32; 4]] {
+        &self.block_info
     }
 
     /// The detail of each brick in `bricks` ([`Volume::brick_detail`]), computed once per
@@ -316,6 +476,11 @@ impl BrickCache {
         self.mixed_rb = volume
             .operand_block_ranges()
             .map_or_else(Vec::new, <[_]>::to_vec);
+        self.mixed_sa = volume.block_slopes().to_vec();
+        self.mixed_sb = volume
+            .operand_block_slopes()
+            .map_or_else(Vec::new, <[_]>::to_vec);
+        self.generation += 1;
         let is_half = |n: usize| levels[n] == LEVEL_HALF;
         for batch in jobs.chunks(FILL_BATCH) {
             let filled: Vec<Vec<f32>> = batch
@@ -333,7 +498,15 @@ impl BrickCache {
                 })
                 .collect();
             for (&(offset, n, h), data) in batch.iter().zip(&filled) {
-                volume.stored_block_ranges(n, h, data, &mut self.mixed_ra, &mut self.mixed_rb);
+                volume.stored_block_stats(
+                    n,
+                    h,
+                    data,
+                    &mut self.mixed_ra,
+                    &mut self.mixed_sa,
+                    &mut self.mixed_rb,
+                    &mut self.mixed_sb,
+                );
                 if self.host_samples {
                     self.pool[offset..offset + data.len()].copy_from_slice(data);
                 }
@@ -464,6 +637,36 @@ mod tests {
             2 * Layout { block: 4, brick: 8 }.brick_samples()
         );
         assert!(BrickCache::new(&v, 0).is_err());
+    }
+
+    #[test]
+    fn skip_distances_are_the_chessboard_distance() {
+        let mut rng = isokit_field::rng::SplitMix64::new(11);
+        for dims in [[7, 5, 6], [1, 9, 3], [12, 1, 1]] {
+            let n = dims[0] * dims[1] * dims[2];
+            for density in [0.02, 0.1, 0.0] {
+                let active: Vec<bool> = (0..n).map(|_| rng.next_f64() < density).collect();
+                let d = skip_distances(&active, dims);
+                let c = |m: usize| {
+                    [
+                        (m % dims[0]) as i64,
+                        ((m / dims[0]) % dims[1]) as i64,
+                        (m / (dims[0] * dims[1])) as i64,
+                    ]
+                };
+                for (m, &got) in d.iter().enumerate() {
+                    let want = (0..n)
+                        .filter(|&a| active[a])
+                        .map(|a| {
+                            let (p, q) = (c(m), c(a));
+                            (0..3).map(|i| (p[i] - q[i]).abs()).max().unwrap()
+                        })
+                        .min()
+                        .map_or(255, |v| v.min(255) as u8);
+                    assert_eq!(got, want, "{dims:?} block {m}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -136,6 +136,8 @@ pub(crate) fn constants(label: &str) -> ShaderSource {
         .constant_u32("FLAG_SKIP_EMPTY", FLAG_SKIP_EMPTY)
         .constant_u32("FLAG_CAPS", FLAG_CAPS)
         .constant_u32("FLAG_SECANT", FLAG_SECANT)
+        .constant_u32("FLAG_SPHERE", crate::kernel::FLAG_SPHERE)
+        .constant_u32("FLAG_CURVATURE", crate::kernel::FLAG_CURVATURE)
         .constant_u32("COMBINE_NONE", COMBINE_NONE)
         .constant_u32("COMBINE_UNION", COMBINE_UNION)
         .constant_u32("COMBINE_INTERSECTION", COMBINE_INTERSECTION)
@@ -144,6 +146,8 @@ pub(crate) fn constants(label: &str) -> ShaderSource {
         .constant_u32("NOT_RESIDENT", NOT_RESIDENT)
         .constant_u32("HALF_RESOLUTION", crate::HALF_RESOLUTION)
         .constant_f32("RANGE_MARGIN", RANGE_MARGIN)
+        .constant_f32("REFINE_TOLERANCE", crate::kernel::REFINE_TOLERANCE)
+        .constant_f32("SLOPE_MARGIN", crate::kernel::SLOPE_MARGIN)
         .constant_f32("MIN_GRADIENT", DEFAULT_MIN_GRADIENT)
         .constant_f32("F32_MAX", f32::MAX)
 }

@@ -114,7 +114,7 @@ pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
 pub use raycast::render::{
-    CachePolicy, Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats,
+    CachePolicy, Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats, Search,
     camera_uniforms, estimate_gradient_scale, render, render_multiview, render_view, uniforms,
 };
 pub use shade::{Image, Light, Shading, ShadingMode, shade};

@@ -136,7 +136,13 @@ pub enum VolumeData {
     /// A dense grid (a volume file, or a dense scene sampling).
     Dense(Grid),
     /// A sparse band (a lazily sampled scene): unsampled space reads as the grid's
-    /// background, with the sign it keeps.
+    /// background, with the sign it keeps. Stored samples are read clamped to
+    /// `±|background|`: a band's bricks hold values past the band (up to the sampler's cap)
+    /// where unsampled space beside them reads the background, and clamped the field is
+    /// continuous and as Lipschitz as the distance it samples (what sphere tracing steps
+    /// by), while the isosurfaces within the band keep their shape wherever the filters'
+    /// taps stay within the band (for `ρ = 0` and a band of at least 2√3 voxels,
+    /// everywhere).
     Band(BrickGrid),
 }
 
@@ -174,8 +180,99 @@ impl VolumeData {
             Self::Band(b) => {
                 let d = b.dims();
                 let at = |v: i32, n: usize| v.clamp(0, n as i32 - 1) as usize;
-                b.get(at(c.x, d[0]), at(c.y, d[1]), at(c.z, d[2]))
+                clamp_band(
+                    b.get(at(c.x, d[0]), at(c.y, d[1]), at(c.z, d[2])),
+                    b.background(),
+                )
             }
+        }
+    }
+}
+
+/// A band's sample as the ray caster reads it: clamped to `±|background|`, the value of
+/// unsampled space (NaN stays NaN; see [`VolumeData::Band`]).
+#[inline]
+fn clamp_band(v: f32, background: f32) -> f32 {
+    let m = background.abs();
+    if v > m {
+        m
+    } else if v < -m {
+        -m
+    } else {
+        v
+    }
+}
+
+impl VolumeData {
+    /// Samples `(x0 + i, y, z)` for `i` in `0..out.len()`, every index clamped to the grid
+    /// (as [`VolumeData::get_clamped`]): rows copied from the grid's or the band's storage.
+    pub fn read_row(&self, x0: i32, y: i32, z: i32, out: &mut [f32]) {
+        let n = out.len() as i32;
+        let dims = self.dims();
+        let top = |a: usize| dims[a] as i32 - 1;
+        let (y, z) = (y.clamp(0, top(1)), z.clamp(0, top(2)));
+        // The part of the row inside the grid: [a, b).
+        let a = x0.clamp(0, top(0) + 1);
+        let b = (x0 + n).clamp(0, top(0) + 1);
+        let (yu, zu) = (y as usize, z as usize);
+        match self {
+            Self::Dense(g) => {
+                let row = g.index(0, yu, zu);
+                let data = &g.data()[row..row + dims[0]];
+                if a < b {
+                    out[(a - x0) as usize..(b - x0) as usize]
+                        .copy_from_slice(&data[a as usize..b as usize]);
+                }
+            }
+            Self::Band(bg) => {
+                let bs = bg.brick_size() as i32;
+                let side = bg.brick_size() + 2 * bg.apron();
+                let mut x = a;
+                while x < b {
+                    let bx = x / bs;
+                    let end = ((bx + 1) * bs).min(b);
+                    let c = [bx as usize, yu / bg.brick_size(), zu / bg.brick_size()];
+                    let dst = &mut out[(x - x0) as usize..(end - x0) as usize];
+                    match bg.brick_at(c) {
+                        Some(k) => {
+                            let (li, lj, lk) = (
+                                (x - bx * bs) as usize + bg.apron(),
+                                yu % bg.brick_size() + bg.apron(),
+                                zu % bg.brick_size() + bg.apron(),
+                            );
+                            let at = li + side * (lj + side * lk);
+                            let src = &bg.brick_data(k)[at..at + dst.len()];
+                            let m = bg.background();
+                            for (o, &v) in dst.iter_mut().zip(src) {
+                                *o = clamp_band(v, m);
+                            }
+                        }
+                        None if bg.is_inside(c) => dst.fill(-bg.background()),
+                        None => dst.fill(bg.background()),
+                    }
+                    x = end;
+                }
+            }
+        }
+        // Clamp-to-edge on both ends.
+        if a > x0 {
+            let v = self.get_clamped(IVec3::new(0, y, z));
+            let m = ((a - x0) as usize).min(out.len());
+            out[..m].fill(v);
+        }
+        if b < x0 + n {
+            let v = self.get_clamped(IVec3::new(top(0), y, z));
+            out[((b - x0).max(0) as usize)..].fill(v);
+        }
+    }
+
+    /// Samples `lo + (i, j, k)` for `(i, j, k)` in `0..n` per axis, clamped to the grid, x
+    /// fastest, into `out` (`n[0]·n[1]·n[2]` values).
+    pub fn read_box(&self, lo: IVec3, n: [usize; 3], out: &mut [f32]) {
+        debug_assert_eq!(out.len(), n[0] * n[1] * n[2]);
+        for (r, row) in out.chunks_mut(n[0]).enumerate() {
+            let (j, k) = ((r % n[1]) as i32, (r / n[1]) as i32);
+            self.read_row(lo.x, lo.y + j, lo.z + k, row);
         }
     }
 }
@@ -286,63 +383,112 @@ struct Operand {
     combine: Combine,
     /// `[min, max]` per block of B, as [`Volume::block_ranges`] for A.
     block_range: Vec<[f32; 2]>,
+    /// Slope bounds per block of B, as [`Volume::block_slopes`] for A.
+    block_slope: Vec<[f32; 3]>,
     /// Per block: B has a non-finite sample in the block's support. The kernel's `combine`
     /// takes A's value where B is not finite (NaN compares false), so such blocks must be
     /// active wherever A alone would be.
     nonfinite: Vec<bool>,
 }
 
-/// `[min, max]` per block of `data` over each block's tricubic support (see [`Volume`]).
-fn block_ranges_of(
-    data: &VolumeData,
-    layout: Layout,
-    dims: [usize; 3],
-    block_dims: [usize; 3],
-) -> Vec<[f32; 2]> {
-    block_scan(data, layout, dims, block_dims)
-        .into_iter()
-        .map(|(r, _)| r)
-        .collect()
+/// What one pass over a block's tricubic support finds (see [`Volume`]).
+#[derive(Clone, Copy, Debug)]
+struct BlockScan {
+    /// `[min, max]` of the finite samples (`[+inf, −inf]` when none is finite).
+    range: [f32; 2],
+    /// Per axis, the largest `|difference|` of neighbouring samples along it (field units
+    /// per voxel); `+inf` when a sample is not finite.
+    slope: [f32; 3],
+    /// A sample is not finite.
+    nonfinite: bool,
 }
 
-/// Per block: `[min, max]` of the finite samples of its tricubic support (`[+inf, −inf]`
-/// when none is finite) and whether any sample there is not finite.
+/// `[min, max]` and the per-axis slope bound of every block of `data` over its tricubic
+/// support `[block·b − 1, block·b + block + 1]` per axis, clamped to the grid (see
+/// [`Volume`]), in parallel over z-rows of blocks.
 fn block_scan(
     data: &VolumeData,
     layout: Layout,
     dims: [usize; 3],
     block_dims: [usize; 3],
-) -> Vec<([f32; 2], bool)> {
+) -> Vec<BlockScan> {
     let n_blocks = block_dims.iter().product::<usize>();
     let b = layout.block as i32;
     let [bx, by, _] = block_dims;
+    let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
     (0..n_blocks)
         .into_par_iter()
-        .map(|n| {
+        .with_min_len(bx)
+        .map_init(Vec::new, |buf, n| {
             let c = IVec3::new(
                 (n % bx) as i32,
                 ((n / bx) % by) as i32,
                 (n / (bx * by)) as i32,
             );
             let lo = (c * b - IVec3::ONE).max(IVec3::ZERO);
-            let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
             let hi = (c * b + IVec3::splat(b + 1)).min(top);
-            let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
-            let mut nonfinite = false;
-            for k in lo.z..=hi.z {
-                for j in lo.y..=hi.y {
-                    for i in lo.x..=hi.x {
-                        let v = data.get_clamped(IVec3::new(i, j, k));
-                        if v.is_finite() {
-                            mn = mn.min(v);
-                            mx = mx.max(v);
-                        } else {
-                            nonfinite = true;
-                        }
-                    }
+            let size = (hi - lo + IVec3::ONE).as_uvec3();
+            let [nx, ny, nz] = [size.x as usize, size.y as usize, size.z as usize];
+            buf.resize(nx * ny * nz, 0.0);
+            data.read_box(lo, [nx, ny, nz], buf);
+            scan_samples(buf, [nx, ny, nz])
+        })
+        .collect()
+}
+
+/// [`BlockScan`] of a box of samples (x fastest, `n` per axis).
+fn scan_samples(s: &[f32], n: [usize; 3]) -> BlockScan {
+    let [nx, ny, nz] = n;
+    let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut nonfinite = false;
+    let mut slope = [0f32; 3];
+    let max_diff = |a: &[f32], b: &[f32], m: &mut f32| {
+        for (x, y) in a.iter().zip(b) {
+            let d = (y - x).abs();
+            if d > *m {
+                *m = d;
+            }
+        }
+    };
+    for k in 0..nz {
+        for j in 0..ny {
+            let r = (k * ny + j) * nx;
+            let row = &s[r..r + nx];
+            for &v in row {
+                if v.is_finite() {
+                    mn = mn.min(v);
+                    mx = mx.max(v);
+                } else {
+                    nonfinite = true;
                 }
             }
-            ([mn, mx], nonfinite)
+            max_diff(&row[..nx - 1], &row[1..], &mut slope[0]);
+            if j + 1 < ny {
+                max_diff(row, &s[r + nx..r + 2 * nx], &mut slope[1]);
+            }
+            if k + 1 < nz {
+                max_diff(row, &s[r + nx * ny..r + nx * ny + nx], &mut slope[2]);
+            }
+        }
+    }
+    if nonfinite {
+        slope = [f32::INFINITY; 3];
+    }
+    BlockScan {
+        range: [mn, mx],
+        slope,
+        nonfinite,
+    }
+}
+
+/// Per block and axis, the slope bound of the combination of two fields (see
+/// [`Volume::trace_slopes`]).
+pub(crate) fn combined_slopes(c: Combine, a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| match c {
+            Combine::Morph(t) => [0, 1, 2].map(|i| (1.0 - t) * a[i] + t * b[i]),
+            _ => [0, 1, 2].map(|i| a[i].max(b[i])),
         })
         .collect()
 }
@@ -361,6 +507,13 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 /// grid). The trilinear and tricubic B-spline reconstructions are convex combinations of
 /// those samples, so a block whose range does not contain the isovalue cannot hold the
 /// surface — for either filter. Non-finite samples are ignored.
+///
+/// The same pass records per block and axis the largest difference of neighbouring samples
+/// in that support ([`Volume::block_slopes`]): the partial derivative of either
+/// reconstruction along an axis is a convex combination of such differences (the cubic
+/// B-spline's derivative is the quadratic B-spline of the differences), so
+/// `Σ |d_i| · slope_i` bounds the slope of the reconstructed field along a unit direction
+/// `d` anywhere in the block: the Lipschitz bound sphere tracing steps by.
 #[derive(Clone, Debug)]
 pub struct Volume {
     data: VolumeData,
@@ -370,6 +523,8 @@ pub struct Volume {
     brick_dims: [usize; 3],
     /// `[min, max]` per block, x fastest.
     block_range: Vec<[f32; 2]>,
+    /// Per block and axis, the largest difference of neighbouring samples in its support.
+    block_slope: Vec<[f32; 3]>,
     range: Option<(f32, f32)>,
     /// The second field of on-the-fly CSG or morphing, if any.
     operand: Option<Operand>,
@@ -410,7 +565,11 @@ impl Volume {
                 why: "too many blocks for 32-bit indices; use larger blocks",
             });
         }
-        let block_range = block_ranges_of(&data, layout, dims, block_dims);
+        let (block_range, block_slope): (Vec<_>, Vec<_>) =
+            block_scan(&data, layout, dims, block_dims)
+                .into_iter()
+                .map(|s| (s.range, s.slope))
+                .unzip();
         let range =
             block_range
                 .iter()
@@ -426,6 +585,7 @@ impl Volume {
             block_dims,
             brick_dims,
             block_range,
+            block_slope,
             range,
             operand: None,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
@@ -477,14 +637,13 @@ impl Volume {
                 why: "the second CSG/morph operand must have the first's origin and spacing (the same lattice)",
             });
         }
-        let (block_range, nonfinite) = block_scan(&b, self.layout, self.dims, self.block_dims)
-            .into_iter()
-            .unzip();
+        let scan = block_scan(&b, self.layout, self.dims, self.block_dims);
         self.operand = Some(Operand {
             data: b,
             combine,
-            block_range,
-            nonfinite,
+            block_range: scan.iter().map(|s| s.range).collect(),
+            block_slope: scan.iter().map(|s| s.slope).collect(),
+            nonfinite: scan.iter().map(|s| s.nonfinite).collect(),
         });
         // Another pool layout: caches must reload.
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
@@ -546,6 +705,11 @@ impl Volume {
     /// The second field's `[min, max]` per block, if any (as [`Volume::block_ranges`]).
     pub(crate) fn operand_block_ranges(&self) -> Option<&[[f32; 2]]> {
         self.operand.as_ref().map(|o| o.block_range.as_slice())
+    }
+
+    /// The second field's slope bounds per block, if any (as [`Volume::block_slopes`]).
+    pub(crate) fn operand_block_slopes(&self) -> Option<&[[f32; 3]]> {
+        self.operand.as_ref().map(|o| o.block_slope.as_slice())
     }
 
     /// [`Volume::trace_ranges`] from given per-block ranges of the fields (`b` only with a
@@ -655,6 +819,28 @@ impl Volume {
     pub fn block_ranges(&self) -> &[[f32; 2]] {
         &self.block_range
     }
+    /// Per block (x fastest) and axis, the largest `|difference|` of neighbouring samples
+    /// along that axis in the block's tricubic support, field units per voxel (`+inf` where
+    /// a sample is not finite), of the first field: a bound of either reconstruction's
+    /// partial derivative there (see [`Volume`]). What the ray caster steps by is
+    /// [`Volume::trace_slopes`] (the same with a single field).
+    pub fn block_slopes(&self) -> &[[f32; 3]] {
+        &self.block_slope
+    }
+    /// The slope bounds of the field the ray caster searches, per block: those of
+    /// [`Volume::block_slopes`] for a single field; with a second field per axis the larger
+    /// of both operands' (union, intersection, difference: the minimum or maximum of two
+    /// functions is no steeper than the steeper one) or `(1 − t)·a + t·b` (a morph).
+    pub fn trace_slopes(&self) -> Cow<'_, [[f32; 3]]> {
+        match &self.operand {
+            None => Cow::Borrowed(&self.block_slope),
+            Some(op) => Cow::Owned(combined_slopes(
+                op.combine,
+                &self.block_slope,
+                &op.block_slope,
+            )),
+        }
+    }
     /// Smallest and largest finite sample (of the first field), or `None` when none is finite.
     pub fn value_range(&self) -> Option<(f32, f32)> {
         self.range
@@ -707,6 +893,9 @@ impl Volume {
     fn fill_lattice(&self, out: &mut [f32], s: usize, lo: IVec3, stride: i32) {
         let (a, b) = out.split_at_mut(s * s * s);
         let fill = |data: &VolumeData, out: &mut [f32]| {
+            if stride == 1 {
+                return data.read_box(lo, [s; 3], out);
+            }
             for (m, v) in out.iter_mut().enumerate() {
                 let l = IVec3::new((m % s) as i32, ((m / s) % s) as i32, (m / (s * s)) as i32);
                 *v = data.get_clamped(lo + stride * l);
@@ -861,17 +1050,25 @@ impl Volume {
         worst
     }
 
-    /// `[min, max]` per block of brick `n` over what the filters read of its *stored*
-    /// samples `stored` (full resolution, or half when `half`), per field, written into
-    /// `ra` and `rb` (`rb` only with a second field) at the blocks' indices. Sound bounds
-    /// for skipping blocks of a brick stored downsampled or with hanging samples matched.
-    pub(crate) fn stored_block_ranges(
+    /// `[min, max]` and the slope bounds per block of brick `n` over what the filters read
+    /// of its *stored* samples `stored` (full resolution, or half when `half`), per field,
+    /// written into `ra`, `sa` and `rb`, `sb` (`rb`, `sb` only with a second field) at the
+    /// blocks' indices. Sound bounds for skipping and sphere tracing in blocks of a brick
+    /// stored downsampled or with hanging samples matched (a half-resolution brick's
+    /// differences span two voxels: its slopes per voxel are half of them).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "both fields' ranges and slopes, as the cache keeps them"
+    )]
+    pub(crate) fn stored_block_stats(
         &self,
         n: usize,
         half: bool,
         stored: &[f32],
         ra: &mut [[f32; 2]],
+        sa: &mut [[f32; 3]],
         rb: &mut [[f32; 2]],
+        sb: &mut [[f32; 3]],
     ) {
         let lay = self.layout;
         let side = if half {
@@ -889,6 +1086,8 @@ impl Volume {
         let b = lay.block as i32;
         let per = lay.blocks_per_brick() as i32;
         let bc = corner / b;
+        let scale = if half { 0.5 } else { 1.0 };
+        let mut buf = Vec::new();
         for kz in 0..per {
             for ky in 0..per {
                 for kx in 0..per {
@@ -913,25 +1112,22 @@ impl Volume {
                     let idx = cell.x as usize
                         + self.block_dims[0]
                             * (cell.y as usize + self.block_dims[1] * cell.z as usize);
-                    let range = |ch: &[f32]| {
-                        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+                    let size = (s1 - s0 + IVec3::ONE).as_uvec3();
+                    let nn = [size.x as usize, size.y as usize, size.z as usize];
+                    let mut scan = |ch: &[f32]| {
+                        buf.clear();
                         for z in s0.z..=s1.z {
                             for y in s0.y..=s1.y {
-                                for x in s0.x..=s1.x {
-                                    let v =
-                                        ch[x as usize + side * (y as usize + side * z as usize)];
-                                    if v.is_finite() {
-                                        mn = mn.min(v);
-                                        mx = mx.max(v);
-                                    }
-                                }
+                                let r = s0.x as usize + side * (y as usize + side * z as usize);
+                                buf.extend_from_slice(&ch[r..r + nn[0]]);
                             }
                         }
-                        [mn, mx]
+                        let st = scan_samples(&buf, nn);
+                        (st.range, st.slope.map(|v| v * scale))
                     };
-                    ra[idx] = range(&stored[..s3]);
+                    (ra[idx], sa[idx]) = scan(&stored[..s3]);
                     if self.operand.is_some() {
-                        rb[idx] = range(&stored[s3..2 * s3]);
+                        (rb[idx], sb[idx]) = scan(&stored[s3..2 * s3]);
                     }
                 }
             }

@@ -928,6 +928,7 @@ fn trace_data_is_flat() {
         pool: cache.pool(),
         reference: cache.reference(),
         block_range: v.block_ranges(),
+        block_info: &[],
         requests: &req,
         used: &used,
     };

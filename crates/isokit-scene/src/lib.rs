@@ -54,6 +54,7 @@
 //! and how often each source was queried.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod file;
 pub mod input;
 mod mesh;

@@ -193,6 +193,10 @@ pub struct FrameStats {
     pub prepare_seconds: f64,
     /// Seconds of ray casting.
     pub trace_seconds: f64,
+    /// Trace seconds of further frames of the same camera with the brick cache kept (warm),
+    /// where the caller rendered them (`isokit render --warm-frames`); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warm_trace_seconds: Vec<f64>,
     /// Seconds of shading.
     pub shade_seconds: f64,
     /// `gpu` or `cpu`.
@@ -261,6 +265,10 @@ impl Prepared<'_> {
 pub struct Renderer {
     gpu: Option<GpuRenderer>,
     note: Option<String>,
+    /// The CPU twin's brick cache of the volume rendered last, kept for the next frame of
+    /// the same volume and cache size (as the GPU renderer keeps its own): frames after the
+    /// first are warm.
+    cpu_cache: Option<(u64, Option<usize>, Box<BrickCache>)>,
 }
 
 impl std::fmt::Debug for Renderer {
@@ -277,6 +285,7 @@ impl Renderer {
         Ok(Self {
             gpu: s.gpu,
             note: s.note,
+            cpu_cache: None,
         })
     }
 
@@ -285,6 +294,7 @@ impl Renderer {
         Self {
             gpu: None,
             note: None,
+            cpu_cache: None,
         }
     }
 
@@ -462,21 +472,26 @@ impl Renderer {
         name: &str,
     ) -> Result<Frame, SceneError> {
         let err = |e: RenderError| SceneError::new(name, "", e.to_string());
-        let mut cache = match p.cache_bytes {
-            Some(b) => BrickCache::with_bytes(&p.volume, b).map_err(err)?,
-            None => BrickCache::for_volume(&p.volume),
+        let key = (p.volume.id(), p.cache_bytes);
+        let cache = match self.cpu_cache.take() {
+            Some((id, bytes, c)) if (id, bytes) == key => c,
+            _ => Box::new(match p.cache_bytes {
+                Some(b) => BrickCache::with_bytes(&p.volume, b).map_err(err)?,
+                None => BrickCache::for_volume(&p.volume),
+            }),
         };
+        let (_, _, cache) = self.cpu_cache.insert((key.0, key.1, cache));
         if let (Some(g), Some(b)) = (self.gpu.as_mut(), p.cache_bytes) {
             g.set_cache_bytes(b);
         }
         let (v, c, o) = (&*p.volume, &p.camera, &p.options);
         let frame = match (&p.multiview, view, self.gpu.as_mut()) {
             (Some(mv), Some(k), Some(g)) => g.render_view(v, c, o, mv, k),
-            (Some(mv), Some(k), None) => isokit_render::render_view(v, &mut cache, c, o, mv, k),
+            (Some(mv), Some(k), None) => isokit_render::render_view(v, cache, c, o, mv, k),
             (Some(mv), None, Some(g)) => g.render_multiview(v, c, o, mv),
-            (Some(mv), None, None) => isokit_render::render_multiview(v, &mut cache, c, o, mv),
+            (Some(mv), None, None) => isokit_render::render_multiview(v, cache, c, o, mv),
             (None, _, Some(g)) => g.render(v, c, o),
-            (None, _, None) => isokit_render::render(v, &mut cache, c, o),
+            (None, _, None) => isokit_render::render(v, cache, c, o),
         }
         .map_err(err)?;
         let t1 = Instant::now();
@@ -517,6 +532,7 @@ impl Renderer {
             bricks_downsampled: st.bricks_downsampled,
             prepare_seconds: p.prepare_seconds,
             trace_seconds: st.seconds,
+            warm_trace_seconds: Vec::new(),
             shade_seconds,
             backend: self.backend(),
             device: self.device(),

@@ -58,4 +58,8 @@ pub struct Args {
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,
+    /// Trace this many more frames of the same camera after the first, the brick cache
+    /// kept (warm frames); --stats lists their `warm_trace_seconds`.
+    #[arg(long, default_value_t = 0)]
+    pub warm_frames: u32,
 }

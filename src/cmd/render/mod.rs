@@ -12,7 +12,7 @@ use super::{check_output, read_grid};
 use anyhow::{Context, Result, bail};
 use isokit_field::Job;
 use isokit_render::{Layout, Volume, check_image_size};
-use isokit_scene::{RenderSettings, RenderTarget, Renderer, Scene, SceneFormat};
+use isokit_scene::{Prepared, RenderSettings, RenderTarget, Renderer, Scene, SceneFormat};
 use std::path::{Path, PathBuf};
 
 fn is_scene(path: &Path) -> bool {
@@ -99,7 +99,8 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
         let scene = Scene::load(&a.input)?;
         let files = scene.dependencies().to_vec();
         let p = renderer.prepare(RenderTarget::Scene(&scene), s, &Job::default())?;
-        let frame = renderer.render_prepared(&p, &name)?;
+        let mut frame = renderer.render_prepared(&p, &name)?;
+        frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
         let st = frame
             .stats
@@ -129,7 +130,8 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
             files.push(with.clone());
         }
         let p = renderer.prepare(RenderTarget::Volume(&volume), s, &Job::default())?;
-        let frame = renderer.render_prepared(&p, &name)?;
+        let mut frame = renderer.render_prepared(&p, &name)?;
+        frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
         (frame, views, files, what)
     };
@@ -147,6 +149,14 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
     }
     summary::print(a, s, &frame, &what)?;
     Ok(files)
+}
+
+/// With `--warm-frames N`: the trace seconds of N more frames of the same camera, the
+/// brick cache kept from the first (warm).
+fn warm(a: &Args, renderer: &mut Renderer, p: &Prepared<'_>, name: &str) -> Result<Vec<f64>> {
+    (0..a.warm_frames)
+        .map(|_| Ok(renderer.render_prepared(p, name)?.stats.trace_seconds))
+        .collect()
 }
 
 /// With `--views-out`: each view of the multi-view display rendered alone.

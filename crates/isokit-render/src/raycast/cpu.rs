@@ -38,7 +38,7 @@
 //! volume's box cuts the solid (CT data cut by the scan's field of view, or an isovalue at
 //! the data's extreme). The normal is the face's; curvatures are 0; the id is [`ID_CAP`].
 
-use glam::{IVec3, Mat3, Vec3};
+use glam::{IVec3, Mat3, Vec3, Vec4};
 use isokit_field::curvature::{DEFAULT_MIN_GRADIENT, Inside, curvature_with};
 use isokit_field::filter::TwoFetch;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -80,6 +80,23 @@ pub const FLAG_SKIP_EMPTY: u32 = 1;
 pub const FLAG_CAPS: u32 = 2;
 /// [`Uniforms::flags`] bit: refine by the secant method (Illinois); bisection without it.
 pub const FLAG_SECANT: u32 = 4;
+/// [`Uniforms::flags`] bit: search active blocks by sphere tracing with the slope bounds of
+/// [`TraceData::block_info`] ([`march_sphere`]); without it, the adaptive fixed-rate search
+/// ([`march_segment`]).
+pub const FLAG_SPHERE: u32 = 8;
+/// [`Uniforms::flags`] bit: compute the Hessian and the principal curvatures at each hit;
+/// without it, the gradient (the normal) only.
+pub const FLAG_CURVATURE: u32 = 16;
+
+/// Stop refining once an estimate lies this close to the surface, in voxels (its residual
+/// over the first bracket's mean slope); the hit is then the linear interpolation in the
+/// bracket that estimate closes, which is far closer. Well above f32 rounding of the
+/// residual, so that both twins stop after the same step.
+pub const REFINE_TOLERANCE: f32 = 3e-5;
+
+/// Relative margin on a block's slope bound before sphere tracing divides by it, so that
+/// rounding in the reconstruction cannot let a step land past a crossing.
+pub const SLOPE_MARGIN: f32 = 1.0 / 1024.0;
 
 /// [`Uniforms::filter`] value of the trilinear filter.
 pub const FILTER_TRILINEAR: u32 = 0;
@@ -140,13 +157,18 @@ pub struct Uniforms {
     pub r0: f32,
     /// Fine-rate factor n (r1 = n · r0); 1 disables adaptive sampling.
     pub fine: u32,
-    /// Resample finely where `|f − ρ| < delta` (field units).
+    /// Fixed-rate search: resample finely where `|f − ρ| < delta` (field units). Sphere
+    /// tracing ([`FLAG_SPHERE`]): a given bound on the field's slope per voxel (field
+    /// units; `L · spacing` for a bound `L` on `|∇f|`), or 0 to step by the slope bounds
+    /// measured per block.
     pub delta: f32,
     /// Refinement steps after a crossing is found.
     pub refine_steps: u32,
     /// Switches: [`FLAG_SKIP_EMPTY`] (skip blocks whose range excludes ρ; off, every block
     /// is sampled), [`FLAG_CAPS`] (report caps where a ray enters the volume inside the
-    /// solid), [`FLAG_SECANT`] (refine by the secant method; off, bisection).
+    /// solid), [`FLAG_SECANT`] (refine by the secant method; off, bisection),
+    /// [`FLAG_SPHERE`] (sphere tracing; off, the fixed-rate search), [`FLAG_CURVATURE`]
+    /// (Hessian and curvatures at hits).
     pub flags: u32,
     /// Filter of the intersection search: [`FILTER_TRILINEAR`] or [`FILTER_TRICUBIC`].
     pub filter: u32,
@@ -229,6 +251,12 @@ pub struct TraceData<'a> {
     pub reference: &'a [u32],
     /// `[min, max]` per block ([`crate::Volume::block_ranges`]).
     pub block_range: &'a [[f32; 2]],
+    /// Per block: the slope bounds of the field along x, y, z per voxel
+    /// ([`crate::Volume::trace_slopes`]) and, as a whole number, the Chebyshev distance in
+    /// blocks to the nearest active block (0 when active; a ray crosses the inactive cube
+    /// of blocks within that distance minus one in one step, [`jump`]). Empty: no jumps,
+    /// and the fixed-rate search even where [`FLAG_SPHERE`] asks for sphere tracing.
+    pub block_info: &'a [[f32; 4]],
     /// Per brick: how many rays asked for it in this pass (atomic add).
     pub requests: &'a [AtomicU32],
     /// Per brick: set to 1 when a ray sampled it in this pass (for LRU).
@@ -385,17 +413,38 @@ pub fn ray_box(u: &Uniforms, o: Vec3, d: Vec3) -> Option<(f32, f32, u32)> {
     (t0 <= t1 && t0.is_finite()).then_some((t0, t1, axis))
 }
 
+/// The ray parameter where the ray crosses the plane `x_a = m · block` of axis `a`, from
+/// the ray's origin `o` and inverse direction `inv = 1 / d` along that axis (`d` not 0):
+/// `(m · block − o) · inv`, the one expression every block face is computed by, so that
+/// faces reached by different walks agree bit for bit (and monotone in `m`).
+#[inline]
+pub fn plane_t(u: &Uniforms, m: i32, o: f32, inv: f32) -> f32 {
+    (m as f32 * u.block as f32 - o) * inv
+}
+
+/// `1 / d` per axis, as [`plane_t`] takes it (infinite where `d` is 0: those axes are never
+/// crossed and never read).
+#[inline]
+pub fn inverse_direction(d: Vec3) -> Vec3 {
+    Vec3::ONE / d
+}
+
 /// Where the ray leaves block `cell`: the smallest `t` at which it crosses one of the block's
-/// exit faces, and that face's axis. Computed from the block index alone.
+/// exit faces, and that face's axis (the lowest of tied axes). Computed from the block index
+/// alone.
 #[inline]
 pub fn block_exit(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3) -> (f32, usize) {
-    let b = u.block as f32;
+    block_exit_inv(u, cell, o, d, inverse_direction(d))
+}
+
+/// [`block_exit`] with the inverse direction given (computed once per ray).
+#[inline]
+pub fn block_exit_inv(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3, inv: Vec3) -> (f32, usize) {
     let mut t = f32::INFINITY;
     let mut axis = 0;
     for a in 0..3 {
         if d[a] != 0.0 {
-            let edge = (cell[a] + i32::from(d[a] > 0.0)) as f32 * b;
-            let ta = (edge - o[a]) / d[a];
+            let ta = plane_t(u, cell[a] + i32::from(d[a] > 0.0), o[a], inv[a]);
             if ta < t {
                 t = ta;
                 axis = a;
@@ -403,6 +452,87 @@ pub fn block_exit(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3) -> (f32, usize) {
         }
     }
     (t, axis)
+}
+
+/// One step of the block walk over many inactive blocks at once: from block `cell`, whose
+/// Chebyshev distance to the nearest active block is `k ≥ 2`, across the cube of blocks
+/// within `k − 1` of it (clamped to the `bd` blocks), all inactive. Returns where the ray
+/// leaves the cube (`t`, the exit axis) and the block it enters there — the block the
+/// walk by [`block_exit`] reaches at that face, bit for bit: per axis, the planes it has
+/// crossed are those whose [`plane_t`] lies before `t` (or at it, for a lower axis than the
+/// exit's, as [`block_exit`] breaks ties). The entered block may lie outside the volume.
+#[inline]
+pub fn jump(
+    u: &Uniforms,
+    cell: IVec3,
+    k: i32,
+    o: Vec3,
+    d: Vec3,
+    inv: Vec3,
+    bd: IVec3,
+) -> (f32, usize, IVec3) {
+    let r = k - 1;
+    let (c, o, d, inv, bd) = (
+        cell.to_array(),
+        o.to_array(),
+        d.to_array(),
+        inv.to_array(),
+        bd.to_array(),
+    );
+    let lo = c.map(|v| (v - r).max(0));
+    let hi = [0, 1, 2].map(|a| (c[a] + r).min(bd[a] - 1));
+    let mut t = f32::INFINITY;
+    let mut e = 0;
+    for a in 0..3 {
+        if d[a] != 0.0 {
+            let m = if d[a] > 0.0 { hi[a] + 1 } else { lo[a] };
+            let ta = plane_t(u, m, o[a], inv[a]);
+            if ta < t {
+                t = ta;
+                e = a;
+            }
+        }
+    }
+    let mut next = c;
+    // Blocks are a power of two of voxels: the reciprocal is exact.
+    let rb = 1.0 / u.block as f32;
+    for a in 0..3 {
+        if a == e {
+            next[a] = if d[a] > 0.0 { hi[a] + 1 } else { lo[a] - 1 };
+            continue;
+        }
+        if d[a] == 0.0 {
+            continue;
+        }
+        let crossed = |m: i32| {
+            let tm = plane_t(u, m, o[a], inv[a]);
+            tm < t || (tm == t && a < e)
+        };
+        // A first guess from the position, then corrected by the planes' own times.
+        let guess = ((o[a] + t * d[a]) * rb) as i32;
+        if d[a] > 0.0 {
+            // Crossing plane m enters block m: the last crossed plane in (cell, hi].
+            let mut g = guess.clamp(c[a], hi[a]);
+            while g > c[a] && !crossed(g) {
+                g -= 1;
+            }
+            while g < hi[a] && crossed(g + 1) {
+                g += 1;
+            }
+            next[a] = g;
+        } else {
+            // Crossing plane m enters block m − 1: planes cell, cell − 1, …, lo + 1.
+            let mut g = guess.clamp(lo[a], c[a]);
+            while g < c[a] && !crossed(g + 1) {
+                g += 1;
+            }
+            while g > lo[a] && crossed(g) {
+                g -= 1;
+            }
+            next[a] = g;
+        }
+    }
+    (t, e, IVec3::from_array(next))
 }
 
 /// Linear index of block `cell`.
@@ -455,7 +585,8 @@ pub fn locate(u: &Uniforms, slot: u32, cell: IVec3, p: Vec3) -> Located {
     if slot & HALF_RESOLUTION != 0 {
         return locate_half(u, slot, cell, lo, hi, q);
     }
-    let c = q.floor().as_ivec3().clamp(lo, hi - IVec3::ONE);
+    // q >= 0: truncation is the floor (and needs no libm call on baseline x86-64).
+    let c = q.as_ivec3().clamp(lo, hi - IVec3::ONE);
     let first = cell / (u.brick / u.block) as i32 * u.brick as i32 - IVec3::ONE;
     let side = u.brick_side as usize;
     Located {
@@ -480,7 +611,8 @@ pub fn locate_half(u: &Uniforms, slot: u32, cell: IVec3, lo: IVec3, hi: IVec3, q
     let pc = (q - corner.as_vec3()) * 0.5;
     let clo = (lo - corner) / 2;
     let chi = (hi - corner + IVec3::ONE) / 2;
-    let c = pc.floor().as_ivec3().clamp(clo, chi - IVec3::ONE);
+    // pc >= 0 (q lies in the block, past the brick's corner): truncation is the floor.
+    let c = pc.as_ivec3().clamp(clo, chi - IVec3::ONE);
     let side = (u.brick / 2 + 3) as usize;
     Located {
         base: (slot & !HALF_RESOLUTION) as usize * channels(u) * side * side * side,
@@ -614,8 +746,8 @@ pub fn derivatives_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (
 /// shading needs (84 fetches for the tricubic filter).
 /// For a brick stored at half resolution the coarse lattice's derivatives are scaled back
 /// to grid units (gradient · 1/2, Hessian · 1/4).
-pub fn gradient_hessian_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
-    let (g, h) = stored_gradient_hessian(u, pool, filter, l);
+pub fn gradient_hessian_at(_u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
+    let (g, h) = stored_gradient_hessian(pool, filter, l);
     if l.half {
         return (g * 0.5, h * 0.25);
     }
@@ -623,7 +755,7 @@ pub fn gradient_hessian_at(u: &Uniforms, pool: &[f32], filter: u32, l: &Located)
 }
 
 /// Gradient and Hessian in the stored brick's own units (see [`gradient_hessian_at`]).
-fn stored_gradient_hessian(_u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
+fn stored_gradient_hessian(pool: &[f32], filter: u32, l: &Located) -> (Vec3, Mat3) {
     let side = l.side;
     if filter == FILTER_TRILINEAR {
         let i = l.base + l.cell.x as usize + side * (l.cell.y as usize + side * l.cell.z as usize);
@@ -681,7 +813,192 @@ fn stored_gradient_hessian(_u: &Uniforms, pool: &[f32], filter: u32, l: &Located
     (g, h)
 }
 
-/// A ray inside one resident block: what [`march_segment`] and [`refine`] sample.
+/// The cubic B-spline weights of the samples `i − 1, i, i + 1, i + 2` at fraction `a`
+/// ([`isokit_field::filter::bspline_weights`], ERRATA 2).
+#[inline]
+pub fn bspline4(a: f32) -> [f32; 4] {
+    const SIXTH: f32 = 1.0 / 6.0;
+    let b = 1.0 - a;
+    let a2 = a * a;
+    let a3 = a2 * a;
+    [
+        b * b * b * SIXTH,
+        (3.0 * a3 - 6.0 * a2 + 4.0) * SIXTH,
+        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * SIXTH,
+        a3 * SIXTH,
+    ]
+}
+
+/// Their first derivatives ([`isokit_field::filter::bspline_weights_d1`], ERRATA 3).
+#[inline]
+pub fn bspline4_d1(a: f32) -> [f32; 4] {
+    let b = 1.0 - a;
+    let a2 = a * a;
+    [
+        -0.5 * b * b,
+        0.5 * (3.0 * a2 - 4.0 * a),
+        0.5 * (-3.0 * a2 + 2.0 * a + 1.0),
+        0.5 * a2,
+    ]
+}
+
+/// Their second derivatives ([`isokit_field::filter::bspline_weights_d2`]).
+#[inline]
+pub fn bspline4_d2(a: f32) -> [f32; 4] {
+    [1.0 - a, 3.0 * a - 2.0, 1.0 - 3.0 * a, a]
+}
+
+/// `a · b` summed as `(x + z) + (y + w)`: one order on every platform (and in the WGSL
+/// twin), the order SSE2 sums in.
+#[inline]
+pub fn dot4(a: Vec4, b: Vec4) -> f32 {
+    let p = a * b;
+    (p.x + p.z) + (p.y + p.w)
+}
+
+/// The 4×4×4 samples around a located point (from its cell minus one along each axis) as
+/// one slice of the pool: row `(j, k)` (4 samples along x) starts at `side · (j + side · k)`.
+#[inline]
+fn taps_window<'p>(pool: &'p [f32], l: &Located) -> &'p [f32] {
+    let side = l.side;
+    let i0 = l.base
+        + (l.cell.x - 1) as usize
+        + side * ((l.cell.y - 1) as usize + side * (l.cell.z - 1) as usize);
+    &pool[i0..i0 + 3 * side * side + 3 * side + 4]
+}
+
+/// Row `(j, k)` of a [`taps_window`]: one 4-wide load.
+#[inline]
+fn taps_row(w: &[f32], side: usize, j: usize, k: usize) -> Vec4 {
+    let o = side * (j + side * k);
+    let r: &[f32; 4] = w[o..o + 4]
+        .try_into()
+        .unwrap_or_else(|_| unreachable!("a range of 4"));
+    Vec4::from_array(*r)
+}
+
+/// The tricubic B-spline at a located point by its 64 taps: the 16 rows of 4 samples
+/// (contiguous in the pool: one 4-wide load each) weighted by `wy · wz` and summed as
+/// vectors, then dotted with `wx`. The same field as the 8-fetch [`value_at`] (both are
+/// exact evaluations of the B-spline) to f32 rounding, at a quarter of the loads; the
+/// search and the shading use it.
+#[inline]
+pub fn tricubic_taps(pool: &[f32], l: &Located) -> f32 {
+    let (wy, wz) = (bspline4(l.frac.y), bspline4(l.frac.z));
+    let wx = Vec4::from_array(bspline4(l.frac.x));
+    let w = taps_window(pool, l);
+    let mut acc = Vec4::ZERO;
+    for (k, &zk) in wz.iter().enumerate() {
+        for (j, &yj) in wy.iter().enumerate() {
+            acc += taps_row(w, l.side, j, k) * (yj * zk);
+        }
+    }
+    dot4(acc, wx)
+}
+
+/// Value and gradient (stored units) of the tricubic B-spline from the same 64 taps in one
+/// pass: three row sums, weighted `wy·wz`, `wy'·wz`, `wy·wz'`.
+#[inline]
+pub fn tricubic_taps_gradient(pool: &[f32], l: &Located) -> (f32, Vec3) {
+    let f = l.frac;
+    let (wy, wz, dy, dz) = (
+        bspline4(f.y),
+        bspline4(f.z),
+        bspline4_d1(f.y),
+        bspline4_d1(f.z),
+    );
+    let (wx, dx) = (
+        Vec4::from_array(bspline4(f.x)),
+        Vec4::from_array(bspline4_d1(f.x)),
+    );
+    let w = taps_window(pool, l);
+    let (mut a0, mut a1, mut a2) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
+    for k in 0..4 {
+        for j in 0..4 {
+            let row = taps_row(w, l.side, j, k);
+            a0 += row * (wy[j] * wz[k]);
+            a1 += row * (dy[j] * wz[k]);
+            a2 += row * (wy[j] * dz[k]);
+        }
+    }
+    (
+        dot4(a0, wx),
+        Vec3::new(dot4(a0, dx), dot4(a1, wx), dot4(a2, wx)),
+    )
+}
+
+/// Value, gradient and Hessian (stored units) of the tricubic B-spline from the same 64
+/// taps in one pass: six row sums (`wy·wz`, `wy'·wz`, `wy·wz'`, `wy''·wz`, `wy·wz''`,
+/// `wy'·wz'`) dotted with `wx`, `wx'` or `wx''`.
+#[inline]
+pub fn tricubic_taps_hessian(pool: &[f32], l: &Located) -> (f32, Vec3, Mat3) {
+    let f = l.frac;
+    let (wy, wz) = (bspline4(f.y), bspline4(f.z));
+    let (dy, dz) = (bspline4_d1(f.y), bspline4_d1(f.z));
+    let (ey, ez) = (bspline4_d2(f.y), bspline4_d2(f.z));
+    let wx = Vec4::from_array(bspline4(f.x));
+    let dx = Vec4::from_array(bspline4_d1(f.x));
+    let ex = Vec4::from_array(bspline4_d2(f.x));
+    let w = taps_window(pool, l);
+    let mut a = [Vec4::ZERO; 6];
+    for k in 0..4 {
+        for j in 0..4 {
+            let row = taps_row(w, l.side, j, k);
+            a[0] += row * (wy[j] * wz[k]);
+            a[1] += row * (dy[j] * wz[k]);
+            a[2] += row * (wy[j] * dz[k]);
+            a[3] += row * (ey[j] * wz[k]);
+            a[4] += row * (wy[j] * ez[k]);
+            a[5] += row * (dy[j] * dz[k]);
+        }
+    }
+    let g = Vec3::new(dot4(a[0], dx), dot4(a[1], wx), dot4(a[2], wx));
+    let (hxy, hxz, hyz) = (dot4(a[1], dx), dot4(a[2], dx), dot4(a[5], wx));
+    let h = Mat3::from_cols(
+        Vec3::new(dot4(a[0], ex), hxy, hxz),
+        Vec3::new(hxy, dot4(a[3], wx), hyz),
+        Vec3::new(hxz, hyz, dot4(a[4], wx)),
+    );
+    (dot4(a[0], wx), g, h)
+}
+
+/// The reconstructed value the ray caster searches with: trilinear (one fetch) or the
+/// tricubic B-spline by its 64 taps ([`tricubic_taps`]).
+#[inline]
+pub fn sample_value(pool: &[f32], filter: u32, l: &Located) -> f32 {
+    if filter == FILTER_TRILINEAR {
+        return fetch(pool, l.side, l.base, l.cell, l.frac);
+    }
+    tricubic_taps(pool, l)
+}
+
+/// Gradient, and with `hessian` the Hessian (else zero), in grid units, as shading reads
+/// them: tricubic from the 64 taps in one pass ([`tricubic_taps_gradient`],
+/// [`tricubic_taps_hessian`]); trilinear as [`gradient_hessian_at`]. Half-resolution bricks
+/// are scaled back to grid units (gradient · 1/2, Hessian · 1/4).
+#[inline]
+pub fn sample_gradient_hessian(
+    pool: &[f32],
+    filter: u32,
+    l: &Located,
+    hessian: bool,
+) -> (Vec3, Mat3) {
+    let (g, h) = if filter == FILTER_TRILINEAR {
+        stored_gradient_hessian(pool, filter, l)
+    } else if hessian {
+        let (_, g, h) = tricubic_taps_hessian(pool, l);
+        (g, h)
+    } else {
+        (tricubic_taps_gradient(pool, l).1, Mat3::ZERO)
+    };
+    if l.half {
+        return (g * 0.5, h * 0.25);
+    }
+    (g, h)
+}
+
+/// A ray inside one resident block: what [`march_segment`] and [`refine`] sample, with
+/// what [`locate`] derives from the block alone computed once ([`SegmentRay::new`]).
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentRay {
     /// Ray origin, grid coordinates.
@@ -692,15 +1009,92 @@ pub struct SegmentRay {
     pub cell: IVec3,
     /// Its brick's slot.
     pub slot: u32,
+    /// The block's first and last sample corners (its box, clamped to the grid).
+    pub lo: IVec3,
+    /// See [`SegmentRay::lo`].
+    pub hi: IVec3,
+    /// Grid coordinates of the stored brick's first sample.
+    pub first: IVec3,
+    /// Where the segment starts: samples lie at `p0 + (t − t0)·d`, so that the rounding
+    /// of the far ray origin is shared by the segment's samples instead of jittering each
+    /// (the residual is then smooth in `t` to f32 precision near the block).
+    pub t0: f32,
+    /// `o + t0·d`.
+    pub p0: Vec3,
 }
 
 impl SegmentRay {
+    /// The ray `o + t·d` in block `cell`, whose brick sits in `slot`, its segment starting
+    /// at `t0`.
+    #[inline]
+    pub fn new(u: &Uniforms, o: Vec3, d: Vec3, cell: IVec3, slot: u32, t0: f32) -> Self {
+        let b = u.block as i32;
+        let top = IVec3::new(u.dims[0] as i32, u.dims[1] as i32, u.dims[2] as i32) - 1;
+        let lo = cell * b;
+        Self {
+            o,
+            d,
+            cell,
+            slot,
+            lo,
+            hi: (lo + IVec3::splat(b)).min(top),
+            first: cell / (u.brick / u.block) as i32 * u.brick as i32 - IVec3::ONE,
+            t0,
+            p0: o + t0 * d,
+        }
+    }
+
+    /// The ray's point at `t`: `p0 + (t − t0)·d`.
+    #[inline]
+    pub fn point(&self, t: f32) -> Vec3 {
+        self.p0 + (t - self.t0) * self.d
+    }
+
+    /// [`locate`] of [`SegmentRay::point`] at `t`, bit for bit, from the block's constants.
+    #[inline]
+    pub fn locate_at(&self, u: &Uniforms, t: f32) -> Located {
+        let p = self.point(t);
+        if self.slot & HALF_RESOLUTION != 0 {
+            return locate(u, self.slot, self.cell, p);
+        }
+        let q = p.clamp(self.lo.as_vec3(), self.hi.as_vec3());
+        let c = q.as_ivec3().clamp(self.lo, self.hi - IVec3::ONE);
+        let side = u.brick_side as usize;
+        Located {
+            base: self.slot as usize * channels(u) * side * side * side,
+            cell: c - self.first,
+            frac: q - c.as_vec3(),
+            p: q,
+            side,
+            half: false,
+        }
+    }
+
     #[inline]
     fn residual_at(&self, u: &Uniforms, pool: &[f32], t: f32, samples: &mut u32) -> f32 {
         *samples += 1;
-        let l = locate(u, self.slot, self.cell, self.o + t * self.d);
+        let l = self.locate_at(u, t);
         combined_residual(u, pool, u.filter, &l)
     }
+}
+
+/// The bound on the slope of the residual along the ray in a block, per voxel, that
+/// [`march_sphere`] steps by: `Σ |d_i| · slope_i` of the block's measured bounds
+/// ([`TraceData::block_info`]), or for a given bound `g` ([`Uniforms::delta`] > 0)
+/// `g · Σ |d_i|` unless the block's samples refute it (a neighbouring difference steeper
+/// than `g`: no field with that bound has such samples), then the measured one. Both times
+/// `1 +` [`SLOPE_MARGIN`].
+#[inline]
+pub fn ray_slope(u: &Uniforms, d: Vec3, info: [f32; 4]) -> f32 {
+    let a = d.abs();
+    let measured = a.x * info[0] + a.y * info[1] + a.z * info[2];
+    let given = u.delta;
+    let slope = if given > 0.0 && info[0].max(info[1]).max(info[2]) <= given {
+        given * (a.x + a.y + a.z)
+    } else {
+        measured
+    };
+    slope * (1.0 + SLOPE_MARGIN)
 }
 
 /// Combines the residuals `a' = s(a − ρ)` and `b'` of the two fields (see
@@ -749,15 +1143,16 @@ pub fn owner_is_b(u: &Uniforms, a: f32, b: f32) -> bool {
 }
 
 /// The residual of the (combined) field at a located point: `s(f − ρ)` of the single
-/// field, or [`combine`] of both fields' residuals (each reconstructed with `filter`). The
-/// combined field's value is `ρ + s·residual`; the ray caster only needs the residual.
+/// field, or [`combine`] of both fields' residuals (each reconstructed with `filter`,
+/// [`sample_value`]). The combined field's value is `ρ + s·residual`; the ray caster only
+/// needs the residual.
 #[inline]
 pub fn combined_residual(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -> f32 {
-    let a = residual(u, value_at(u, pool, filter, l));
+    let a = residual(u, sample_value(pool, filter, l));
     if u.combine == COMBINE_NONE {
         return a;
     }
-    let b = residual(u, value_at(u, pool, filter, &channel_b(u, l)));
+    let b = residual(u, sample_value(pool, filter, &channel_b(u, l)));
     combine(u, a, b)
 }
 
@@ -766,25 +1161,28 @@ pub fn combined_residual(u: &Uniforms, pool: &[f32], filter: u32, l: &Located) -
 /// difference those of the operand attaining the combination at the point (by the search
 /// filter's values), B's negated for a difference (its complement), with
 /// [`ID_SURFACE_B`] when B owns it; for a morph `(1 − t)·A + t·B` of both ([`ID_SURFACE`]).
+/// The Hessian only with [`FLAG_CURVATURE`] (zero without) ([`sample_gradient_hessian`]).
 pub fn owner_gradient_hessian(u: &Uniforms, pool: &[f32], l: &Located) -> (Vec3, Mat3, u32) {
+    let hess = u.flags & FLAG_CURVATURE != 0;
+    let derivs = |l: &Located| sample_gradient_hessian(pool, u.shading_filter, l, hess);
     if u.combine == COMBINE_NONE {
-        let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, l);
+        let (g, h) = derivs(l);
         return (g, h, ID_SURFACE);
     }
     let lb = channel_b(u, l);
     if u.combine == COMBINE_MORPH {
-        let (ga, ha) = gradient_hessian_at(u, pool, u.shading_filter, l);
-        let (gb, hb) = gradient_hessian_at(u, pool, u.shading_filter, &lb);
+        let (ga, ha) = derivs(l);
+        let (gb, hb) = derivs(&lb);
         let (wa, wb) = (1.0 - u.morph_t, u.morph_t);
         return (wa * ga + wb * gb, ha * wa + hb * wb, ID_SURFACE);
     }
-    let a = residual(u, value_at(u, pool, u.filter, l));
-    let b = residual(u, value_at(u, pool, u.filter, &lb));
+    let a = residual(u, sample_value(pool, u.filter, l));
+    let b = residual(u, sample_value(pool, u.filter, &lb));
     if !owner_is_b(u, a, b) {
-        let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, l);
+        let (g, h) = derivs(l);
         return (g, h, ID_SURFACE);
     }
-    let (g, h) = gradient_hessian_at(u, pool, u.shading_filter, &lb);
+    let (g, h) = derivs(&lb);
     if u.combine == COMBINE_DIFFERENCE {
         (-g, -h, ID_SURFACE_B)
     } else {
@@ -812,6 +1210,25 @@ pub enum Segment {
     },
 }
 
+/// A block whose first sample (at `t0`, residual `r < 0`) lies inside although it is not
+/// the ray's first: with caps on, every earlier sample of the ray was outside (an inside
+/// first sample would have been a cap), so the crossing lies at the face the ray entered by,
+/// between the previous block's last sample and this one. The two blocks evaluate the face
+/// from different cells (fraction 1 of the last cell against 0 of the next) and positions,
+/// so their residuals can disagree in sign by rounding where the surface meets the face;
+/// without this rule such a ray would step on inside the solid and miss it. The crossing is
+/// returned as the empty bracket `[t0, t0]` ([`refine`] keeps it). With caps off a ray may
+/// have started inside, and no crossing is claimed.
+#[inline]
+pub fn entry_crossing(u: &Uniforms, t0: f32, r: f32) -> Option<Segment> {
+    (u.flags & FLAG_CAPS != 0).then_some(Segment::Crossing {
+        ta: t0,
+        ra: 0.0,
+        tb: t0,
+        rb: r,
+    })
+}
+
 /// Samples the segment `[t0, t1]` of a block for the first crossing from outside to inside
 /// (see the module docs, step 4). `first` asks for the cap test on the first sample.
 pub fn march_segment(
@@ -825,8 +1242,13 @@ pub fn march_segment(
 ) -> Segment {
     let mut ta = t0;
     let mut ra = ray.residual_at(u, pool, t0, samples);
-    if first && ra < 0.0 {
-        return Segment::Cap;
+    if ra < 0.0 {
+        if first {
+            return Segment::Cap;
+        }
+        if let Some(entry) = entry_crossing(u, t0, ra) {
+            return entry;
+        }
     }
     let len = t1 - t0;
     if len.is_nan() || len <= 0.0 {
@@ -866,6 +1288,84 @@ pub fn march_segment(
     Segment::Empty
 }
 
+/// Sphere tracing (Hart 1996) of the segment `[t0, t1]` of a block for the first crossing
+/// from outside to inside, by the reconstruction's Lipschitz bound: from a sample with
+/// residual `r ≥ 0` the next lies `r / slope` further (`slope` from [`ray_slope`]), which
+/// no crossing can lie before where the bound holds; at least `min_step = 1 / (r0 · fine)`
+/// further, so every inside run of that length holds a sample, as in the fine rate of
+/// [`march_segment`]. A step that reaches `t1` ends the segment without a sample there
+/// (the bound says the rest is outside); the next block starts with its own. `first` asks
+/// for the cap test on the first sample, as [`march_segment`].
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the segment, its bound and the counter, as the shader passes them"
+)]
+pub fn march_sphere(
+    u: &Uniforms,
+    pool: &[f32],
+    ray: &SegmentRay,
+    t0: f32,
+    t1: f32,
+    first: bool,
+    slope: f32,
+    samples: &mut u32,
+) -> Segment {
+    let mut t = t0;
+    let mut r = ray.residual_at(u, pool, t0, samples);
+    if r < 0.0 {
+        if first {
+            return Segment::Cap;
+        }
+        if let Some(entry) = entry_crossing(u, t0, r) {
+            return entry;
+        }
+    }
+    let len = t1 - t0;
+    if len.is_nan() || len <= 0.0 {
+        return Segment::Empty;
+    }
+    let min_step = 1.0 / (u.r0 * u.fine as f32);
+    // Every step is at least `min_step` long (a bound on the loop, as in the shader).
+    let max_steps = (len / min_step).ceil() as u32 + 1;
+    for _ in 0..max_steps {
+        // At least the fine step, also for a NaN residual (NaN fails the comparison).
+        let sphere_step = r / slope;
+        let step = if sphere_step >= min_step {
+            sphere_step
+        } else {
+            min_step
+        };
+        let tn = t + step;
+        if tn >= t1 {
+            if step > min_step && r >= 0.0 {
+                // The bound keeps the rest of the segment outside.
+                return Segment::Empty;
+            }
+            let rn = ray.residual_at(u, pool, t1, samples);
+            if r >= 0.0 && rn < 0.0 {
+                return Segment::Crossing {
+                    ta: t,
+                    ra: r,
+                    tb: t1,
+                    rb: rn,
+                };
+            }
+            return Segment::Empty;
+        }
+        let rn = ray.residual_at(u, pool, tn, samples);
+        if r >= 0.0 && rn < 0.0 {
+            return Segment::Crossing {
+                ta: t,
+                ra: r,
+                tb: tn,
+                rb: rn,
+            };
+        }
+        (t, r) = (tn, rn);
+    }
+    Segment::Empty
+}
+
 /// The root of the linear interpolant between `(ta, ra)` and `(tb, rb)` (Eq. 6.4), or the
 /// midpoint when that is not a number in `[ta, tb]`.
 #[inline]
@@ -878,10 +1378,11 @@ pub fn secant(ta: f32, ra: f32, tb: f32, rb: f32) -> f32 {
     }
 }
 
-/// Refines a crossing (`ra >= 0 > rb`) with `refine_steps` steps of bisection or of the
-/// secant method (Illinois: an end kept twice has its residual halved for the next
-/// estimate), keeping the bracket, and returns the linear interpolation in the final
-/// bracket (002 Sec. 6.3.4).
+/// Refines a crossing (`ra >= 0 > rb`) with up to `refine_steps` steps of bisection or of
+/// the secant method (Illinois: an end kept twice has its residual halved for the next
+/// estimate), keeping the bracket, stopping early once an estimate lies within
+/// [`REFINE_TOLERANCE`] voxel of the surface, and returns the linear interpolation in the
+/// final bracket (002 Sec. 6.3.4).
 #[expect(
     clippy::too_many_arguments,
     reason = "the bracket ends and the ray, as the shader passes them"
@@ -896,8 +1397,16 @@ pub fn refine(
     mut rb: f32,
     samples: &mut u32,
 ) -> f32 {
+    if ta == tb {
+        // The empty bracket of a block entry ([`entry_crossing`]).
+        return ta;
+    }
     let (mut wa, mut wb) = (ra, rb);
     let mut last = 0i32;
+    // Residual per voxel of the first bracket: |rm| / slope estimates the distance to the
+    // crossing in voxels ([`REFINE_TOLERANCE`]).
+    let tol = REFINE_TOLERANCE * (ra - rb).abs() / (tb - ta).abs();
+    let tol = if tol.is_finite() { tol } else { 0.0 };
     for _ in 0..u.refine_steps {
         let tm = if u.flags & FLAG_SECANT == 0 {
             0.5 * (ta + tb)
@@ -905,6 +1414,7 @@ pub fn refine(
             secant(ta, wa, tb, wb)
         };
         let rm = ray.residual_at(u, pool, tm, samples);
+        let close = rm.abs() <= tol;
         if rm < 0.0 {
             (tb, rb, wb) = (tm, rm, rm);
             if last == 1 {
@@ -918,17 +1428,21 @@ pub fn refine(
             }
             last = -1;
         }
+        if close {
+            break;
+        }
     }
     secant(ta, ra, tb, rb)
 }
 
 /// The G-buffer sample at ray parameter `t` in a resident block: position, depth, and from
 /// the shading filter's gradient and Hessian (converted to world units) the outward normal,
-/// principal curvatures and direction. Flat gradients give the normal `−d` and zero
-/// curvature. With two fields, the owner's derivatives and id
+/// principal curvatures and direction (without [`FLAG_CURVATURE`] the normal only:
+/// curvatures 0, `dir1` any unit vector orthogonal to the normal). Flat gradients give the
+/// normal `−d` and zero curvature. With two fields, the owner's derivatives and id
 /// ([`owner_gradient_hessian`]).
 pub fn surface_sample(u: &Uniforms, pool: &[f32], ray: &SegmentRay, t: f32) -> GSample {
-    let l = locate(u, ray.slot, ray.cell, ray.o + t * ray.d);
+    let l = ray.locate_at(u, t);
     let (g, h, id) = owner_gradient_hessian(u, pool, &l);
     let inv = 1.0 / u.spacing;
     let inside = if u.inside_sign > 0.0 {
@@ -938,6 +1452,30 @@ pub fn surface_sample(u: &Uniforms, pool: &[f32], ray: &SegmentRay, t: f32) -> G
     };
     let position = v3(u.origin) + u.spacing * l.p;
     let depth = t * u.spacing;
+    if u.flags & FLAG_CURVATURE == 0 {
+        // The normal as `curvature_with` makes it (f64), curvatures left at 0.
+        let gs = (g * inv).as_dvec3() * f64::from(u.inside_sign);
+        let len = gs.length();
+        if g.is_finite() && len > f64::from(DEFAULT_MIN_GRADIENT) {
+            let normal = (gs / len).as_vec3();
+            return GSample {
+                position,
+                depth,
+                normal,
+                dir1: normal.any_orthonormal_vector(),
+                id,
+                ..GSample::default()
+            };
+        }
+        return GSample {
+            position,
+            depth,
+            normal: -ray.d,
+            dir1: ray.d.any_orthonormal_vector(),
+            id,
+            ..GSample::default()
+        };
+    }
     match curvature_with(g * inv, h * (inv * inv), inside, DEFAULT_MIN_GRADIENT) {
         Some(c) => GSample {
             position,
@@ -1015,13 +1553,24 @@ pub fn trace_pixel(
         if d.y > 0.0 { 1 } else { -1 },
         if d.z > 0.0 { 1 } else { -1 },
     );
+    let sphere = u.flags & FLAG_SPHERE != 0 && !data.block_info.is_empty();
+    let inv = inverse_direction(d);
     // Each step moves one block coordinate monotonically: at most the sum of the dims.
     let max_steps = u.block_dims.iter().sum::<u32>() + 3;
     for _ in 0..max_steps {
-        let (t_out, axis) = block_exit(u, cell, o, d);
-        let t1 = t_out.min(t_exit);
-        let range = data.block_range[block_index(u, cell)];
-        if block_active(u, range) {
+        let idx = block_index(u, cell);
+        // The skip distance is 0 exactly where `block_active` holds (it was computed by it,
+        // for these ranges); without it, the ranges decide.
+        let info = data.block_info.get(idx).copied();
+        let active = match info {
+            Some(i) => i[3] == 0.0,
+            None => block_active(u, data.block_range[idx]),
+        };
+        let mut exit = None;
+        if active {
+            let (t_out, axis) = block_exit_inv(u, cell, o, d, inv);
+            exit = Some((t_out, axis));
+            let t1 = t_out.min(t_exit);
             let brick = brick_of_block(u, cell);
             let slot = data.reference[brick];
             if slot == NOT_RESIDENT {
@@ -1036,14 +1585,18 @@ pub fn trace_pixel(
                 };
             }
             data.used[brick].store(1, Ordering::Relaxed);
-            let ray = SegmentRay { o, d, cell, slot };
+            let ray = SegmentRay::new(u, o, d, cell, slot, t_in);
             let caps = first && u.flags & FLAG_CAPS != 0;
             // A segment of zero length (the ray crosses a block edge or corner) holds no
             // crossing; only the cap test needs its sample.
-            let seg = if t1 > t_in || caps {
-                march_segment(u, data.pool, &ray, t_in, t1.max(t_in), caps, &mut samples)
-            } else {
+            let seg = if !(t1 > t_in || caps) {
                 Segment::Empty
+            } else if let (true, Some(info)) = (sphere, info) {
+                let slope = ray_slope(u, d, info);
+                let t1 = t1.max(t_in);
+                march_sphere(u, data.pool, &ray, t_in, t1, caps, slope, &mut samples)
+            } else {
+                march_segment(u, data.pool, &ray, t_in, t1.max(t_in), caps, &mut samples)
             };
             match seg {
                 Segment::Empty => {}
@@ -1063,8 +1616,8 @@ pub fn trace_pixel(
             }
         } else if first
             && u.flags & FLAG_CAPS != 0
-            && residual(u, range[0]) < 0.0
-            && residual(u, range[1]) < 0.0
+            && residual(u, data.block_range[idx][0]) < 0.0
+            && residual(u, data.block_range[idx][1]) < 0.0
         {
             // A skipped block entirely inside: its first sample would be inside too.
             return PixelResult::Done {
@@ -1073,10 +1626,21 @@ pub fn trace_pixel(
             };
         }
         first = false;
+        let k = info.map_or(0, |i| i[3] as i32);
+        let (t_out, axis, next) = if k >= 2 {
+            // Every block within k − 1 of this one is inactive: cross them at once.
+            jump(u, cell, k, o, d, inv, bd)
+        } else {
+            let (t_out, axis) = exit.unwrap_or_else(|| block_exit_inv(u, cell, o, d, inv));
+            let mut next = cell;
+            next[axis] += step[axis];
+            (t_out, axis, next)
+        };
+        let t1 = t_out.min(t_exit);
         if t1 >= t_exit {
             break;
         }
-        cell[axis] += step[axis];
+        cell = next;
         if cell[axis] < 0 || cell[axis] >= bd[axis] {
             break;
         }

@@ -127,6 +127,19 @@ pub(crate) fn trace_frame(
         );
         res.ranges_modified = pre.ranges.is_some();
     }
+    {
+        // Slope bounds and skip distances, sent when they change (the cache keeps them).
+        let ranges_now: &[[f32; 2]] = pre.ranges.as_deref().unwrap_or(&ranges);
+        let (info, changed) = res.cache.block_info(volume, ranges_now, &u);
+        if changed || !res.block_info_valid {
+            gpu.write(
+                &res.block_info,
+                0,
+                bytemuck::cast_slice(&gpu_block_info(info)),
+            );
+            res.block_info_valid = true;
+        }
+    }
     if pre.reference_changed && pre.loaded.is_empty() {
         gpu.write(
             &res.reference,
@@ -170,6 +183,7 @@ pub(crate) fn trace_frame(
                     &lists,
                     &states,
                     &gbuf,
+                    &res.block_info,
                 ],
             );
             (ubuf, pbuf, counters, lists, states, gbuf, bind)
@@ -328,6 +342,10 @@ pub(crate) struct Resident {
     /// True while `block_range` holds a downsampled assignment's ranges instead of the
     /// volume's own (restored by the next frame that does not use them).
     pub(crate) ranges_modified: bool,
+    /// Per block: slope bounds and skip distance ([`crate::kernel::TraceData::block_info`]).
+    pub(crate) block_info: wgpu::Buffer,
+    /// True once `block_info` holds what the cache computed last.
+    pub(crate) block_info_valid: bool,
 }
 
 impl GpuRenderer {
@@ -442,13 +460,17 @@ impl GpuRenderer {
             )?;
             let storage = wgpu::BufferUsages::STORAGE;
             let gpu = &self.gpu;
-            let (pool, reference, block_range) = scoped(gpu, "allocating the brick cache", || {
-                (
-                    gpu.buffer("brick pool", capacity as u64 * brick_bytes, storage),
-                    gpu.upload("brick reference", cache.reference(), storage),
-                    gpu.upload("block ranges", &ranges, storage),
-                )
-            })?;
+            let info_bytes = 16 * volume.block_ranges().len() as u64;
+            check_fits(&self.gpu, "the block slopes and distances", info_bytes)?;
+            let (pool, reference, block_range, block_info) =
+                scoped(gpu, "allocating the brick cache", || {
+                    (
+                        gpu.buffer("brick pool", capacity as u64 * brick_bytes, storage),
+                        gpu.upload("brick reference", cache.reference(), storage),
+                        gpu.upload("block ranges", &ranges, storage),
+                        gpu.buffer("block slopes and distances", info_bytes, storage),
+                    )
+                })?;
             self.resident = Some(Resident {
                 volume_id: volume.id(),
                 cache,
@@ -457,10 +479,20 @@ impl GpuRenderer {
                 block_range,
                 brick_samples,
                 ranges_modified: false,
+                block_info,
+                block_info_valid: false,
             });
         }
         Ok(())
     }
+}
+
+/// Slope bounds and skip distances as the kernel reads them: infinite slopes (a block
+/// with a non-finite sample) as `f32::MAX`, which WGSL can hold.
+pub(crate) fn gpu_block_info(info: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    info.iter()
+        .map(|i| i.map(|v| if v.is_finite() { v } else { f32::MAX }))
+        .collect()
 }
 
 /// Block ranges as the kernel reads them: `[f32::MAX, −f32::MAX]` for a block without

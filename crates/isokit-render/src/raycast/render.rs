@@ -2,8 +2,8 @@
 //! image (rayon over pixels) that call [`crate::kernel::trace_pixel`].
 
 use crate::kernel::{
-    self, COMBINE_NONE, FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_SECANT, FLAG_SKIP_EMPTY,
-    GSample, ID_CAP, PixelResult, Resume, TraceData, Uniforms,
+    self, COMBINE_NONE, FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_CURVATURE, FLAG_SECANT,
+    FLAG_SKIP_EMPTY, FLAG_SPHERE, GSample, ID_CAP, PixelResult, Resume, TraceData, Uniforms,
 };
 use crate::{BrickCache, GBuffer, RenderError, Volume, check_image_size};
 use glam::IVec3;
@@ -55,6 +55,33 @@ pub enum RefineMethod {
     /// Secant (regula falsi, Eq. 6.4) with the Illinois modification, keeping the bracket.
     #[default]
     Secant,
+}
+
+/// How rays search for the first crossing inside an active block.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Search {
+    /// Sphere tracing (Hart 1996) by the reconstruction's Lipschitz bound: from a sample
+    /// with residual `r > 0` the ray advances by `r / L` (at least the fine step
+    /// `1 / (r0 · fine)`), where `L` bounds the slope of the reconstructed field along the
+    /// ray in the block: measured from the samples per block ([`RenderOptions::lipschitz`]
+    /// `None`) or given. It never steps over a crossing where the bound holds, and finds
+    /// every inside run at least one fine step long.
+    #[default]
+    Sphere,
+    /// The adaptive fixed-rate search of 002 Sec. 6.3.3: `r0` samples per voxel, `fine`
+    /// times more where either end of a base interval is within `delta` of the isovalue.
+    Fixed,
+}
+
+impl std::str::FromStr for Search {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "sphere" | "sphere-trace" | "sphere_trace" => Ok(Self::Sphere),
+            "fixed" | "fixed-rate" | "adaptive" => Ok(Self::Fixed),
+            _ => Err(format!("unknown search {s:?} (expected sphere or fixed)")),
+        }
+    }
 }
 
 /// What to do when the bricks a frame needs do not all fit the brick cache.
@@ -123,6 +150,18 @@ pub struct RenderOptions {
     /// What a cache too small for the active bricks does (default
     /// [`CachePolicy::Passes`]).
     pub cache_policy: CachePolicy,
+    /// How rays search for the crossing in an active block (default [`Search::Sphere`]).
+    pub search: Search,
+    /// A bound on `|∇f|` in field units per world unit used by [`Search::Sphere`] instead
+    /// of the bounds measured from the samples per block (`None`, the default). Blocks
+    /// whose samples refute it (a difference between neighbouring samples steeper than
+    /// `L · spacing`) use their measured bound instead.
+    pub lipschitz: Option<f32>,
+    /// Compute the Hessian and principal curvatures at each hit (default true). Off, the
+    /// G-buffer holds positions, depths and normals only (curvatures 0, `dir1` any unit
+    /// vector orthogonal to the normal): enough for Phong and the other modes that read no
+    /// curvature, and cheaper.
+    pub curvature: bool,
 }
 
 impl Default for RenderOptions {
@@ -141,6 +180,9 @@ impl Default for RenderOptions {
             skip_empty: true,
             caps: true,
             cache_policy: CachePolicy::Passes,
+            search: Search::Sphere,
+            lipschitz: None,
+            curvature: true,
         }
     }
 }
@@ -179,6 +221,15 @@ impl RenderOptions {
                 "delta",
                 d,
                 "must be finite and non-negative",
+            ));
+        }
+        if let Some(l) = self.lipschitz
+            && !(l.is_finite() && l > 0.0)
+        {
+            return Err(RenderError::bad(
+                "lipschitz",
+                l,
+                "the bound on |∇f| must be finite and positive",
             ));
         }
         if !(self.gradient_scale.is_finite() && self.gradient_scale > 0.0) {
@@ -273,14 +324,22 @@ pub fn uniforms(
         },
         r0: opts.r0,
         fine: opts.fine,
-        delta: opts.delta_for(volume),
+        delta: match opts.search {
+            Search::Fixed => opts.delta_for(volume),
+            Search::Sphere => opts.lipschitz.map_or(0.0, |l| l * volume.spacing()),
+        },
         refine_steps: opts.refine_steps,
         flags: if opts.skip_empty { FLAG_SKIP_EMPTY } else { 0 }
             | if opts.caps { FLAG_CAPS } else { 0 }
             | match opts.refine {
                 RefineMethod::Bisection => 0,
                 RefineMethod::Secant => FLAG_SECANT,
-            },
+            }
+            | match opts.search {
+                Search::Fixed => 0,
+                Search::Sphere => FLAG_SPHERE,
+            }
+            | if opts.curvature { FLAG_CURVATURE } else { 0 },
         filter: opts.filter.code(),
         shading_filter: opts.shading_filter.code(),
         combine: volume.combine().map_or(COMBINE_NONE, |c| c.code()),
@@ -455,6 +514,10 @@ pub struct RenderStats {
     pub passes: u32,
     /// Active bricks held at half resolution ([`CachePolicy::Downsample`]).
     pub bricks_downsampled: usize,
+    /// Active blocks whose samples refute the given bound [`RenderOptions::lipschitz`]
+    /// (a difference of neighbouring samples steeper than `L · spacing`): sphere tracing
+    /// steps by their measured bounds instead. 0 without a given bound.
+    pub lipschitz_refuted: usize,
     /// Wall-clock seconds of the frame (cache updates and tracing).
     pub seconds: f64,
 }
@@ -670,6 +733,18 @@ pub(crate) fn load_requested(
     Ok(loaded)
 }
 
+/// Active blocks whose samples refute a given Lipschitz bound ([`kernel::ray_slope`]).
+pub(crate) fn lipschitz_refuted(u: &Uniforms, ranges: &[[f32; 2]], info: &[[f32; 4]]) -> usize {
+    if u.flags & FLAG_SPHERE == 0 || u.delta <= 0.0 {
+        return 0;
+    }
+    ranges
+        .iter()
+        .zip(info)
+        .filter(|(r, i)| kernel::block_active(u, **r) && i[0].max(i[1]).max(i[2]) > u.delta)
+        .count()
+}
+
 /// The counters of a finished frame (shared by the twins).
 #[expect(
     clippy::too_many_arguments,
@@ -705,6 +780,7 @@ pub(crate) fn frame_stats(
         evictions: after.evictions - before.evictions,
         passes,
         bricks_downsampled: pre.downsampled,
+        lipschitz_refuted: 0,
         seconds,
     }
 }
@@ -725,20 +801,69 @@ fn trace_frame(
     let ranges = volume.trace_ranges(u.iso, u.inside_sign);
     let pre = prefetch(volume, &ranges, cache, camera, &u, policy, |_, _| {});
     let ranges: &[[f32; 2]] = pre.ranges.as_deref().unwrap_or(&ranges);
+    // Slope bounds and skip distances: kept by the cache while the isovalue and what it
+    // stores stay the same.
+    cache.block_info(volume, ranges, &u);
+    let refuted = lipschitz_refuted(&u, ranges, cache.current_block_info());
 
-    // 3–4. Passes.
-    let mut pixels = vec![GSample::default(); w * h];
-    let mut samples = vec![0u32; w * h];
+    // 3–4. Passes. The first traces every ray, each writing its own pixel; later ones the
+    // rays that waited for a brick.
+    let n = w * h;
+    let mut pixels = Vec::with_capacity(n);
+    let mut samples = Vec::with_capacity(n);
     let requests: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
     let used: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
-    let mut pending: Vec<(u32, Option<Resume>)> = (0..(w * h) as u32).map(|i| (i, None)).collect();
-    let mut passes = 0u32;
+    let waiting = std::sync::Mutex::new(Vec::new());
+    let mut passes = 1u32;
+    {
+        let data = TraceData {
+            pool: cache.pool(),
+            reference: cache.reference(),
+            block_range: ranges,
+            block_info: cache.current_block_info(),
+            requests: &requests,
+            used: &used,
+        };
+        (0..n as u32)
+            .into_par_iter()
+            .with_min_len(64)
+            .map(|i| {
+                let (p, sub) = (i / u.subpixels, i % u.subpixels);
+                let (px, py) = (p % u.width, p / u.width);
+                match kernel::trace_pixel(&u, &data, px, py, sub, None) {
+                    PixelResult::Done { sample, samples } => (sample, samples),
+                    PixelResult::Suspended { resume, samples } => {
+                        let mut list = waiting.lock().unwrap_or_else(|e| e.into_inner());
+                        list.push((i, Some(resume)));
+                        (GSample::default(), samples)
+                    }
+                }
+            })
+            .unzip_into_vecs(&mut pixels, &mut samples);
+    }
+    let mut pending: Vec<(u32, Option<Resume>)> =
+        waiting.into_inner().unwrap_or_else(|e| e.into_inner());
+    pending.sort_unstable_by_key(|&(i, _)| i);
     loop {
+        for (n, flag) in used.iter().enumerate() {
+            if flag.swap(0, Ordering::Relaxed) != 0 {
+                cache.touch(n);
+            }
+        }
+        if pending.is_empty() {
+            break;
+        }
+        load_requested(
+            volume,
+            cache,
+            requests.iter().map(|r| r.swap(0, Ordering::Relaxed)),
+        )?;
         passes += 1;
         let data = TraceData {
             pool: cache.pool(),
             reference: cache.reference(),
             block_range: ranges,
+            block_info: cache.current_block_info(),
             requests: &requests,
             used: &used,
         };
@@ -765,19 +890,6 @@ fn trace_frame(
                 }
             }
         }
-        for (n, flag) in used.iter().enumerate() {
-            if flag.swap(0, Ordering::Relaxed) != 0 {
-                cache.touch(n);
-            }
-        }
-        if pending.is_empty() {
-            break;
-        }
-        load_requested(
-            volume,
-            cache,
-            requests.iter().map(|r| r.swap(0, Ordering::Relaxed)),
-        )?;
     }
     let stats = frame_stats(
         volume,
@@ -790,6 +902,10 @@ fn trace_frame(
         passes,
         t0.elapsed().as_secs_f64(),
     );
+    let stats = RenderStats {
+        lipschitz_refuted: refuted,
+        ..stats
+    };
     Ok(Frame {
         gbuffer: GBuffer::new(w as u32, u.height, pixels, samples),
         stats,
