@@ -38,6 +38,7 @@ mod job;
 pub mod mesh;
 pub mod morton;
 pub mod primitives;
+pub mod profile;
 pub mod rng;
 pub mod transform;
 
