@@ -299,7 +299,7 @@ impl Polygon {
         let lo = v.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
         let hi = v.iter().fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
         let scale = (hi - lo).max_element();
-        if !(area2.abs() > 1e-12 * scale * scale) {
+        if area2.is_nan() || area2.abs() <= 1e-12 * scale * scale {
             return Err(FieldError::bad(
                 "points",
                 points.len(),
