@@ -7,6 +7,7 @@ use crate::node::Node;
 use isokit_render::ShadingMode;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The scene format version this library reads and writes.
@@ -149,6 +150,13 @@ pub struct SceneFile {
     /// The scene format's version (default and only version: 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub version: Option<u32>,
+    /// Named numbers (`{"r": 0.3}`) that any number of the scene may reference as the string
+    /// `"$r"` (numbers only: not vectors, nodes or names). [`parse`] substitutes them before
+    /// reading the rest, so the tree holds their values; the table is kept for front ends
+    /// that offer the parameters as sliders and re-read the scene with
+    /// [`parse_with_params`].
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub params: BTreeMap<String, f64>,
     /// The shape tree.
     pub shape: Node,
     /// Camera of the renderer.
@@ -170,6 +178,7 @@ impl SceneFile {
     pub fn new(shape: Node) -> Self {
         Self {
             version: None,
+            params: BTreeMap::new(),
             shape,
             camera: None,
             lights: Vec::new(),
@@ -220,7 +229,19 @@ impl SceneFormat {
 /// is read into the same JSON value first). Errors name `file`, the node path
 /// (`shape.union[1].sphere.radius`) and the problem.
 pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, SceneError> {
-    let value: serde_json::Value = match format {
+    parse_with_params(text, format, file, &BTreeMap::new())
+}
+
+/// [`parse`] with some of the scene's `params` given other values (a slider moved):
+/// `overrides` names parameters the scene declares (others are an error) and their values
+/// (finite).
+pub fn parse_with_params(
+    text: &str,
+    format: SceneFormat,
+    file: &str,
+    overrides: &BTreeMap<String, f64>,
+) -> Result<SceneFile, SceneError> {
+    let mut value: serde_json::Value = match format {
         SceneFormat::Json => serde_json::from_str(text)
             .map_err(|e| SceneError::new(file, "", format!("invalid JSON: {e}")))?,
         SceneFormat::Toml => {
@@ -256,6 +277,8 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
             "a scene is a table with the key `shape`",
         ));
     }
+    crate::params::substitute(&mut value, overrides)
+        .map_err(|(node, message)| SceneError::new(file, &node, message))?;
     let scene: SceneFile = serde_path_to_error::deserialize(value).map_err(|e| {
         let node = e.path().to_string();
         let node = if node == "." { String::new() } else { node };
@@ -305,5 +328,7 @@ pub fn json_schema() -> serde_json::Value {
         "https://example.invalid/isokit/scene.schema.json".into(),
     );
     schema.insert("title".to_owned(), "isokit scene".into());
-    serde_json::to_value(schema).unwrap_or_default()
+    let mut v = serde_json::to_value(schema).unwrap_or_default();
+    crate::node::add_color_to_schema(&mut v);
+    v
 }
