@@ -41,6 +41,31 @@ fn example_scenes_mesh_watertight_and_report_stats() {
     }
 }
 
+/// The vocabulary's example parts (a bolt flange from a circular array of holes, a revolved
+/// vase with a twisted shell, an extruded gear profile) mesh watertight with their genus.
+#[test]
+fn vocabulary_example_parts_mesh_watertight() {
+    let d = scratch("vocab_examples");
+    for (scene, genus) in [("flange.json", 7), ("vase.json", 0), ("gear.json", 1)] {
+        let out = d.join(format!("{scene}.obj"));
+        let o = isokit_ok(&[
+            "scene",
+            &example(scene),
+            "-o",
+            out.to_str().unwrap(),
+            "--res",
+            "64",
+            "--stats",
+        ]);
+        let j = json(&o);
+        assert!(j["triangles"].as_u64().unwrap() > 1000, "{scene}");
+        let mesh = isokit::io::read_mesh(&out).unwrap();
+        let r = mesh.validate();
+        assert!(r.watertight && r.consistently_oriented, "{scene}: {r}");
+        assert_eq!(r.genus(), Some(genus), "{scene}");
+    }
+}
+
 #[test]
 fn scene_to_volume_then_mesh_round_trip() {
     let d = scratch("volume");

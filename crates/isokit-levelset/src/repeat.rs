@@ -378,8 +378,32 @@ impl<F: Field> CircularArray<F> {
             let e1 = a.any_orthonormal_vector();
             (e1, a.cross(e1))
         };
+        // About the z axis, a box unbounded in z only (a 2D profile's, z-invariant) turns
+        // within its z range: the ring is computed on its xy-extent at z = 0, then the z range
+        // is put back.
+        let about_z = a == DVec3::Z;
+        let xy_finite = |b: &Aabb| {
+            about_z
+                && !b.is_empty()
+                && [b.min.x, b.min.y, b.max.x, b.max.y]
+                    .iter()
+                    .all(|v| v.is_finite())
+        };
+        let flat = |b: &Aabb| -> (Aabb, Option<(f32, f32)>) {
+            if !b.is_finite() && xy_finite(b) {
+                let lo = Vec3::new(b.min.x, b.min.y, 0.0);
+                let hi = Vec3::new(b.max.x, b.max.y, 0.0);
+                (Aabb::new(lo, hi), Some((b.min.z, b.max.z)))
+            } else {
+                (*b, None)
+            }
+        };
         let dbox = inner
             .distance_box()
+            .map(|d| DistanceBox {
+                aabb: flat(&d.aabb).0,
+                slack: d.slack,
+            })
             .filter(|d| d.aabb.is_finite() && !d.aabb.is_empty() && d.slack.is_finite());
         let sector = std::f64::consts::TAU / count as f64;
         // The wedge of the box's corners seen from the axis (a convex box's angular extent is
@@ -428,10 +452,36 @@ impl<F: Field> CircularArray<F> {
             let pad = 1e-7 * lo.abs().max(hi.abs()).max_element();
             Aabb::new((lo - pad).as_vec3(), (hi + pad).as_vec3())
         };
-        let bounds = ring(&inner.bounds());
-        let ring_dbox = dbox.map(|d| DistanceBox {
-            aabb: ring(&d.aabb),
-            slack: d.slack,
+        // `ring` of a box flattened by `flat`, with its z range put back.
+        let ring_z = |b: &Aabb| -> Aabb {
+            match flat(b) {
+                (f, Some((z0, z1))) => {
+                    let r = ring(&f);
+                    Aabb::new(
+                        Vec3::new(r.min.x, r.min.y, z0),
+                        Vec3::new(r.max.x, r.max.y, z1),
+                    )
+                }
+                (f, None) => ring(&f),
+            }
+        };
+        let bounds = ring_z(&inner.bounds());
+        let unbounded_z = inner
+            .distance_box()
+            .is_some_and(|d| flat(&d.aabb).1.is_some());
+        let ring_dbox = dbox.map(|d| {
+            let r = ring(&d.aabb);
+            DistanceBox {
+                aabb: if unbounded_z {
+                    Aabb::new(
+                        Vec3::new(r.min.x, r.min.y, f32::NEG_INFINITY),
+                        Vec3::new(r.max.x, r.max.y, f32::INFINITY),
+                    )
+                } else {
+                    r
+                },
+                slack: d.slack,
+            }
         });
         let exact =
             inner.is_exact() && (count == 1 || wedge.is_some_and(|(_, h)| 2.0 * h < sector));

@@ -373,6 +373,48 @@ fn circular_arrays_equal_the_union_of_their_copies() {
     }
 }
 
+/// A ring of 2D profiles about z (a gear's teeth): bounded in x and y though the profile
+/// is z-invariant, exact while each tooth stays inside its sector, and equal to the minimum
+/// over the copies.
+#[test]
+fn circular_arrays_of_profiles_are_bounded_in_the_plane() {
+    let tooth = Polygon::new(&[
+        Vec2::new(0.75, -0.09),
+        Vec2::new(0.98, -0.05),
+        Vec2::new(0.98, 0.05),
+        Vec2::new(0.75, 0.09),
+    ])
+    .unwrap();
+    let ring = CircularArray::new(tooth.clone(), 12, Vec3::Z).unwrap();
+    let b = ring.bounds();
+    assert!(
+        b.min.x >= -1.0 && b.max.x <= 1.0 && b.min.y >= -1.0 && b.max.y <= 1.0,
+        "{b:?}"
+    );
+    assert!(b.min.x < -0.9 && b.max.y > 0.9, "{b:?}");
+    assert!(
+        b.min.z == f32::NEG_INFINITY && b.max.z == f32::INFINITY,
+        "{b:?}"
+    );
+    assert!(ring.is_exact());
+    let mut rng = SplitMix64::new(12);
+    for _ in 0..2000 {
+        let p = random_in(&mut rng, Vec3::splat(-1.5), Vec3::splat(1.5));
+        let brute = (0..12)
+            .map(|j| {
+                let ang = -std::f64::consts::TAU * j as f64 / 12.0;
+                let q = glam::DQuat::from_rotation_z(ang) * p.as_dvec3();
+                tooth.value(q.as_vec3())
+            })
+            .fold(f32::INFINITY, f32::min);
+        assert!((ring.value(p) - brute).abs() < 2e-6, "{p}");
+        assert!(ring.lower_bound(p) <= ring.value(p) + 1e-6);
+    }
+    // Extruded, the ring is a bounded solid.
+    let gear = Extrude::new(ring, 0.3, 0.0).unwrap();
+    assert!(gear.bounds().is_finite());
+}
+
 /// A point map (a deformation's forward or inverse map).
 type Map = Box<dyn Fn(DVec3) -> DVec3>;
 
