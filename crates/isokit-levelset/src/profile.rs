@@ -168,7 +168,11 @@ impl<F: Field> Field for Extrude<F> {
 /// bounds): the nearest point of a solid of revolution lies in the point's own meridian
 /// half-plane. Where the profile crosses the axis the part beyond it is cut off, and the
 /// value is a bound (a point of the profile across the axis is nearer in the meridian plane
-/// than in space). Lipschitz: the profile's (`(ρ, z)` is a 1-Lipschitz map). Bounds: the
+/// than in space). A profile whose boundary runs *along* the axis (an edge at
+/// `x = −offset`, as a closed vase's outline drawn to the axis has) is neither: the value is
+/// `−ρ` beside the axis and 0 on it, a seam inside the solid that a mesher takes for surface;
+/// draw such a profile across the axis instead (to `x < −offset`), which is a bound and has
+/// no seam. Lipschitz: the profile's (`(ρ, z)` is a 1-Lipschitz map). Bounds: the
 /// square of the largest radius times the profile's `y` range.
 #[derive(Clone, Debug)]
 pub struct Revolve<F> {

@@ -330,5 +330,77 @@ pub fn json_schema() -> serde_json::Value {
     schema.insert("title".to_owned(), "isokit scene".into());
     let mut v = serde_json::to_value(schema).unwrap_or_default();
     crate::node::add_color_to_schema(&mut v);
+    add_param_refs(&mut v);
     v
+}
+
+/// Lets every number of a generated schema be a parameter reference (`"$r"`, `$defs.Param`)
+/// as [`parse`] allows, except in the `params` table itself; the wrapper keeps the number's
+/// description and default.
+fn add_param_refs(schema: &mut serde_json::Value) {
+    use serde_json::{Value, json};
+    fn is_number(v: &Value) -> bool {
+        let num = |t: &Value| matches!(t.as_str(), Some("number" | "integer"));
+        match v.get("type") {
+            Some(Value::Array(ts)) => ts.iter().any(num),
+            Some(t) => num(t),
+            None => false,
+        }
+    }
+    fn walk(v: &mut Value) {
+        let number = is_number(v);
+        match v {
+            Value::Object(o) => {
+                if number {
+                    let mut wrapper = serde_json::Map::new();
+                    for key in ["description", "default"] {
+                        if let Some(x) = o.remove(key) {
+                            wrapper.insert(key.to_owned(), x);
+                        }
+                    }
+                    let number = Value::Object(std::mem::take(o));
+                    wrapper.insert(
+                        "anyOf".to_owned(),
+                        json!([number, {"$ref": "#/$defs/Param"}]),
+                    );
+                    *o = wrapper;
+                    return;
+                }
+                for x in o.values_mut() {
+                    walk(x);
+                }
+            }
+            Value::Array(a) => a.iter_mut().for_each(walk),
+            _ => {}
+        }
+    }
+    let Some(root) = schema.as_object_mut() else {
+        return;
+    };
+    let params = root
+        .get_mut("properties")
+        .and_then(|p| p.as_object_mut())
+        .and_then(|p| p.remove("params"));
+    let mut whole = Value::Object(std::mem::take(root));
+    walk(&mut whole);
+    if let Value::Object(o) = whole {
+        *root = o;
+    }
+    if let (Some(p), Some(props)) = (
+        params,
+        root.get_mut("properties").and_then(|p| p.as_object_mut()),
+    ) {
+        props.insert("params".to_owned(), p);
+    }
+    if let Some(defs) = root.get_mut("$defs").and_then(|d| d.as_object_mut()) {
+        defs.insert(
+            "Param".to_owned(),
+            json!({
+                "description": "A reference to a number of the scene's `params` table, \
+                    e.g. \"$r\" for {\"params\": {\"r\": 0.3}}: allowed wherever a number is.",
+                "type": "string",
+                "pattern": "^\\$[A-Za-z_][A-Za-z0-9_]*$",
+            }),
+        );
+    }
 }
