@@ -43,9 +43,9 @@ def slab(radius, z0, z1, x=0.0, y=0.0):
     return mf.Manifold.cylinder(z1 - z0, radius, -1.0, SEGMENTS).translate([x, y, z0])
 
 
-def test_flange(isokit, tmp_path):
-    p = example("flange.json")["params"]
-    ours, stats = run_example(isokit, tmp_path, "flange.json")
+def flange_reference(scene):
+    """The flange as manifold3d booleans of cylinders."""
+    p = scene["params"]
     h = p["plate"]
     body = slab(1.0, -h / 2, h / 2) + slab(0.42, 0.0, 0.4)
     cut = slab(0.25, -1.0, 1.0)
@@ -53,28 +53,31 @@ def test_flange(isokit, tmp_path):
         a = 2 * math.pi * j / p["bolts"]
         r = p["bolt_circle"]
         cut += slab(p["bolt_radius"], -0.5, 0.5, r * math.cos(a), r * math.sin(a))
-    compare("flange", ours, manifold_mesh(body - cut), stats)
+    return body - cut
 
 
-def test_gear(isokit, tmp_path):
-    p = example("gear.json")["params"]
-    ours, stats = run_example(isokit, tmp_path, "gear.json")
-    tooth = [[0.75, -0.09], [0.98, -0.05], [0.98, 0.05], [0.75, 0.09]]
-    profile = mf.CrossSection.circle(0.8, SEGMENTS)
+def gear_reference(scene):
+    """The gear as manifold3d's 2D booleans, extruded."""
+    p = scene["params"]
+    disk, teeth = scene["shape"]["extrude"]["of"]["difference"][0]["union"]
+    tooth = teeth["circular_array"]["of"]["polygon"]["points"]
+    profile = mf.CrossSection.circle(disk["circle"]["radius"], SEGMENTS)
     for j in range(p["teeth"]):
         profile += mf.CrossSection([tooth]).rotate(360.0 * j / p["teeth"])
     profile -= mf.CrossSection.circle(p["bore"], SEGMENTS)
     t = p["thickness"]
-    ref = profile.extrude(t).translate([0.0, 0.0, -t / 2])
-    compare("gear", ours, manifold_mesh(ref), stats)
+    return profile.extrude(t).translate([0.0, 0.0, -t / 2])
 
 
-def test_vase_body(isokit, tmp_path):
-    scene = example("vase.json")
+def vase_body(scene):
+    """The vase's part under the shell: the revolved profile ∩ the twisted hexagonal prism."""
+    return scene["shape"]["difference"][0]["onion"]["of"]
+
+
+def vase_body_reference(scene):
+    """The vase's body as manifold3d's revolve ∩ its twisted extrusion."""
     rate = scene["params"]["twist"]
-    # The part under the shell: the revolved profile ∩ the twisted hexagonal prism.
-    body = scene["shape"]["difference"][0]["onion"]["of"]
-    ours, stats = run_example(isokit, tmp_path, "vase.json", shape=body)
+    body = vase_body(scene)
     revolved, twisted = body["intersection"]
     points = revolved["revolve"]["of"]["polygon"]["points"]
     prism = twisted["twist"]["of"]["extrude"]
@@ -90,5 +93,22 @@ def test_vase_body(isokit, tmp_path):
         .extrude(height, 256, total)
         .translate([0.0, 0.0, -height / 2])
     )
-    ref = mf.CrossSection([points]).revolve(2 * SEGMENTS) ^ twisted_ref
-    compare("vase body", ours, manifold_mesh(ref), stats)
+    return mf.CrossSection([points]).revolve(2 * SEGMENTS) ^ twisted_ref
+
+
+def test_flange(isokit, tmp_path):
+    ours, stats = run_example(isokit, tmp_path, "flange.json")
+    ref = flange_reference(example("flange.json"))
+    compare("flange", ours, manifold_mesh(ref), stats)
+
+
+def test_gear(isokit, tmp_path):
+    ours, stats = run_example(isokit, tmp_path, "gear.json")
+    ref = gear_reference(example("gear.json"))
+    compare("gear", ours, manifold_mesh(ref), stats)
+
+
+def test_vase_body(isokit, tmp_path):
+    scene = example("vase.json")
+    ours, stats = run_example(isokit, tmp_path, "vase.json", shape=vase_body(scene))
+    compare("vase body", ours, manifold_mesh(vase_body_reference(scene)), stats)
