@@ -509,8 +509,8 @@ pub struct RevolveNode {
     #[serde(default, skip_serializing_if = "is_default")]
     pub offset: f32,
     /// The 2D profile: its x is the distance from the z axis (less `offset`), its y is z.
-    /// A profile that closes on the axis must reach across it (to `x < −offset`): an edge
-    /// lying on the axis leaves a seam of zeros there.
+    /// A profile that closes on the axis must reach across it (to `x < −offset`): one with
+    /// an edge lying on the axis is refused (the axis would be a seam of zeros).
     pub of: Box<Node>,
 }
 

@@ -326,3 +326,47 @@ fn scene_file_forms_equal_the_constructors() {
     .unwrap();
     assert_eq!(back.shape, built);
 }
+
+/// A profile drawn *to* the revolve axis (an edge on it) would leave a seam of zeros inside
+/// the solid: refused with the fix named. Drawn across the axis, crossing it, or touching it
+/// at one point (a horn torus), it is accepted.
+#[test]
+fn revolving_a_profile_with_an_edge_on_the_axis_is_refused() {
+    for (profile, offset) in [
+        (
+            r#"{"polygon": {"points": [[0, -0.8], [0.5, -0.8], [0.4, 0.8], [0, 0.8]]}}"#,
+            0.0,
+        ),
+        (
+            r#"{"rectangle": {"half": [0.5, 1], "center": [0.5, 0]}}"#,
+            0.0,
+        ),
+        (
+            r#"{"rectangle": {"half": [0.5, 1], "center": [-0.5, 0]}}"#,
+            1.0,
+        ),
+    ] {
+        let e = json_err(&format!(
+            r#"{{"shape": {{"revolve": {{"offset": {offset}, "of": {profile}}}}}}}"#
+        ));
+        assert_eq!(e.node, "shape.revolve.of", "{e}");
+        assert!(e.message.contains("across the axis"), "{e}");
+    }
+    for (profile, offset) in [
+        (
+            r#"{"polygon": {"points": [[-0.1, -0.8], [0.5, -0.8], [0.4, 0.8], [-0.1, 0.8]]}}"#,
+            0.0,
+        ),
+        (r#"{"rectangle": {"half": [0.5, 1]}}"#, 0.0),
+        (r#"{"circle": {"radius": 0.5, "center": [0.5, 0]}}"#, 0.0),
+        (r#"{"circle": {"radius": 0.25}}"#, 1.0),
+    ] {
+        let s = json(&format!(
+            r#"{{"shape": {{"revolve": {{"offset": {offset}, "of": {profile}}}}}}}"#
+        ));
+        assert!(
+            s.value(Vec3::new(0.2 + offset, 0.0, 0.0)) < 0.0,
+            "{profile}"
+        );
+    }
+}
