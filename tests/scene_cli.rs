@@ -145,3 +145,62 @@ fn scene_and_mesh_errors_are_one_clear_line() {
     let o = isokit(&["mesh", "missing.nrrd", "-o", out.to_str().unwrap()]);
     assert_clear_error(&o, "missing.nrrd");
 }
+
+/// A scene with coloured nodes meshed to PLY carries each part's colour on its vertices
+/// (8-bit sRGB): the flange's bolt holes in theirs, its body in its own.
+#[test]
+fn coloured_parts_reach_the_ply_vertices() {
+    let d = scratch("vocab_colours");
+    let out = d.join("flange.ply");
+    isokit_ok(&[
+        "scene",
+        &example("flange.json"),
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "48",
+    ]);
+    let bytes = std::fs::read(&out).unwrap();
+    let end = b"end_header\n";
+    let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let header = String::from_utf8_lossy(&bytes[..at]);
+    assert!(header.contains("property uchar red\nproperty uchar green\nproperty uchar blue\n"));
+    let n: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let srgb = |x: f32| {
+        let s = if x <= 0.003_130_8 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0).round() as u8
+    };
+    let holes = [0.85f32, 0.35, 0.1].map(srgb);
+    let body = [0.72f32, 0.72, 0.76].map(srgb);
+    let (mut in_holes, mut in_body) = (0, 0);
+    for i in 0..n {
+        let rec = &bytes[at + 15 * i..at + 15 * (i + 1)];
+        let rgb = [rec[12], rec[13], rec[14]];
+        if rgb == holes {
+            in_holes += 1;
+            // A hole's wall is within a bolt radius (and a voxel) of the bolt circle.
+            let x = f32::from_le_bytes(rec[0..4].try_into().unwrap());
+            let y = f32::from_le_bytes(rec[4..8].try_into().unwrap());
+            let r = x.hypot(y);
+            assert!((r - 0.7).abs() < 0.08 + 0.1, "hole vertex at radius {r}");
+        } else if rgb == body {
+            in_body += 1;
+        }
+    }
+    assert!(
+        in_holes > 50 && in_body > 500,
+        "holes {in_holes}, body {in_body} of {n}"
+    );
+    let mesh = isokit::io::read_mesh(&out).unwrap();
+    assert_eq!(mesh.positions.len(), n);
+    assert!(mesh.validate().watertight);
+}
