@@ -41,6 +41,31 @@ fn example_scenes_mesh_watertight_and_report_stats() {
     }
 }
 
+/// The vocabulary's example parts (a bolt flange from a circular array of holes, a revolved
+/// vase with a twisted shell, an extruded gear profile) mesh watertight with their genus.
+#[test]
+fn vocabulary_example_parts_mesh_watertight() {
+    let d = scratch("vocab_examples");
+    for (scene, genus) in [("flange.json", 7), ("vase.json", 0), ("gear.json", 1)] {
+        let out = d.join(format!("{scene}.obj"));
+        let o = isokit_ok(&[
+            "scene",
+            &example(scene),
+            "-o",
+            out.to_str().unwrap(),
+            "--res",
+            "64",
+            "--stats",
+        ]);
+        let j = json(&o);
+        assert!(j["triangles"].as_u64().unwrap() > 1000, "{scene}");
+        let mesh = isokit::io::read_mesh(&out).unwrap();
+        let r = mesh.validate();
+        assert!(r.watertight && r.consistently_oriented, "{scene}: {r}");
+        assert_eq!(r.genus(), Some(genus), "{scene}");
+    }
+}
+
 #[test]
 fn scene_to_volume_then_mesh_round_trip() {
     let d = scratch("volume");
@@ -119,4 +144,63 @@ fn scene_and_mesh_errors_are_one_clear_line() {
     assert_eq!(o.status.code(), Some(2));
     let o = isokit(&["mesh", "missing.nrrd", "-o", out.to_str().unwrap()]);
     assert_clear_error(&o, "missing.nrrd");
+}
+
+/// A scene with coloured nodes meshed to PLY carries each part's colour on its vertices
+/// (8-bit sRGB): the flange's bolt holes in theirs, its body in its own.
+#[test]
+fn coloured_parts_reach_the_ply_vertices() {
+    let d = scratch("vocab_colours");
+    let out = d.join("flange.ply");
+    isokit_ok(&[
+        "scene",
+        &example("flange.json"),
+        "-o",
+        out.to_str().unwrap(),
+        "--res",
+        "48",
+    ]);
+    let bytes = std::fs::read(&out).unwrap();
+    let end = b"end_header\n";
+    let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let header = String::from_utf8_lossy(&bytes[..at]);
+    assert!(header.contains("property uchar red\nproperty uchar green\nproperty uchar blue\n"));
+    let n: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let srgb = |x: f32| {
+        let s = if x <= 0.003_130_8 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0).round() as u8
+    };
+    let holes = [0.85f32, 0.35, 0.1].map(srgb);
+    let body = [0.72f32, 0.72, 0.76].map(srgb);
+    let (mut in_holes, mut in_body) = (0, 0);
+    for i in 0..n {
+        let rec = &bytes[at + 15 * i..at + 15 * (i + 1)];
+        let rgb = [rec[12], rec[13], rec[14]];
+        if rgb == holes {
+            in_holes += 1;
+            // A hole's wall is within a bolt radius (and a voxel) of the bolt circle.
+            let x = f32::from_le_bytes(rec[0..4].try_into().unwrap());
+            let y = f32::from_le_bytes(rec[4..8].try_into().unwrap());
+            let r = x.hypot(y);
+            assert!((r - 0.7).abs() < 0.08 + 0.1, "hole vertex at radius {r}");
+        } else if rgb == body {
+            in_body += 1;
+        }
+    }
+    assert!(
+        in_holes > 50 && in_body > 500,
+        "holes {in_holes}, body {in_body} of {n}"
+    );
+    let mesh = isokit::io::read_mesh(&out).unwrap();
+    assert_eq!(mesh.positions.len(), n);
+    assert!(mesh.validate().watertight);
 }

@@ -4,8 +4,8 @@
 use super::check_output;
 use anyhow::{Result, bail};
 use glam::Vec3;
-use isokit_io::{Volume, write_mesh, write_volume};
-use isokit_scene::{MeshOptions, SampleOptions, Scene, clamp_to_band, mesh_scene};
+use isokit_io::{Volume, write_mesh, write_ply_colored, write_volume};
+use isokit_scene::{MeshOptions, SampleOptions, Scene, clamp_to_band, mesh_scene, vertex_colors};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -79,7 +79,10 @@ pub fn run(a: Args) -> Result<()> {
             dense: a.dense,
         };
         let (mesh, st) = mesh_scene(&scene, &mo, &job)?;
-        write_mesh(&a.output, &mesh)?;
+        match vertex_colors(&scene, &mesh, st.sampling.spacing) {
+            Some(colors) if name.ends_with(".ply") => write_ply_colored(&a.output, &mesh, &colors)?,
+            _ => write_mesh(&a.output, &mesh)?,
+        }
         (st.sampling, Some(st.triangles))
     } else if a.dense {
         let (mut grid, stats) = scene.sample_dense(&opts)?;

@@ -56,3 +56,31 @@ def test_every_new_key_is_in_the_schema():
             "shading": {"mode": "curvature"},
         }
     )
+
+
+def test_params_colours_and_the_vocabulary_are_in_the_schema():
+    v = validator()
+    v.validate(
+        {
+            "params": {"r": 0.3, "n": 6},
+            "shape": {
+                "difference": [
+                    {"extrude": {"height": "$r", "of": {"rectangle": {"half": [1, "$r"]}}}},
+                    {"circular_array": {"count": "$n", "axis": [0, 0, 1], "of": {"sphere": {}}}},
+                    {"transform": {"scale": [1, 2, 1], "of": {"revolve": {"offset": 1, "of": {"circle": {}}}}}},
+                    {"mirror": {"normal": [1, 0, 0], "of": {"polygon": {"points": [[0, 0], [1, 0], [0, 1]]}}}},
+                    {"repeat": {"period": [2, 0, 0], "of": {"sphere": {}}}},
+                    {"array": {"count": [2, 2, 1], "spacing": [1, 1, 0], "of": {"sphere": {}}}},
+                    {"twist": {"rate": 30, "axis": [0, 0, 1], "of": {"box": {}}}, "color": [1, 0, 0]},
+                ]
+            },
+        }
+    )
+    for bad in [
+        {"params": {"r": "$s"}, "shape": {"sphere": {}}},
+        {"shape": {"sphere": {"radius": "r"}}},
+        {"shape": {"sphere": {"radius": "$1r"}}},
+        {"shape": {"sphere": {}, "color": [2, 0, 0]}},
+        {"shape": {"extrude": {"height": 1}}},
+    ]:
+        assert list(v.iter_errors(bad)), f"{bad} passed the schema"

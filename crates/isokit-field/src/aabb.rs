@@ -126,6 +126,23 @@ impl Aabb {
         (self.min - p).max(p - self.max).max(Vec3::ZERO).length()
     }
 
+    /// The exact signed distance from `p` to the box, negative inside (Quilez, "sdBox"):
+    /// outside it equals [`Aabb::distance`] (the same f32 expression), inside it is minus the
+    /// distance to the nearest face. Infinite extents are allowed (an axis unbounded on both
+    /// sides never limits the box); [`f32::NEG_INFINITY`] for [`Aabb::INFINITE`], `+∞` for an
+    /// empty box.
+    pub fn signed_distance(&self, p: Vec3) -> f32 {
+        if self.is_empty() {
+            return f32::INFINITY;
+        }
+        let q = (self.min - p).max(p - self.max);
+        if q.cmpgt(Vec3::ZERO).any() {
+            q.max(Vec3::ZERO).length()
+        } else {
+            q.max_element()
+        }
+    }
+
     /// The eight corners, x fastest.
     pub fn corners(&self) -> [Vec3; 8] {
         let (a, b) = (self.min, self.max);

@@ -39,6 +39,7 @@ pub mod memory;
 pub mod mesh;
 pub mod morton;
 pub mod primitives;
+pub mod profile;
 pub mod rng;
 pub mod transform;
 

@@ -116,7 +116,7 @@ fn unit_or(v: DVec3, fallback: DVec3) -> DVec3 {
 }
 
 /// 2D version of [`unit_or`].
-fn unit2_or(v: DVec2, fallback: DVec2) -> DVec2 {
+pub(crate) fn unit2_or(v: DVec2, fallback: DVec2) -> DVec2 {
     let m = v.abs().max_element();
     if m > 0.0 && m.is_finite() {
         let w = v / m;
@@ -136,7 +136,7 @@ fn sgn1(x: f64) -> f64 {
 }
 
 /// The largest f32 not above `x` (f64 to f32 rounding toward −∞).
-fn f32_down(x: f64) -> f32 {
+pub(crate) fn f32_down(x: f64) -> f32 {
     let y = x as f32;
     if (y as f64) <= x || y.is_nan() {
         y
@@ -150,7 +150,7 @@ fn f32_down(x: f64) -> f32 {
 }
 
 /// The smallest f32 not below `x`.
-fn f32_up(x: f64) -> f32 {
+pub(crate) fn f32_up(x: f64) -> f32 {
     -f32_down(-x)
 }
 
@@ -662,7 +662,7 @@ pub struct Ellipsoid {
 }
 
 /// `max |v_i| * |v / max|v_i||`, without overflow or underflow.
-fn robust_len(v: &[f64]) -> f64 {
+pub(crate) fn robust_len(v: &[f64]) -> f64 {
     let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if m == 0.0 {
         0.0
@@ -727,7 +727,7 @@ fn eberly<const N: usize>(e: [f64; N], y: [f64; N]) -> ([f64; N], [f64; N]) {
 
 /// Closest point `x` on the ellipse of semi-axes `e0 >= e1` to `y` (first quadrant), and
 /// `y − x`. Eberly's `DistancePointEllipse`.
-fn ellipse_closest(e: [f64; 2], y: [f64; 2]) -> ([f64; 2], [f64; 2]) {
+pub(crate) fn ellipse_closest(e: [f64; 2], y: [f64; 2]) -> ([f64; 2], [f64; 2]) {
     if y[1] > 0.0 {
         if y[0] > 0.0 {
             return eberly(e, y);

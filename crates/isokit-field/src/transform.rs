@@ -1,17 +1,21 @@
-//! Rigid motions and uniform scale of a field, which keep exact distances exact.
+//! Transforms of a field: rigid motions and uniform scale, which keep exact distances
+//! exact ([`Transformed`]), and general invertible affine maps ([`Affine`]: non-uniform
+//! scale, mirror, shear), which give a distance bound.
 //!
 //! [`Transformed`] places a field in world space by `world = t + s · R(local)`:
 //! `value(p) = s · inner(R⁻¹(p − t) / s)`. Rotation and translation preserve distances and
 //! a uniform scale multiplies them all by `s`, so an exact signed distance field stays exact
 //! and a Lipschitz bound stays the same.
 //!
-//! Non-uniform scale is deliberately not offered: stretching by different factors per axis
-//! turns an exact distance into neither a distance nor a bound with Lipschitz constant 1
-//! (an ellipsoid is not a stretched sphere's distance), so it would silently break sphere
-//! tracing and brick skipping. Use a primitive with the wanted shape instead, e.g.
-//! [`crate::primitives::Ellipsoid`].
+//! Stretching by different factors per axis turns an exact distance into neither a distance
+//! nor, unscaled, a bound with Lipschitz constant 1 (an ellipsoid is not a stretched sphere's
+//! distance). [`Affine`] therefore multiplies by the smallest singular value of the map:
+//! `σ_min(A) · inner(A⁻¹(p − t))` has the Lipschitz constant of `inner` and never exceeds the
+//! true distance (Quilez, "distance functions", non-uniform scale), exact only when `A` is a
+//! similarity (a mirror, a rotation times a uniform scale). For the exact distance of a
+//! stretched sphere use [`crate::primitives::Ellipsoid`].
 //!
-//! The transform is kept in f64; the local point is rounded to f32 to call the inner field,
+//! The transforms are kept in f64; the local point is rounded to f32 to call the inner field,
 //! so values carry one extra f32 rounding of the local point (relative `6e-8` of its size).
 
 use crate::primitives::aabb_outward;
@@ -225,6 +229,307 @@ impl<F: Field> Field for Transformed<F> {
     }
 }
 
+/// The most a map may stretch one direction more than another (`σ_max / σ_min`) in an
+/// [`Affine`]: beyond it values would be too small a fraction of the distance to be useful.
+pub const MAX_CONDITION: f64 = 1e6;
+
+/// A field under an invertible affine map `world = A · local + t` (non-uniform scale,
+/// mirror, shear, any composition with rotations): the value is
+///
+/// `max(σ_min(A) · inner(A⁻¹(p − t)), box(p))`
+///
+/// where `σ_min(A)` is the smallest singular value of `A` and `box` the signed distance to
+/// the box of the mapped bounds (only when `A` is not a similarity).
+///
+/// *Why a bound.* `|A⁻¹(p − q)| ≤ |p − q| / σ_min`, so the first term has the Lipschitz
+/// constant of `inner`, and a field whose Lipschitz constant is 1 never exceeds the distance
+/// to its zero set: the value is a distance bound with the right sign (Quilez, "distance
+/// functions", non-uniform scale: `min(s) · f(p / s)`). The box term (1-Lipschitz, ≤ 0 on
+/// the solid) changes no sign; it keeps the property every combinator relies on, that the
+/// value outside the box is at least the distance to the box, which the scaled term alone
+/// loses (it grows like `dist / κ` in the stretched direction).
+///
+/// Exact ([`Field::is_exact`]) when `A` is a similarity (`σ_max = σ_min`: a mirror, a rotation,
+/// a uniform scale) and `inner` is exact. Lipschitz: `inner`'s (at least 1 with the box term).
+/// Gradient `σ_min A⁻ᵀ ∇inner` (the box's where the box term is active), Hessian
+/// `σ_min A⁻ᵀ H A⁻¹`.
+///
+/// ```
+/// use isokit_field::{primitives::{Ellipsoid, Sphere}, transform::Affine, Field};
+/// use glam::Vec3;
+/// let ball = Sphere::new(Vec3::ZERO, 1.0).unwrap();
+/// let egg = Affine::scale(ball, Vec3::new(2.0, 1.0, 1.0)).unwrap();
+/// let exact = Ellipsoid::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0)).unwrap();
+/// let p = Vec3::new(3.0, 1.0, 0.0);
+/// assert!(egg.value(p) > 0.0 && egg.value(p) <= exact.value(p));
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Affine<F: Field> {
+    inner: F,
+    a: DMat3,
+    a_inv: DMat3,
+    t: DVec3,
+    sigma_min: f64,
+    similarity: bool,
+    bounds: Aabb,
+}
+
+/// Eigenvalues of a symmetric 3×3 matrix by cyclic Jacobi rotations (ascending).
+fn sym3_eigenvalues(m: DMat3) -> [f64; 3] {
+    let mut a = m.to_cols_array_2d();
+    for _ in 0..32 {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if off <= 1e-34 * diag {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A ← Jᵀ A J with the rotation J in the (p, q) plane.
+            for row in a.iter_mut() {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
+            }
+            let (rp, rq) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| c * rp[k] - s * rq[k]);
+            a[q] = std::array::from_fn(|k| s * rp[k] + c * rq[k]);
+        }
+    }
+    let mut e = [a[0][0], a[1][1], a[2][2]];
+    e.sort_by(f64::total_cmp);
+    e
+}
+
+/// The box of the image `A·b + t` of a box (interval arithmetic per output axis; exact for
+/// finite boxes, and an unbounded input axis only spreads to the outputs it feeds).
+fn map_box(a: &DMat3, t: DVec3, b: &Aabb) -> Aabb {
+    if b.is_empty() {
+        return Aabb::EMPTY;
+    }
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let mut out_lo = t;
+    let mut out_hi = t;
+    for i in 0..3 {
+        for j in 0..3 {
+            let c = a.col(j)[i];
+            if c == 0.0 {
+                continue;
+            }
+            let (x, y) = (c * lo[j], c * hi[j]);
+            out_lo[i] += x.min(y);
+            out_hi[i] += x.max(y);
+        }
+    }
+    let fix = |v: DVec3, inf: f64| DVec3::select(v.is_nan_mask(), DVec3::splat(inf), v);
+    aabb_outward(fix(out_lo, f64::NEG_INFINITY), fix(out_hi, f64::INFINITY))
+}
+
+impl<F: Field> Affine<F> {
+    /// `inner` mapped by `world = matrix · local + translation` (`matrix` given by columns):
+    /// finite, invertible, with `σ_max / σ_min ≤` [`MAX_CONDITION`].
+    pub fn new(inner: F, matrix: DMat3, translation: DVec3) -> Result<Self, FieldError> {
+        if !matrix.is_finite() {
+            return Err(FieldError::bad("matrix", matrix, "must be finite"));
+        }
+        if !translation.is_finite() || translation.abs().max_element() > f32::MAX as f64 {
+            return Err(FieldError::bad(
+                "translation",
+                translation,
+                "must be finite (and fit in f32)",
+            ));
+        }
+        let e = sym3_eigenvalues(matrix.transpose() * matrix);
+        let (smin, smax) = (e[0].max(0.0).sqrt(), e[2].max(0.0).sqrt());
+        if !(smin > 0.0 && smax <= MAX_CONDITION * smin) {
+            return Err(FieldError::bad(
+                "matrix",
+                matrix,
+                "must be invertible and stretch no direction more than 1e6 times another",
+            ));
+        }
+        if !(smin >= f32::MIN_POSITIVE as f64 && smax <= f32::MAX as f64) {
+            return Err(FieldError::bad(
+                "matrix",
+                matrix,
+                "its scale must stay within the normal f32 range",
+            ));
+        }
+        let similarity = smax - smin <= 1e-12 * smax;
+        // Rounding in the eigenvalues: a safety margin far below f32 resolution.
+        let sigma_min = if similarity {
+            smin
+        } else {
+            smin * (1.0 - 1e-12)
+        };
+        let bounds = map_box(&matrix, translation, &inner.bounds());
+        Ok(Self {
+            inner,
+            a: matrix,
+            a_inv: matrix.inverse(),
+            t: translation,
+            sigma_min,
+            similarity,
+            bounds,
+        })
+    }
+
+    /// `inner` scaled by `s` along the axes about the origin (each component finite and
+    /// > 0): `min(s) · inner(p / s)`, exact only when the three are equal.
+    pub fn scale(inner: F, s: Vec3) -> Result<Self, FieldError> {
+        if !(s.is_finite() && s.cmpgt(Vec3::ZERO).all()) {
+            return Err(FieldError::bad(
+                "scale",
+                s,
+                "every component must be finite and > 0",
+            ));
+        }
+        Self::new(inner, DMat3::from_diagonal(s.as_dvec3()), DVec3::ZERO)
+    }
+
+    /// `inner` reflected in the plane `n · p = offset` (`normal` finite and nonzero): an
+    /// isometry, exact when `inner` is.
+    pub fn mirror(inner: F, normal: Vec3, offset: f32) -> Result<Self, FieldError> {
+        let n = normal.as_dvec3();
+        let m = n.abs().max_element();
+        if !(m > 0.0 && m.is_finite()) {
+            return Err(FieldError::bad(
+                "normal",
+                normal,
+                "must be finite and nonzero",
+            ));
+        }
+        if !offset.is_finite() {
+            return Err(FieldError::bad("offset", offset, "must be finite"));
+        }
+        let n = (n / m).normalize();
+        let a = DMat3::IDENTITY - 2.0 * DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        Self::new(inner, a, 2.0 * offset as f64 * n)
+    }
+
+    /// The mapped field.
+    pub fn inner(&self) -> &F {
+        &self.inner
+    }
+
+    /// The matrix `A`.
+    pub fn matrix(&self) -> DMat3 {
+        self.a
+    }
+
+    /// The translation `t`.
+    pub fn translation(&self) -> DVec3 {
+        self.t
+    }
+
+    /// The factor the inner values are multiplied by: the smallest singular value of `A`.
+    pub fn sigma_min(&self) -> f64 {
+        self.sigma_min
+    }
+
+    /// True when `A` is a similarity (no box term; exact with an exact inner field).
+    pub fn is_similarity(&self) -> bool {
+        self.similarity
+    }
+
+    /// World point to the inner field's space, `A⁻¹(p − t)`, in f64.
+    pub fn to_local(&self, p: Vec3) -> DVec3 {
+        self.a_inv * (p.as_dvec3() - self.t)
+    }
+
+    /// The box term (`−∞` for a similarity, which needs none).
+    #[inline]
+    fn guard(&self, p: Vec3) -> f32 {
+        if self.similarity {
+            f32::NEG_INFINITY
+        } else {
+            self.bounds.signed_distance(p)
+        }
+    }
+
+    #[inline]
+    fn scaled(&self, v: f32) -> f32 {
+        (self.sigma_min * v as f64) as f32
+    }
+}
+
+impl<F: Field> Field for Affine<F> {
+    fn value(&self, p: Vec3) -> f32 {
+        let v = self.scaled(self.inner.value(self.to_local(p).as_vec3()));
+        v.max(self.guard(p))
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    fn lipschitz(&self) -> f32 {
+        let l = self.inner.lipschitz();
+        if self.similarity { l } else { l.max(1.0) }
+    }
+
+    fn is_exact(&self) -> bool {
+        self.similarity && self.inner.is_exact()
+    }
+
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let q = self.to_local(p).as_vec3();
+        let core = self.scaled(self.inner.value(q));
+        let g = self.guard(p);
+        if g > core {
+            // The box's gradient: the outward direction of the nearest face or corner.
+            let b = self.bounds;
+            let d = (b.min - p).max(p - b.max);
+            let out = d.max(Vec3::ZERO);
+            let n = if out.cmpgt(Vec3::ZERO).any() {
+                out.normalize_or_zero()
+            } else {
+                Vec3::AXES[d.max_position()]
+            };
+            let s = Vec3::select(p.cmplt(b.center()), -Vec3::ONE, Vec3::ONE);
+            return n * s;
+        }
+        let gi = self.inner.gradient(q).as_dvec3();
+        (self.sigma_min * (self.a_inv.transpose() * gi)).as_vec3()
+    }
+
+    fn hessian(&self, p: Vec3) -> Mat3 {
+        let h = self.inner.hessian(self.to_local(p).as_vec3()).as_dmat3();
+        (self.sigma_min * (self.a_inv.transpose() * h * self.a_inv)).as_mat3()
+    }
+
+    fn distance_box(&self) -> Option<crate::DistanceBox> {
+        if !self.similarity {
+            return Some(crate::DistanceBox::exact(self.bounds));
+        }
+        let d = self.inner.distance_box()?;
+        Some(crate::DistanceBox {
+            aabb: map_box(&self.a, self.t, &d.aabb),
+            slack: (self.sigma_min * d.slack as f64) as f32,
+        })
+    }
+
+    fn lower_bound(&self, p: Vec3) -> f32 {
+        let lb = self.scaled(self.inner.lower_bound(self.to_local(p).as_vec3()));
+        let lb = if lb.is_nan() { f32::NEG_INFINITY } else { lb };
+        lb.max(self.guard(p))
+    }
+
+    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+        let g = self.guard(p);
+        let local_cap = (cap as f64 / self.sigma_min) as f32;
+        let v = crate::value_clamped(&self.inner, self.to_local(p).as_vec3(), local_cap);
+        self.scaled(v).max(g).clamp(-cap, cap)
+    }
+}
+
 /// A field that is only a box, to transform boxes with [`Transformed::bounds`].
 struct BoxOnly(Aabb);
 
@@ -410,6 +715,154 @@ mod tests {
             ident.bounds(),
             Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0))
         );
+    }
+
+    /// A non-uniformly scaled ball against the exact ellipsoid distance (Eberly's), and a
+    /// sheared ball against the distance to its mapped surface samples: never larger than the
+    /// true distance, same sign, at unit, 1e-6 and 1e6 scale; the mapped box holds the solid
+    /// and the value is at least the distance to it.
+    #[test]
+    fn affine_maps_give_bounds_with_the_right_sign() {
+        use crate::primitives::Ellipsoid;
+        let mut rng = SplitMix64::new(13);
+        for s in [1.0f32, 1e-6, 1e6] {
+            let radii = Vec3::new(2.0, 0.5, 1.0) * s;
+            let ball = Sphere::new(Vec3::ZERO, s).unwrap();
+            let egg = Affine::scale(ball, Vec3::new(2.0, 0.5, 1.0)).unwrap();
+            let exact = Ellipsoid::new(Vec3::ZERO, radii).unwrap();
+            assert!(!egg.is_exact() && egg.lipschitz() == 1.0);
+            assert!((egg.sigma_min() - 0.5).abs() < 1e-9);
+            for _ in 0..2000 {
+                let p = rng.point_in(-3.0 * radii, 3.0 * radii);
+                let (v, d) = (egg.value(p), exact.value(p));
+                let tol = 1e-6 * s;
+                assert!(v.abs() <= d.abs() + tol, "scale {s}: |{v}| > |{d}| at {p}");
+                if d.abs() > tol {
+                    assert_eq!(v < 0.0, d < 0.0, "scale {s}: sign at {p}");
+                }
+                let b = egg.bounds();
+                if v <= 0.0 {
+                    assert!(b.contains(p));
+                }
+                if !b.contains(p) {
+                    assert!(v >= b.distance(p) - tol, "(P) at {p}");
+                }
+                assert!(egg.lower_bound(p) <= v);
+            }
+            // Far away the bound still grows like the distance over the stretch.
+            let far = Vec3::new(1e3, 0.0, 0.0) * s;
+            assert!(egg.value(far) >= exact.value(far) * 0.99 - 1e-6 * s);
+        }
+        // A shear: the true distance to dense samples of the mapped sphere's surface.
+        let m = DMat3::from_cols(
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.8, 1.0, 0.0),
+            DVec3::new(0.0, 0.3, 0.7),
+        );
+        let t = DVec3::new(0.3, -0.2, 0.1);
+        let ball = Sphere::new(Vec3::ZERO, 1.0).unwrap();
+        let sheared = Affine::new(ball, m, t).unwrap();
+        let samples: Vec<DVec3> = (0..200)
+            .flat_map(|i| {
+                (0..400).map(move |j| {
+                    let (th, ph) = (
+                        std::f64::consts::TAU * j as f64 / 400.0,
+                        std::f64::consts::PI * (i as f64 + 0.5) / 200.0,
+                    );
+                    DVec3::new(ph.sin() * th.cos(), ph.sin() * th.sin(), ph.cos())
+                })
+            })
+            .map(|u| m * u + t)
+            .collect();
+        let gap = 0.03;
+        for _ in 0..300 {
+            let p = rng.point_in(Vec3::splat(-3.0), Vec3::splat(3.0));
+            let v = sheared.value(p) as f64;
+            let d = samples
+                .iter()
+                .map(|&x| (x - p.as_dvec3()).length())
+                .fold(f64::INFINITY, f64::min);
+            assert!(v.abs() <= d + 1e-6, "|{v}| > {d} at {p}");
+            let inside = (m.inverse() * (p.as_dvec3() - t)).length() < 1.0;
+            if d > gap {
+                assert_eq!(v < 0.0, inside, "sign at {p}");
+            }
+        }
+    }
+
+    /// Similarities are exact: a mirror gives the reflected capsule, and a rotation with a
+    /// uniform scale gives the same values as [`Transformed`].
+    #[test]
+    fn mirrors_and_similarities_are_exact() {
+        let mut rng = SplitMix64::new(14);
+        let (a, b) = (Vec3::new(0.5, 0.2, 0.1), Vec3::new(1.6, -0.3, 0.4));
+        let cap = Capsule::new(a, b, 0.3).unwrap();
+        let (n, off) = (Vec3::new(1.0, 1.0, 0.0).normalize(), 0.25f32);
+        let mirrored = Affine::mirror(cap, Vec3::new(2.0, 2.0, 0.0), off).unwrap();
+        let reflect = |x: Vec3| x - 2.0 * (x.dot(n) - off) * n;
+        let direct = Capsule::new(reflect(a), reflect(b), 0.3).unwrap();
+        assert!(mirrored.is_exact() && mirrored.is_similarity());
+        for _ in 0..500 {
+            let p = rng.point_in(Vec3::splat(-3.0), Vec3::splat(3.0));
+            assert!((mirrored.value(p) - direct.value(p)).abs() < 2e-6, "at {p}");
+            let (g, gd) = (mirrored.gradient(p), direct.gradient(p));
+            assert!((g - gd).length() < 1e-4, "{g} vs {gd}");
+        }
+        let q = DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+        let m = DMat3::from_quat(q) * 2.5;
+        let aff = Affine::new(cap, m, DVec3::new(1.0, 0.0, -1.0)).unwrap();
+        let tf = Transformed::new(cap)
+            .rotate_axis_degrees(Vec3::new(1.0, 2.0, 3.0), 0.7f32.to_degrees())
+            .unwrap()
+            .scale(2.5)
+            .unwrap()
+            .translate(Vec3::new(1.0, 0.0, -1.0))
+            .unwrap();
+        assert!(aff.is_exact());
+        for _ in 0..500 {
+            let p = rng.point_in(Vec3::splat(-6.0), Vec3::splat(6.0));
+            assert!((aff.value(p) - tf.value(p)).abs() < 1e-5, "at {p}");
+        }
+    }
+
+    /// Measured slopes over random segments never exceed the declared Lipschitz bound.
+    #[test]
+    fn affine_slopes_stay_within_the_declared_bound() {
+        let mut rng = SplitMix64::new(15);
+        let ball = Sphere::new(Vec3::new(0.2, 0.0, 0.1), 0.8).unwrap();
+        for _ in 0..20 {
+            let cols = [0, 1, 2].map(|_| (rng.unit_vector() * rng.range(0.2, 3.0)).as_dvec3());
+            let m = DMat3::from_cols(cols[0], cols[1], cols[2]);
+            let Ok(f) = Affine::new(ball, m, DVec3::ZERO) else {
+                continue;
+            };
+            let l = f.lipschitz();
+            for _ in 0..300 {
+                let p = rng.point_in(Vec3::splat(-4.0), Vec3::splat(4.0));
+                let len = 10f32.powf(rng.range(-2.0, 0.5));
+                let q = p + rng.unit_vector() * len;
+                let slope = (f.value(p) - f.value(q)).abs() / (p - q).length();
+                assert!(slope <= l * (1.0 + 1e-3) + 1e-4, "slope {slope} > {l}");
+            }
+        }
+    }
+
+    #[test]
+    fn singular_and_degenerate_affine_maps_are_refused() {
+        let ball = || Sphere::new(Vec3::ZERO, 1.0).unwrap();
+        assert!(Affine::new(ball(), DMat3::ZERO, DVec3::ZERO).is_err());
+        let flat = DMat3::from_diagonal(DVec3::new(1.0, 1.0, 1e-9));
+        assert!(Affine::new(ball(), flat, DVec3::ZERO).is_err());
+        assert!(Affine::scale(ball(), Vec3::new(1.0, -1.0, 1.0)).is_err());
+        assert!(Affine::scale(ball(), Vec3::new(1.0, f32::NAN, 1.0)).is_err());
+        assert!(Affine::mirror(ball(), Vec3::ZERO, 0.0).is_err());
+        let nan = DMat3::from_diagonal(DVec3::new(1.0, f64::NAN, 1.0));
+        assert!(Affine::new(ball(), nan, DVec3::ZERO).is_err());
+        assert!(Affine::new(ball(), DMat3::IDENTITY, DVec3::splat(f64::INFINITY)).is_err());
+        // A profile-like unbounded axis stays unbounded only where it is fed.
+        let plane = Plane::new(Vec3::Z, 0.0).unwrap();
+        let s = Affine::scale(plane, Vec3::new(2.0, 3.0, 1.0)).unwrap();
+        assert_eq!(s.bounds(), Aabb::INFINITE);
     }
 
     #[test]

@@ -114,6 +114,13 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
     }
 }
 
+/// Writes a binary PLY mesh with an sRGB colour per vertex (`property uchar red`, `green`,
+/// `blue` after `x y z`) atomically; `colors` holds one per vertex (else an error, and the
+/// file is not touched). The readers here ignore the colours.
+pub fn write_ply_colored(path: &Path, mesh: &TriMesh, colors: &[[u8; 3]]) -> Result<(), IoError> {
+    ply::write_ply_mesh_colored(path, mesh, Some(colors), false)
+}
+
 /// Writes an ASCII PLY mesh (`float x y z`, `list uchar int vertex_indices`) atomically.
 pub fn write_ply_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
     ply::write_ply_mesh(path, mesh, true)

@@ -483,33 +483,70 @@ fn index_type(n: usize) -> &'static str {
 }
 
 pub(crate) fn write_ply_mesh(path: &Path, mesh: &TriMesh, ascii: bool) -> Result<(), IoError> {
+    write_ply_mesh_colored(path, mesh, None, ascii)
+}
+
+/// [`write_ply_mesh`] with an sRGB colour per vertex (`property uchar red, green, blue`)
+/// when `colors` is given (one per vertex, checked).
+pub(crate) fn write_ply_mesh_colored(
+    path: &Path,
+    mesh: &TriMesh,
+    colors: Option<&[[u8; 3]]>,
+    ascii: bool,
+) -> Result<(), IoError> {
     crate::mesh::check_indices(mesh, path)?;
+    if let Some(c) = colors
+        && c.len() != mesh.positions.len()
+    {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "{} vertex colours for {} vertices",
+                c.len(),
+                mesh.positions.len()
+            ),
+        ));
+    }
     atomic_write(path, |w| {
         let fmt = if ascii {
             "ascii"
         } else {
             "binary_little_endian"
         };
+        let color_props = if colors.is_some() {
+            "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+        } else {
+            ""
+        };
         write!(
             w,
             "ply\nformat {fmt} 1.0\ncomment written by isokit\nelement vertex {}\n\
-             property float x\nproperty float y\nproperty float z\nelement face {}\n\
+             property float x\nproperty float y\nproperty float z\n{color_props}element face {}\n\
              property list uchar {} vertex_indices\nend_header\n",
             mesh.positions.len(),
             mesh.triangles.len(),
             index_type(mesh.positions.len())
         )?;
         if ascii {
-            for p in &mesh.positions {
-                writeln!(w, "{} {} {}", p.x, p.y, p.z)?;
+            for (i, p) in mesh.positions.iter().enumerate() {
+                match colors {
+                    Some(c) => {
+                        let [r, g, b] = c[i];
+                        writeln!(w, "{} {} {} {r} {g} {b}", p.x, p.y, p.z)?
+                    }
+                    None => writeln!(w, "{} {} {}", p.x, p.y, p.z)?,
+                }
             }
             for t in &mesh.triangles {
                 writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
             }
         } else {
-            for p in &mesh.positions {
+            for (i, p) in mesh.positions.iter().enumerate() {
                 for x in p.to_array() {
                     w.write_all(&x.to_le_bytes())?;
+                }
+                if let Some(c) = colors {
+                    w.write_all(&c[i])?;
                 }
             }
             let mut rec = [0u8; 13];

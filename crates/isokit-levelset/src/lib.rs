@@ -11,6 +11,10 @@
 //! - [`evolve`]: level-set evolution with an upwind (Godunov) scheme on a narrow band.
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export.
+//! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
+//! - [`deform`]: twist, bend, taper and elongate, each with its distance bound derived.
+//! - [`repeat`]: infinite repetition, finite arrays and circular arrays, exact for shapes
+//!   smaller than their cells.
 //!
 //! Every combinator answers the questions lazy evaluation asks (a lower bound from boxes,
 //! the value clamped to a cap; see [`isokit_field::Field::value_clamped`]), so a tree of
@@ -19,8 +23,11 @@
 //! formats.
 
 pub mod csg;
+pub mod deform;
 pub mod evolve;
 pub mod meshing;
 pub mod morph;
 pub mod offset;
+pub mod profile;
 pub mod reinit;
+pub mod repeat;

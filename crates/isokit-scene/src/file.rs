@@ -7,6 +7,7 @@ use crate::node::Node;
 use isokit_render::ShadingMode;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The scene format version this library reads and writes.
@@ -149,6 +150,13 @@ pub struct SceneFile {
     /// The scene format's version (default and only version: 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub version: Option<u32>,
+    /// Named numbers (`{"r": 0.3}`) that any number of the scene may reference as the string
+    /// `"$r"` (numbers only: not vectors, nodes or names). [`parse`] substitutes them before
+    /// reading the rest, so the tree holds their values; the table is kept for front ends
+    /// that offer the parameters as sliders and re-read the scene with
+    /// [`parse_with_params`].
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub params: BTreeMap<String, f64>,
     /// The shape tree.
     pub shape: Node,
     /// Camera of the renderer.
@@ -170,6 +178,7 @@ impl SceneFile {
     pub fn new(shape: Node) -> Self {
         Self {
             version: None,
+            params: BTreeMap::new(),
             shape,
             camera: None,
             lights: Vec::new(),
@@ -224,6 +233,18 @@ impl SceneFormat {
 /// parsing; below it the parse has no recursion limit of its own (a 100-deep `transform`
 /// chain nests 200 brackets) and runs on a thread with a stack sized for the cap.
 pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, SceneError> {
+    parse_with_params(text, format, file, &BTreeMap::new())
+}
+
+/// [`parse`] with some of the scene's `params` given other values (a slider moved):
+/// `overrides` names parameters the scene declares (others are an error) and their values
+/// (finite).
+pub fn parse_with_params(
+    text: &str,
+    format: SceneFormat,
+    file: &str,
+    overrides: &BTreeMap<String, f64>,
+) -> Result<SceneFile, SceneError> {
     let depth = nesting_depth(text, format);
     if depth > MAX_NESTING {
         return Err(SceneError::new(
@@ -235,13 +256,13 @@ pub fn parse(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, S
         ));
     }
     if depth <= 64 {
-        return parse_nested(text, format, file);
+        return parse_nested(text, format, file, overrides);
     }
     std::thread::scope(|s| {
         std::thread::Builder::new()
             .name("scene parse".into())
             .stack_size(PARSE_STACK)
-            .spawn_scoped(s, || parse_nested(text, format, file))
+            .spawn_scoped(s, || parse_nested(text, format, file, overrides))
             .map_err(|e| SceneError::new(file, "", format!("cannot start the parser: {e}")))?
             .join()
             .unwrap_or_else(|_| Err(SceneError::new(file, "", "the parser failed")))
@@ -317,8 +338,13 @@ pub fn nesting_depth(text: &str, format: SceneFormat) -> usize {
     max
 }
 
-fn parse_nested(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile, SceneError> {
-    let value: serde_json::Value = match format {
+fn parse_nested(
+    text: &str,
+    format: SceneFormat,
+    file: &str,
+    overrides: &BTreeMap<String, f64>,
+) -> Result<SceneFile, SceneError> {
+    let mut value: serde_json::Value = match format {
         SceneFormat::Json => {
             use serde::Deserialize;
             let mut de = serde_json::Deserializer::from_str(text);
@@ -361,6 +387,8 @@ fn parse_nested(text: &str, format: SceneFormat, file: &str) -> Result<SceneFile
             "a scene is a table with the key `shape`",
         ));
     }
+    crate::params::substitute(&mut value, overrides)
+        .map_err(|(node, message)| SceneError::new(file, &node, message))?;
     let scene: SceneFile = serde_path_to_error::deserialize(value).map_err(|e| {
         let node = e.path().to_string();
         let node = if node == "." { String::new() } else { node };
@@ -410,5 +438,79 @@ pub fn json_schema() -> serde_json::Value {
         "https://example.invalid/isokit/scene.schema.json".into(),
     );
     schema.insert("title".to_owned(), "isokit scene".into());
-    serde_json::to_value(schema).unwrap_or_default()
+    let mut v = serde_json::to_value(schema).unwrap_or_default();
+    crate::node::add_color_to_schema(&mut v);
+    add_param_refs(&mut v);
+    v
+}
+
+/// Lets every number of a generated schema be a parameter reference (`"$r"`, `$defs.Param`)
+/// as [`parse`] allows, except in the `params` table itself; the wrapper keeps the number's
+/// description and default.
+fn add_param_refs(schema: &mut serde_json::Value) {
+    use serde_json::{Value, json};
+    fn is_number(v: &Value) -> bool {
+        let num = |t: &Value| matches!(t.as_str(), Some("number" | "integer"));
+        match v.get("type") {
+            Some(Value::Array(ts)) => ts.iter().any(num),
+            Some(t) => num(t),
+            None => false,
+        }
+    }
+    fn walk(v: &mut Value) {
+        let number = is_number(v);
+        match v {
+            Value::Object(o) => {
+                if number {
+                    let mut wrapper = serde_json::Map::new();
+                    for key in ["description", "default"] {
+                        if let Some(x) = o.remove(key) {
+                            wrapper.insert(key.to_owned(), x);
+                        }
+                    }
+                    let number = Value::Object(std::mem::take(o));
+                    wrapper.insert(
+                        "anyOf".to_owned(),
+                        json!([number, {"$ref": "#/$defs/Param"}]),
+                    );
+                    *o = wrapper;
+                    return;
+                }
+                for x in o.values_mut() {
+                    walk(x);
+                }
+            }
+            Value::Array(a) => a.iter_mut().for_each(walk),
+            _ => {}
+        }
+    }
+    let Some(root) = schema.as_object_mut() else {
+        return;
+    };
+    let params = root
+        .get_mut("properties")
+        .and_then(|p| p.as_object_mut())
+        .and_then(|p| p.remove("params"));
+    let mut whole = Value::Object(std::mem::take(root));
+    walk(&mut whole);
+    if let Value::Object(o) = whole {
+        *root = o;
+    }
+    if let (Some(p), Some(props)) = (
+        params,
+        root.get_mut("properties").and_then(|p| p.as_object_mut()),
+    ) {
+        props.insert("params".to_owned(), p);
+    }
+    if let Some(defs) = root.get_mut("$defs").and_then(|d| d.as_object_mut()) {
+        defs.insert(
+            "Param".to_owned(),
+            json!({
+                "description": "A reference to a number of the scene's `params` table, \
+                    e.g. \"$r\" for {\"params\": {\"r\": 0.3}}: allowed wherever a number is.",
+                "type": "string",
+                "pattern": "^\\$[A-Za-z_][A-Za-z0-9_]*$",
+            }),
+        );
+    }
 }

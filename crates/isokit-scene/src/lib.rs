@@ -60,19 +60,22 @@ pub mod input;
 mod mesh;
 mod molecule;
 pub mod node;
+mod params;
 pub mod primitives;
+pub mod profiles;
 mod render;
 mod sample;
 mod scene;
 mod source;
+mod vocab;
 pub mod watch;
 
 pub use file::{
     CameraSpec, LightSpec, SamplingSpec, SceneFile, SceneFormat, ShadingName, ShadingSpec, VERSION,
-    json_schema, parse,
+    json_schema, parse, parse_with_params,
 };
 pub use isokit_field::{Cancelled, Job};
-pub use mesh::{MeshOptions, MeshStats, mesh_scene};
+pub use mesh::{MeshOptions, MeshStats, mesh_scene, vertex_colors};
 pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats};
 pub use node::{BandMethod, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData};
 pub use render::{
@@ -80,7 +83,7 @@ pub use render::{
     camera_for, shading_for,
 };
 pub use sample::{Plan, SampleOptions, SampleStats, SourceStats, band_to_grid, clamp_to_band};
-pub use scene::{MAX_DEPTH, MAX_NODES, NodeHash, Scene, SourceInfo};
+pub use scene::{ColoredPart, MAX_DEPTH, MAX_NODES, NodeHash, Scene, SourceInfo};
 
 use std::collections::HashMap;
 use std::path::PathBuf;

@@ -67,3 +67,36 @@ pub fn mesh_scene(
         },
     ))
 }
+
+/// The colour of each vertex of a scene's mesh as 8-bit sRGB, for mesh files that carry
+/// colours (PLY): the part that owns the vertex ([`Scene::part_at`], within two lattice
+/// spacings `spacing` of its surface: the mesh lies within one of the exact surface), else
+/// the scene's `shading.color` (default a light grey). `None` when the scene has no coloured
+/// nodes.
+pub fn vertex_colors(scene: &Scene, mesh: &TriMesh, spacing: f32) -> Option<Vec<[u8; 3]>> {
+    if scene.parts().is_empty() {
+        return None;
+    }
+    let default = scene
+        .settings()
+        .shading
+        .as_ref()
+        .and_then(|s| s.color)
+        .unwrap_or([0.8; 3]);
+    let srgb = |x: f32| {
+        let x = x.clamp(0.0, 1.0);
+        let s = if x <= 0.003_130_8 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0).round() as u8
+    };
+    Some(
+        scene
+            .colors_at(&mesh.positions, 2.0 * spacing, default)
+            .into_iter()
+            .map(|c| c.map(srgb))
+            .collect(),
+    )
+}

@@ -222,11 +222,17 @@ pub struct Frame {
     /// Notes for the user (an isovalue chosen from the data, a band too narrow for the
     /// isovalue, no hit).
     pub notes: Vec<String>,
+    /// The object map of a scene with coloured nodes (`"color"`): per pixel, row by row,
+    /// the index in [`Scene::parts`] of the part whose surface the pixel shows (`None` for
+    /// a miss or an uncoloured surface). Empty for volumes, for scenes without colours and
+    /// for multi-view frames.
+    pub parts: Vec<Option<u32>>,
 }
 
 /// A target made ready to ray cast: the volume, camera, shading and options resolved.
 pub struct Prepared<'a> {
     volume: std::borrow::Cow<'a, Volume>,
+    scene: Option<&'a Scene>,
     camera: Camera,
     shading: Shading,
     options: RenderOptions,
@@ -416,6 +422,10 @@ impl Renderer {
         }
         Ok(Prepared {
             volume,
+            scene: match target {
+                RenderTarget::Scene(s) => Some(s),
+                RenderTarget::Volume(_) => None,
+            },
             camera,
             shading,
             options,
@@ -500,6 +510,19 @@ impl Renderer {
             None => isokit_render::shade(&frame.gbuffer, &frame.uniforms, &p.shading),
         }
         .map_err(err)?;
+        let (image, parts) = match p.scene {
+            Some(scene) if !scene.parts().is_empty() && frame.uniforms.subpixels <= 1 => {
+                colour_parts(
+                    scene,
+                    &frame.gbuffer,
+                    &frame.uniforms,
+                    &p.shading,
+                    p.volume.spacing(),
+                    image,
+                )
+            }
+            _ => (image, Vec::new()),
+        };
         let shade_seconds = t1.elapsed().as_secs_f64();
         let st = &frame.stats;
         let mut notes = p.notes.clone();
@@ -544,8 +567,65 @@ impl Renderer {
             uniforms: frame.uniforms,
             stats,
             notes,
+            parts,
         })
     }
+}
+
+/// The object map of a frame and the image with each coloured part's pixels shaded in its
+/// colour (CPU, after either twin's shading: the other pixels keep theirs). A hit belongs
+/// to the part whose surface passes within two voxels of it ([`Scene::part_at`]: the band's
+/// trilinear surface lies within a voxel of the exact one).
+fn colour_parts(
+    scene: &Scene,
+    gbuffer: &GBuffer,
+    u: &Uniforms,
+    sh: &Shading,
+    spacing: f32,
+    mut image: Image,
+) -> (Image, Vec<Option<u32>>) {
+    use rayon::prelude::*;
+    let tolerance = 2.0 * spacing;
+    let lights = sh.lights_or_default(u);
+    let pixel_angle = 2.0 * u.half_height / u.height as f32;
+    let parts: Vec<Option<u32>> = gbuffer
+        .pixels()
+        .par_iter()
+        .map(|s| {
+            if !s.is_hit() {
+                return None;
+            }
+            scene.part_at(s.position, tolerance).map(|i| i as u32)
+        })
+        .collect();
+    if sh.mode != ShadingMode::Flow {
+        let colors: Vec<Vec3> = scene.parts().iter().map(|c| Vec3::from(c.color)).collect();
+        image
+            .pixels
+            .par_iter_mut()
+            .zip(gbuffer.pixels().par_iter().zip(parts.par_iter()))
+            .enumerate()
+            .for_each(|(i, (out, (s, part)))| {
+                if let Some(k) = part {
+                    let (px, py) = (i as u32 % u.width, i as u32 / u.width);
+                    let v = isokit_render::kernel::subpixel_ray(u, px, py, 0).1;
+                    let footprint = if u.ortho != 0 {
+                        pixel_angle
+                    } else {
+                        pixel_angle * s.depth
+                    };
+                    *out = isokit_render::shade::shade_pixel_color(
+                        s,
+                        v,
+                        footprint,
+                        sh,
+                        &lights,
+                        colors[*k as usize],
+                    );
+                }
+            });
+    }
+    (image, parts)
 }
 
 fn target_name(t: RenderTarget<'_>) -> &str {

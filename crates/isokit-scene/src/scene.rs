@@ -5,7 +5,7 @@
 use crate::file::{SceneFile, SceneFormat, parse};
 use crate::node::{
     BandMethod, Filter as FilterNode, Inside, MeshNode, Node, Normals, OctreeNode, PointsNode,
-    SignMode, Smooth, TransformSpec, VolumeData, VolumeNode,
+    Scale, SignMode, Smooth, TransformSpec, VolumeData, VolumeNode,
 };
 use crate::source::{
     BrickField, Counted, Counter, MeshField, PrismBackend, VolumeField, volume_lipschitz,
@@ -13,11 +13,12 @@ use crate::source::{
 use crate::{SceneError, SourceCache};
 use glam::{DQuat, DVec3, Vec3};
 use isokit_field::filter::{Filter, SampledField};
+use isokit_field::transform::Affine;
 use isokit_field::transform::Transformed;
 use isokit_field::{Aabb, DistanceBox, Field, TriMesh};
 use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
-use isokit_levelset::csg::{Complement, DifferenceN, IntersectionN, Offset, Shell, SmoothKind};
-use isokit_levelset::csg::{SmoothN, UnionN};
+use isokit_levelset::csg::{Blend, Complement, DifferenceN, IntersectionN, Offset, Shell};
+use isokit_levelset::csg::{SmoothKind, SmoothN, UnionN};
 use isokit_levelset::morph::LinearMorph;
 use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions};
 use std::collections::hash_map::DefaultHasher;
@@ -121,6 +122,19 @@ pub struct Scene {
     lipschitz: f32,
     dependencies: Vec<PathBuf>,
     hashes: Vec<NodeHash>,
+    colors: Vec<ColorEntry>,
+    parts: Vec<ColoredPart>,
+}
+
+/// A coloured node of a scene (`"color"` in the file), as [`Scene::parts`] lists them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColoredPart {
+    /// The node's path, e.g. `shape.union[1].extrude`.
+    pub node: String,
+    /// Its colour, linear RGB.
+    pub color: [f32; 3],
+    /// The index of the nearest coloured node above it, if any.
+    pub parent: Option<usize>,
 }
 
 impl std::fmt::Debug for Scene {
@@ -215,11 +229,23 @@ impl Scene {
             prism_meshes: Vec::new(),
             hashes: Vec::new(),
             frame: Frame::WORLD,
+            warped: None,
+            colors: Vec::new(),
+            color_stack: Vec::new(),
             depth: 0,
             nodes: 0,
         };
         let root = b.compile(&file.shape, "shape")?;
         let (sources, prism_meshes, hashes) = (b.sources, b.prism_meshes, b.hashes);
+        let colors = b.colors;
+        let parts = colors
+            .iter()
+            .map(|c| ColoredPart {
+                node: c.node.clone(),
+                color: c.color,
+                parent: c.parent,
+            })
+            .collect();
         let dependencies = b.deps.clone();
         let lipschitz = root.field.lipschitz().max(1.0);
         if !lipschitz.is_finite() {
@@ -238,7 +264,53 @@ impl Scene {
             lipschitz,
             dependencies,
             hashes,
+            colors,
+            parts,
         })
+    }
+
+    /// The coloured nodes, in pre-order (the object ids of [`Scene::part_at`] index them).
+    pub fn parts(&self) -> &[ColoredPart] {
+        &self.parts
+    }
+
+    /// The coloured node that owns the surface point `p`: among the top-level coloured
+    /// nodes, the one whose value at `p` is smallest in magnitude and within `tolerance`
+    /// (the surface passes there), then the same among its coloured descendants, down to the
+    /// innermost; `None` where no coloured node's surface passes within `tolerance` (the
+    /// default colour). Values are evaluated clamped to `2 · tolerance`, so far subtrees are
+    /// pruned by their boxes.
+    pub fn part_at(&self, p: Vec3, tolerance: f32) -> Option<usize> {
+        let mut current: Option<usize> = None;
+        loop {
+            let mut best: Option<(f32, usize)> = None;
+            for (i, e) in self.colors.iter().enumerate() {
+                if e.parent != current {
+                    continue;
+                }
+                let v = isokit_field::value_clamped(&*e.field, p, 2.0 * tolerance).abs();
+                if v <= tolerance && best.is_none_or(|b| v < b.0) {
+                    best = Some((v, i));
+                }
+            }
+            match best {
+                Some((_, i)) => current = Some(i),
+                None => return current,
+            }
+        }
+    }
+
+    /// The colour of each point (see [`Scene::part_at`]): the owning part's colour, or
+    /// `default` where none owns it.
+    pub fn colors_at(&self, points: &[Vec3], tolerance: f32, default: [f32; 3]) -> Vec<[f32; 3]> {
+        use rayon::prelude::*;
+        points
+            .par_iter()
+            .map(|&p| {
+                self.part_at(p, tolerance)
+                    .map_or(default, |i| self.parts[i].color)
+            })
+            .collect()
     }
 
     /// The scene as read (shape tree, camera, lights, shading, sampling).
@@ -396,14 +468,45 @@ pub(crate) fn file_stamp(path: &Path) -> u64 {
     h.finish()
 }
 
-/// A compiled node: its field and content hash.
-struct Compiled {
-    field: Box<dyn Field>,
-    hash: u64,
+/// Whether a compiled node is a 2D profile (a field independent of z) or a solid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Dim {
+    /// A profile: a 2D signed distance in the xy-plane.
+    Two,
+    /// A solid.
+    Three,
+}
+
+/// A compiled node: its field, content hash and dimension.
+pub(crate) struct Compiled {
+    pub(crate) field: Box<dyn Field>,
+    pub(crate) hash: u64,
+    pub(crate) dim: Dim,
+}
+
+impl Compiled {
+    /// A solid's compiled node.
+    pub(crate) fn solid(field: Box<dyn Field>, hash: u64) -> Self {
+        Self {
+            field,
+            hash,
+            dim: Dim::Three,
+        }
+    }
+}
+
+/// A coloured node of the scene: its path, colour, field (shared with the tree) and the
+/// nearest coloured node above it.
+#[derive(Clone)]
+pub(crate) struct ColorEntry {
+    pub(crate) node: String,
+    pub(crate) color: [f32; 3],
+    pub(crate) field: Arc<dyn Field>,
+    pub(crate) parent: Option<usize>,
 }
 
 /// Compiles nodes into fields, loading sources.
-struct Builder<'a> {
+pub(crate) struct Builder<'a> {
     /// The file being compiled (its name in errors) and its folder.
     file: String,
     dir: PathBuf,
@@ -414,26 +517,31 @@ struct Builder<'a> {
     prism_meshes: Vec<PrismMesh>,
     hashes: Vec<NodeHash>,
     frame: Frame,
+    /// The first node above that is not a similarity (a deformation, a repetition, an
+    /// affine map): prism bands need the mesh's frame to be one.
+    pub(crate) warped: Option<String>,
+    pub(crate) colors: Vec<ColorEntry>,
+    pub(crate) color_stack: Vec<usize>,
     depth: usize,
     nodes: usize,
 }
 
-fn hash_of(parts: impl FnOnce(&mut DefaultHasher)) -> u64 {
+pub(crate) fn hash_of(parts: impl FnOnce(&mut DefaultHasher)) -> u64 {
     let mut h = DefaultHasher::new();
     parts(&mut h);
     h.finish()
 }
 
-fn f32_bits(h: &mut DefaultHasher, v: &[f32]) {
+pub(crate) fn f32_bits(h: &mut DefaultHasher, v: &[f32]) {
     v.iter().for_each(|x| x.to_bits().hash(h));
 }
 
 impl Builder<'_> {
-    fn err(&self, node: &str, m: impl Into<String>) -> SceneError {
+    pub(crate) fn err(&self, node: &str, m: impl Into<String>) -> SceneError {
         SceneError::new(&self.file, node, m)
     }
 
-    fn counted<F: Field + 'static>(
+    pub(crate) fn counted<F: Field + 'static>(
         &mut self,
         node: String,
         kind: &'static str,
@@ -467,7 +575,7 @@ impl Builder<'_> {
         Ok(p)
     }
 
-    fn children(
+    pub(crate) fn children(
         &mut self,
         of: &[Node],
         path: &str,
@@ -486,7 +594,8 @@ impl Builder<'_> {
             .collect()
     }
 
-    fn compile(&mut self, node: &Node, parent: &str) -> Result<Compiled, SceneError> {
+    pub(crate) fn compile(&mut self, node: &Node, parent: &str) -> Result<Compiled, SceneError> {
+        let (node, color) = node.uncolored();
         let path = format!("{parent}.{}", node.kind());
         self.nodes += 1;
         if self.nodes > MAX_NODES {
@@ -509,10 +618,46 @@ impl Builder<'_> {
             hash: 0,
             bounds: Aabb::EMPTY,
         });
-        let out = self.compile_node(node, path);
+        // A coloured node: reserve its entry so that the entries stay in pre-order too.
+        let entry = color.map(|c| {
+            let parent = self.color_stack.last().copied();
+            self.colors.push(ColorEntry {
+                node: path.clone(),
+                color: c,
+                field: Arc::new(isokit_field::primitives::Plane::new(Vec3::Z, 0.0).expect("z")),
+                parent,
+            });
+            let i = self.colors.len() - 1;
+            self.color_stack.push(i);
+            i
+        });
+        let out = if let Some(c) =
+            color.filter(|c| !c.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)))
+        {
+            Err(self.err(
+                &format!("{path}.color"),
+                format!("{c:?}: each component must be in [0, 1] (linear RGB)"),
+            ))
+        } else {
+            self.compile_node(node, path)
+        };
+        if entry.is_some() {
+            self.color_stack.pop();
+        }
         self.depth -= 1;
         match out {
-            Ok(c) => {
+            Ok(mut c) => {
+                if let (Some(i), Some(rgb)) = (entry, color) {
+                    // The coloured subtree is shared by the tree and the colour lookup.
+                    let shared: Arc<dyn Field> = Arc::from(c.field);
+                    self.colors[i].field = shared.clone();
+                    c.field = Box::new(shared);
+                    c.hash = hash_of(|h| {
+                        "color".hash(h);
+                        f32_bits(h, &rgb);
+                        c.hash.hash(h);
+                    });
+                }
                 let h = &mut self.hashes[slot];
                 h.hash = c.hash;
                 h.bounds = c.field.bounds();
@@ -520,6 +665,18 @@ impl Builder<'_> {
             }
             Err(e) => Err(e),
         }
+    }
+
+    /// The one dimension of a list of children, or an error naming the mix.
+    pub(crate) fn same_dim(&self, kids: &[Compiled], path: &str) -> Result<Dim, SceneError> {
+        let first = kids.first().map_or(Dim::Three, |k| k.dim);
+        if kids.iter().any(|k| k.dim != first) {
+            return Err(self.err(
+                path,
+                "mixes 2D profiles and 3D shapes: extrude or revolve the profiles first",
+            ));
+        }
+        Ok(first)
     }
 
     fn compile_node(&mut self, node: &Node, path: String) -> Result<Compiled, SceneError> {
@@ -536,7 +693,10 @@ impl Builder<'_> {
                 }
             });
             let field = self.counted(path, node.kind(), None, prim);
-            return Ok(Compiled { field, hash });
+            return Ok(Compiled::solid(field, hash));
+        }
+        if let Some(c) = self.compile_vocabulary(node, &path)? {
+            return Ok(c);
         }
         let finite = |x: f32, name: &str| -> Result<f32, SceneError> {
             if x.is_finite() {
@@ -569,66 +729,56 @@ impl Builder<'_> {
                     f.hash.hash(h);
                 });
                 let field = self.counted(path, "field", None, f.field.clone());
-                Compiled { field, hash }
+                Compiled::solid(field, hash)
             }
             Node::Include { path: file } => self.include(file, path)?,
             Node::Union(of) => {
                 let kids = self.children(of, &path, 1)?;
+                let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("union", &[], &kids);
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
                     field: Box::new(UnionN::new(fields).map_err(csg)?),
                     hash,
+                    dim,
                 }
             }
             Node::Intersection(of) => {
                 let kids = self.children(of, &path, 1)?;
+                let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("intersection", &[], &kids);
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
                     field: Box::new(IntersectionN::new(fields).map_err(csg)?),
                     hash,
+                    dim,
                 }
             }
             Node::Difference(of) => {
                 let kids = self.children(of, &path, 2)?;
+                let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("difference", &[], &kids);
                 let mut fields: Vec<Box<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
                 let base = fields.remove(0);
                 Compiled {
                     field: Box::new(DifferenceN::new(base, fields)),
                     hash,
+                    dim,
                 }
             }
             Node::Complement(of) => {
                 let c = self.compile(of, &path)?;
                 Compiled {
                     hash: combine("complement", &[], std::slice::from_ref(&c)),
+                    dim: c.dim,
                     field: Box::new(Complement::new(c.field)),
                 }
             }
             Node::SmoothUnion(s) => self.smooth(s, &path, SmoothKind::Union)?,
             Node::SmoothIntersection(s) => self.smooth(s, &path, SmoothKind::Intersection)?,
             Node::SmoothDifference(s) => self.smooth(s, &path, SmoothKind::Difference)?,
-            Node::Offset { by, of } => {
-                let by = finite(*by, "by")?;
-                let c = self.compile(of, &format!("{path}.of"))?;
-                Compiled {
-                    hash: combine("offset", &[by], std::slice::from_ref(&c)),
-                    field: Box::new(Offset::new(c.field, by).map_err(csg)?),
-                }
-            }
-            Node::Shell { thickness, of } => {
-                let t = finite(*thickness, "thickness")?;
-                if t <= 0.0 {
-                    return Err(self.err(&format!("{path}.thickness"), format!("{t} must be > 0")));
-                }
-                let c = self.compile(of, &format!("{path}.of"))?;
-                Compiled {
-                    hash: combine("shell", &[t], std::slice::from_ref(&c)),
-                    field: Box::new(Shell::new(c.field, t).map_err(csg)?),
-                }
-            }
+            Node::Offset { by, of } => self.offset(*by, of, &path, "by")?,
+            Node::Shell { thickness, of } => self.shell(*thickness, of, &path)?,
             Node::Morph { t, from, to } => {
                 let t = finite(*t, "t")?;
                 let a = self.compile(from, &format!("{path}.from"))?;
@@ -639,11 +789,19 @@ impl Builder<'_> {
                     a.hash.hash(h);
                     b.hash.hash(h);
                 });
+                if a.dim != b.dim {
+                    return Err(self.err(
+                        &path,
+                        "mixes 2D profiles and 3D shapes: extrude or revolve the profiles first",
+                    ));
+                }
+                let dim = a.dim;
                 let field = LinearMorph::new(a.field, b.field, t)
                     .map_err(|e| self.err(&path, e.to_string()))?;
                 Compiled {
                     field: Box::new(field),
                     hash,
+                    dim,
                 }
             }
             Node::Transform(t) => self.transform(t, &path)?,
@@ -652,26 +810,109 @@ impl Builder<'_> {
     }
 
     fn smooth(&mut self, s: &Smooth, path: &str, kind: SmoothKind) -> Result<Compiled, SceneError> {
-        if !(s.radius.is_finite() && s.radius >= 0.0) {
+        self.blended(kind, Blend::Round, s.radius, &s.of, path)
+    }
+
+    /// A blended n-ary operation (round, chamfer or stairs) of `of` with size `radius`.
+    pub(crate) fn blended(
+        &mut self,
+        kind: SmoothKind,
+        blend: Blend,
+        radius: f32,
+        of: &[Node],
+        path: &str,
+    ) -> Result<Compiled, SceneError> {
+        if !(radius.is_finite() && radius >= 0.0) {
             return Err(self.err(
                 &format!("{path}.radius"),
-                format!("{} must be finite and non-negative", s.radius),
+                format!("{radius} must be finite and non-negative"),
             ));
         }
+        if blend == Blend::Stairs(0) {
+            return Err(self.err(&format!("{path}.steps"), "must be at least 1"));
+        }
         let min = if kind == SmoothKind::Difference { 2 } else { 1 };
-        let kids = self.children(&s.of, &format!("{path}.of"), min)?;
+        let kids = self.children(of, &format!("{path}.of"), min)?;
+        let dim = self.same_dim(&kids, path)?;
         let hash = hash_of(|h| {
             format!("{kind:?}").hash(h);
-            s.radius.to_bits().hash(h);
+            if blend != Blend::Round {
+                format!("{blend:?}").hash(h);
+            }
+            radius.to_bits().hash(h);
             kids.iter().for_each(|k| k.hash.hash(h));
         });
         let fields = kids.into_iter().map(|k| k.field).collect();
-        let field =
-            SmoothN::new(kind, s.radius, fields).map_err(|e| self.err(path, e.to_string()))?;
+        let field = SmoothN::with_blend(kind, blend, radius, fields)
+            .map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
             field: Box::new(field),
             hash,
+            dim,
         })
+    }
+
+    /// `offset` (and `round`): `f − by`; `name` is the parameter's key.
+    pub(crate) fn offset(
+        &mut self,
+        by: f32,
+        of: &Node,
+        path: &str,
+        name: &str,
+    ) -> Result<Compiled, SceneError> {
+        if !by.is_finite() {
+            return Err(self.err(&format!("{path}.{name}"), format!("{by} must be finite")));
+        }
+        let c = self.compile(of, &format!("{path}.of"))?;
+        let hash = hash_of(|h| {
+            "offset".hash(h);
+            f32_bits(h, &[by]);
+            c.hash.hash(h);
+        });
+        let field = Offset::new(c.field, by).map_err(|e| self.err(path, e.to_string()))?;
+        Ok(Compiled {
+            field: Box::new(field),
+            hash,
+            dim: c.dim,
+        })
+    }
+
+    /// `shell` (and `onion`): `|f| − thickness/2`.
+    pub(crate) fn shell(
+        &mut self,
+        thickness: f32,
+        of: &Node,
+        path: &str,
+    ) -> Result<Compiled, SceneError> {
+        if !(thickness.is_finite() && thickness > 0.0) {
+            return Err(self.err(
+                &format!("{path}.thickness"),
+                format!("{thickness} must be finite and > 0"),
+            ));
+        }
+        let c = self.compile(of, &format!("{path}.of"))?;
+        let hash = hash_of(|h| {
+            "shell".hash(h);
+            f32_bits(h, &[thickness]);
+            c.hash.hash(h);
+        });
+        let field = Shell::new(c.field, thickness).map_err(|e| self.err(path, e.to_string()))?;
+        Ok(Compiled {
+            field: Box::new(field),
+            hash,
+            dim: c.dim,
+        })
+    }
+
+    /// Compiles `of` below a node that is not a similarity (prism bands refuse it).
+    pub(crate) fn compile_warped(&mut self, of: &Node, path: &str) -> Result<Compiled, SceneError> {
+        let saved = self.warped.clone();
+        if saved.is_none() {
+            self.warped = Some(path.to_owned());
+        }
+        let c = self.compile(of, &format!("{path}.of"));
+        self.warped = saved;
+        c
     }
 
     fn transform(&mut self, t: &TransformSpec, path: &str) -> Result<Compiled, SceneError> {
@@ -679,11 +920,15 @@ impl Builder<'_> {
         if !translation.is_finite() {
             return Err(self.err(&format!("{path}.translate"), "must be finite"));
         }
-        let scale = t.scale.unwrap_or(1.0);
-        if !(scale.is_finite() && scale > 0.0) {
+        let mut factors = t.scale.map_or([1.0; 3], |s| s.factors());
+        if !factors.iter().all(|s| s.is_finite() && *s > 0.0) {
+            let shown = match t.scale {
+                Some(Scale::Uniform(s)) => s.to_string(),
+                _ => format!("{factors:?}"),
+            };
             return Err(self.err(
                 &format!("{path}.scale"),
-                format!("{scale} must be finite and > 0 (uniform scale only)"),
+                format!("{shown} must be finite and > 0 (uniform, or one factor per axis)"),
             ));
         }
         let (axis, degrees) = match &t.rotate {
@@ -699,20 +944,6 @@ impl Builder<'_> {
                 (Some(axis), r.degrees)
             }
         };
-        // Scale, then rotate, then translate (the builders compose in call order).
-        let tf = |inner: Box<dyn Field>| -> Result<Transformed<Box<dyn Field>>, String> {
-            let mut x = Transformed::new(inner)
-                .scale(scale)
-                .map_err(|e| e.to_string())?;
-            if let Some(a) = axis {
-                x = x
-                    .rotate_axis_degrees(a, degrees)
-                    .map_err(|e| e.to_string())?;
-            }
-            x.translate(translation).map_err(|e| e.to_string())
-        };
-        // The child's frame (for prism bands): world = t + s · q(local), as the builders
-        // above compose it.
         let q = axis.map_or(DQuat::IDENTITY, |a| {
             let a = a.as_dvec3();
             DQuat::from_axis_angle(
@@ -720,25 +951,68 @@ impl Builder<'_> {
                 f64::from(degrees).to_radians(),
             )
         });
-        let outer = self.frame;
-        self.frame = outer.then(q, translation.as_dvec3(), f64::from(scale));
-        let c = self.compile(&t.of, &format!("{path}.of"));
-        self.frame = outer;
-        let c = c?;
+        let uniform = factors[0] == factors[1] && factors[1] == factors[2];
+        // The child's frame (for prism bands): world = t + s · q(local), as the builders
+        // below compose it; a non-uniform scale is no similarity.
+        let c = if uniform {
+            let outer = self.frame;
+            self.frame = outer.then(q, translation.as_dvec3(), f64::from(factors[0]));
+            let c = self.compile(&t.of, &format!("{path}.of"));
+            self.frame = outer;
+            c?
+        } else {
+            self.compile_warped(&t.of, path)?
+        };
+        if c.dim == Dim::Two {
+            if axis.is_some_and(|a| a.x != 0.0 || a.y != 0.0) && degrees != 0.0 {
+                return Err(self.err(
+                    &format!("{path}.rotate"),
+                    "a 2D profile turns about the z axis only (rotate the extruded solid instead)",
+                ));
+            }
+            // z is immaterial to a profile: its scale there changes nothing.
+            factors[2] = if factors[0] == factors[1] {
+                factors[0]
+            } else {
+                factors[0].min(factors[1])
+            };
+        }
         let hash = hash_of(|h| {
             "transform".hash(h);
             f32_bits(h, &translation.to_array());
-            f32_bits(h, &[scale, degrees]);
+            f32_bits(h, &[factors[0], degrees]);
+            if !uniform {
+                f32_bits(h, &factors);
+            }
             if let Some(a) = axis {
                 f32_bits(h, &a.to_array());
             }
             c.hash.hash(h);
         });
-        let field = tf(c.field).map_err(|e| self.err(path, e))?;
-        Ok(Compiled {
-            field: Box::new(field),
-            hash,
-        })
+        let dim = c.dim;
+        let field: Box<dyn Field> = if factors[0] == factors[1] && factors[1] == factors[2] {
+            // Scale, then rotate, then translate (the builders compose in call order).
+            let mut x = Transformed::new(c.field)
+                .scale(factors[0])
+                .map_err(|e| self.err(path, e.to_string()))?;
+            if let Some(a) = axis {
+                x = x
+                    .rotate_axis_degrees(a, degrees)
+                    .map_err(|e| self.err(path, e.to_string()))?;
+            }
+            Box::new(
+                x.translate(translation)
+                    .map_err(|e| self.err(path, e.to_string()))?,
+            )
+        } else {
+            let m = glam::DMat3::from_quat(q)
+                * glam::DMat3::from_diagonal(Vec3::from(factors).as_dvec3());
+            Box::new(
+                Affine::new(c.field, m, translation.as_dvec3())
+                    .map_err(|e| self.err(path, e.to_string()))?,
+            )
+        };
+        Ok(Compiled { field, hash, dim })
     }
 
     fn mesh(&mut self, m: &MeshNode, path: String) -> Result<Compiled, SceneError> {
@@ -791,6 +1065,16 @@ impl Builder<'_> {
             BandMethod::PrismCpu => Some(PrismBackend::Cpu),
             BandMethod::PrismGpu => Some(PrismBackend::Gpu),
         };
+        if let (Some(_), Some(w)) = (prism, &self.warped) {
+            return Err(self.err(
+                &path,
+                format!(
+                    "a prism band lives on the sampling lattice in the mesh's frame, which {w} \
+                     (not a rotation, uniform scale or translation) does not have: use the \
+                     default `\"method\": \"kdtree\"` there"
+                ),
+            ));
+        }
         let field = Arc::new(MeshField::new(sdf, prism.map(|b| (mesh.clone(), b))));
         if prism.is_some() {
             self.prism_meshes.push(PrismMesh {
@@ -807,7 +1091,7 @@ impl Builder<'_> {
         });
         let triangles = Some(mesh.triangles.len());
         let field = self.counted(path, "mesh", triangles, field);
-        Ok(Compiled { field, hash })
+        Ok(Compiled::solid(field, hash))
     }
 
     fn points(&mut self, p: &PointsNode, path: String) -> Result<Compiled, SceneError> {
@@ -846,7 +1130,7 @@ impl Builder<'_> {
             key.hash(h);
         });
         let field = self.counted(path, "points", None, sdf);
-        Ok(Compiled { field, hash })
+        Ok(Compiled::solid(field, hash))
     }
 
     fn volume(&mut self, v: &VolumeNode, path: String) -> Result<Compiled, SceneError> {
@@ -924,7 +1208,7 @@ impl Builder<'_> {
                 )
             }
         };
-        Ok(Compiled { field, hash })
+        Ok(Compiled::solid(field, hash))
     }
 
     fn volume_field(
@@ -996,7 +1280,7 @@ impl Builder<'_> {
             child.hash.hash(h);
         });
         let field = self.counted(path, "octree", None, tree);
-        Ok(Compiled { field, hash })
+        Ok(Compiled::solid(field, hash))
     }
 
     fn include(&mut self, file: &str, path: String) -> Result<Compiled, SceneError> {
@@ -1034,6 +1318,7 @@ impl Builder<'_> {
                 c.hash.hash(h);
             }),
             field: c.field,
+            dim: c.dim,
         })
     }
 }

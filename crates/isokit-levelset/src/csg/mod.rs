@@ -120,6 +120,61 @@ pub fn smooth_difference(a: f32, b: f32, k: f32) -> f32 {
     smooth_intersection(a, -b, k)
 }
 
+/// Chamfered union with bevel size `r` (hg_sdf's `fOpUnionChamfer`): `min(a, b)` where
+/// `|a − b| ≥ r`, and the 45° bevel `a + b = r` where the two meet. The bevel term is
+/// `(a + b − r)/2` here, not hg_sdf's `(a + b − r)·√½`: the same surface, but a slope of at
+/// most the operands' (`|∇a + ∇b|/2 ≤ 1`) where hg_sdf's reaches `√2` when the operands'
+/// gradients align, which would break the distance bound. At most `r/2` below `min(a, b)`.
+/// `r ≤ 0` gives the sharp union.
+#[inline]
+pub fn chamfer_union(a: f32, b: f32, r: f32) -> f32 {
+    if r <= 0.0 {
+        return union(a, b);
+    }
+    a.min(b).min(0.5 * (a + b - r))
+}
+
+/// Chamfered intersection: `−chamfer_union(−a, −b, r)`, the bevel `a + b = −r` on the
+/// intersection's edges.
+#[inline]
+pub fn chamfer_intersection(a: f32, b: f32, r: f32) -> f32 {
+    -chamfer_union(-a, -b, r)
+}
+
+/// Chamfered difference: `chamfer_intersection(a, −b, r)`.
+#[inline]
+pub fn chamfer_difference(a: f32, b: f32, r: f32) -> f32 {
+    chamfer_intersection(a, -b, r)
+}
+
+/// Stepped union with `steps` stairs over the size `r` (hg_sdf's `fOpUnionStairs`):
+/// `min(a, b, ½(u + a + |mod(u − a + s, 2s) − s|))` with `u = b − r`, `s = r/steps`. Equal
+/// to `min(a, b)` where `|a − b| ≥ r` and at most `r/2` below it; its gradient is always one
+/// of the operands' (the triangle wave has slope ±1), so its slope is the operands'.
+/// `r ≤ 0` or `steps = 0` gives the sharp union.
+#[inline]
+pub fn stairs_union(a: f32, b: f32, r: f32, steps: u32) -> f32 {
+    if r <= 0.0 || steps == 0 {
+        return union(a, b);
+    }
+    let s = r / steps as f32;
+    let u = b - r;
+    let tri = ((u - a + s).rem_euclid(2.0 * s) - s).abs();
+    a.min(b).min(0.5 * (u + a + tri))
+}
+
+/// Stepped intersection: `−stairs_union(−a, −b, r, steps)`.
+#[inline]
+pub fn stairs_intersection(a: f32, b: f32, r: f32, steps: u32) -> f32 {
+    -stairs_union(-a, -b, r, steps)
+}
+
+/// Stepped difference: `−stairs_union(−a, b, r, steps)` (hg_sdf's `fOpDifferenceStairs`).
+#[inline]
+pub fn stairs_difference(a: f32, b: f32, r: f32, steps: u32) -> f32 {
+    -stairs_union(-a, b, r, steps)
+}
+
 // ---------------------------------------------------------------- errors
 
 /// The geometry of a sampled grid: what two grids must share to be combined elementwise.
@@ -277,13 +332,22 @@ fn takes_first_max(a: f32, b: f32) -> bool {
 /// with `d` and reaches `k` at `d = k`). By (P) the point is in
 /// `(A.expanded(k/4) ∩ B.expanded(k)).expanded(δ)` or the same with A and B swapped.
 pub fn smooth_union_bounds(a: &Aabb, b: &Aabb, k: f32) -> Aabb {
-    if k <= 0.0 {
+    blend_union_bounds(a, b, 0.25 * k, k)
+}
+
+/// Bounds of a blended union whose value is `min(a, b)` where `|a − b| ≥ window` and at most
+/// `reach` below it elsewhere, with bevels that need `a + b ≤ 2δ + window`-like closeness:
+/// by the argument of [`smooth_union_bounds`] (the smaller operand at most `δ + reach`, the
+/// larger at most `δ + window`), `A.expanded(reach) ∩ B.expanded(window)` or the same with
+/// A and B swapped. The quadratic blend has `(k/4, k)`, the chamfer and the stairs `(r/2, r)`
+/// (for them `a + b ≤ 2δ + r` with both above `δ` puts the larger below `δ + r`).
+pub fn blend_union_bounds(a: &Aabb, b: &Aabb, reach: f32, window: f32) -> Aabb {
+    if window <= 0.0 {
         return a.union(b);
     }
-    let q = 0.25 * k;
     a.union(b)
-        .union(&a.expanded(q).intersection(&b.expanded(k)))
-        .union(&a.expanded(k).intersection(&b.expanded(q)))
+        .union(&a.expanded(reach).intersection(&b.expanded(window)))
+        .union(&a.expanded(window).intersection(&b.expanded(reach)))
 }
 
 /// Bounds of [`Offset`] by `r` of a field with box `b` and Lipschitz constant `lipschitz`:
@@ -619,29 +683,29 @@ impl<A: Field> Field for Offset<A> {
 
 /// The three smooth operations as `o · smooth_union(ca · a, cb · b, k)`.
 #[derive(Clone, Copy)]
-struct Blend {
+struct SignedBlend {
     o: f32,
     ca: f32,
     cb: f32,
 }
 
-const BLEND_UNION: Blend = Blend {
+const BLEND_UNION: SignedBlend = SignedBlend {
     o: 1.0,
     ca: 1.0,
     cb: 1.0,
 };
-const BLEND_INTERSECTION: Blend = Blend {
+const BLEND_INTERSECTION: SignedBlend = SignedBlend {
     o: -1.0,
     ca: -1.0,
     cb: -1.0,
 };
-const BLEND_DIFFERENCE: Blend = Blend {
+const BLEND_DIFFERENCE: SignedBlend = SignedBlend {
     o: -1.0,
     ca: -1.0,
     cb: 1.0,
 };
 
-impl Blend {
+impl SignedBlend {
     /// Weights `(wa, wb)` of the (sign-adjusted) operand gradients and whether the point is in
     /// the blend region (`|a − b| < k`, where the second derivatives pick up `±1/(2k)`).
     fn weights(self, a: f32, b: f32, k: f32) -> (f32, f32, bool) {
@@ -804,7 +868,7 @@ smooth_type! {
 
 mod bvh;
 mod nary;
-pub use nary::{DifferenceN, IntersectionN, Shell, SmoothKind, SmoothN, UnionN};
+pub use nary::{Blend, DifferenceN, IntersectionN, Shell, SmoothKind, SmoothN, UnionN};
 
 // ---------------------------------------------------------------- dense grids
 

@@ -20,8 +20,9 @@
 
 use super::bvh::Bvh;
 use super::{
-    CsgError, check_blend_radius, difference, intersection, lip_max, smooth_difference,
-    smooth_intersection, smooth_union, smooth_union_bounds, union,
+    CsgError, blend_union_bounds, chamfer_difference, chamfer_intersection, chamfer_union,
+    check_blend_radius, difference, intersection, lip_max, smooth_difference, smooth_intersection,
+    smooth_union, stairs_difference, stairs_intersection, stairs_union, union,
 };
 use glam::{Mat3, Vec3};
 use isokit_field::{Aabb, DistanceBox, Field, value_clamped};
@@ -468,22 +469,74 @@ pub enum SmoothKind {
     Difference,
 }
 
-/// How far `n` operands folded by a smooth operation of radius `k` can move the value from
-/// the sharp one: each of the `n − 1` folds of the quadratic blend moves it by at most `k/4`.
-pub fn smooth_reach(k: f32, n: usize) -> f32 {
-    0.25 * k * n.saturating_sub(1) as f32
+/// The shape of the fillet where the operands of a [`SmoothN`] meet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Blend {
+    /// The quadratic polynomial smooth minimum ([`smooth_union`]): a round fillet of radius
+    /// `k`, at most `k/4` from the sharp value.
+    #[default]
+    Round,
+    /// hg_sdf's chamfer ([`chamfer_union`]): a 45° bevel of size `k`, at most `k/2` from the
+    /// sharp value.
+    Chamfer,
+    /// hg_sdf's stairs ([`stairs_union`]) with this many steps over the size `k`, at most
+    /// `k/2` from the sharp value.
+    Stairs(u32),
 }
 
-/// A smooth operation folded over any number of operands from the left
-/// (`op(op(op(f0, f1), f2), …)`), blend radius `k`.
+impl Blend {
+    /// How far one fold with radius `k` can move the value from the sharp operation.
+    pub fn reach(self, k: f32) -> f32 {
+        match self {
+            Blend::Round => 0.25 * k,
+            Blend::Chamfer | Blend::Stairs(_) => 0.5 * k,
+        }
+    }
+
+    /// The difference of the operands beyond which a fold is the sharp operation.
+    pub fn window(self, k: f32) -> f32 {
+        k
+    }
+
+    fn union(self, a: f32, b: f32, k: f32) -> f32 {
+        match self {
+            Blend::Round => smooth_union(a, b, k),
+            Blend::Chamfer => chamfer_union(a, b, k),
+            Blend::Stairs(n) => stairs_union(a, b, k, n),
+        }
+    }
+
+    fn intersection(self, a: f32, b: f32, k: f32) -> f32 {
+        match self {
+            Blend::Round => smooth_intersection(a, b, k),
+            Blend::Chamfer => chamfer_intersection(a, b, k),
+            Blend::Stairs(n) => stairs_intersection(a, b, k, n),
+        }
+    }
+
+    fn difference(self, a: f32, b: f32, k: f32) -> f32 {
+        match self {
+            Blend::Round => smooth_difference(a, b, k),
+            Blend::Chamfer => chamfer_difference(a, b, k),
+            Blend::Stairs(n) => stairs_difference(a, b, k, n),
+        }
+    }
+}
+
+/// A blended operation folded over any number of operands from the left
+/// (`op(op(op(f0, f1), f2), …)`), blend size `k`: the round fillet of the smooth minimum
+/// (Quilez), or hg_sdf's chamfer or stairs ([`Blend`]).
 ///
-/// A bound, never exact. Lipschitz: the largest of the operands'. Bounds: for the union, the
-/// binary [`smooth_union_bounds`] folded the same way; for the intersection, the
-/// intersection of the boxes; for the difference, the first operand's box. Gradient and
-/// Hessian: finite differences (the default).
+/// A bound, never exact. Lipschitz: the largest of the operands' (the smooth minimum's
+/// partial derivatives are convex weights, the chamfer's bevel term is halved so that
+/// `|∇a + ∇b|/2 ≤ 1`, and the stairs' gradient is always one operand's). Bounds: for the
+/// union, [`blend_union_bounds`] folded the same way; for the intersection, the
+/// intersection of the boxes; for the difference, the first operand's box (neither is ever
+/// below the sharp value). Gradient and Hessian: finite differences (the default).
 #[derive(Debug)]
 pub struct SmoothN<F = Box<dyn Field>> {
     kind: SmoothKind,
+    blend: Blend,
     k: f32,
     children: Vec<F>,
     bounds: Aabb,
@@ -491,10 +544,20 @@ pub struct SmoothN<F = Box<dyn Field>> {
 }
 
 impl<F: Field> SmoothN<F> {
-    /// The `kind` fold of `children` with blend radius `k` (finite and ≥ 0). Errors: no
-    /// operands ([`CsgError::NoOperands`]) or a bad radius. One operand is the operand
-    /// itself.
+    /// The `kind` fold of `children` with the round blend of radius `k` (finite and ≥ 0).
+    /// Errors: no operands ([`CsgError::NoOperands`]) or a bad radius. One operand is the
+    /// operand itself.
     pub fn new(kind: SmoothKind, k: f32, children: Vec<F>) -> Result<Self, CsgError> {
+        Self::with_blend(kind, Blend::Round, k, children)
+    }
+
+    /// The `kind` fold of `children` with `blend` of size `k` (finite and ≥ 0).
+    pub fn with_blend(
+        kind: SmoothKind,
+        blend: Blend,
+        k: f32,
+        children: Vec<F>,
+    ) -> Result<Self, CsgError> {
         let op = match kind {
             SmoothKind::Union => "smooth union",
             SmoothKind::Intersection => "smooth intersection",
@@ -502,9 +565,10 @@ impl<F: Field> SmoothN<F> {
         };
         check_nonempty(&children, op)?;
         let k = check_blend_radius(k)?;
+        let (reach, window) = (blend.reach(k), blend.window(k));
         let bounds = match kind {
             SmoothKind::Union => children[1..].iter().fold(children[0].bounds(), |b, c| {
-                smooth_union_bounds(&b, &c.bounds(), k)
+                blend_union_bounds(&b, &c.bounds(), reach, window)
             }),
             SmoothKind::Intersection => children
                 .iter()
@@ -514,6 +578,7 @@ impl<F: Field> SmoothN<F> {
         let lipschitz = lip_of(&children);
         Ok(Self {
             kind,
+            blend,
             k,
             children,
             bounds,
@@ -524,6 +589,10 @@ impl<F: Field> SmoothN<F> {
     pub fn kind(&self) -> SmoothKind {
         self.kind
     }
+    /// The fillet's shape.
+    pub fn blend(&self) -> Blend {
+        self.blend
+    }
     /// The blend radius.
     pub fn k(&self) -> f32 {
         self.k
@@ -533,13 +602,18 @@ impl<F: Field> SmoothN<F> {
         &self.children
     }
 
+    /// How far the whole fold can move the value from the sharp operation.
+    fn reach(&self) -> f32 {
+        self.blend.reach(self.k) * self.children.len().saturating_sub(1) as f32
+    }
+
     fn fold(&self, mut vals: impl Iterator<Item = f32>) -> f32 {
         let first = vals.next().unwrap_or(f32::INFINITY);
-        let k = self.k;
+        let (k, b) = (self.k, self.blend);
         match self.kind {
-            SmoothKind::Union => vals.fold(first, |a, b| smooth_union(a, b, k)),
-            SmoothKind::Intersection => vals.fold(first, |a, b| smooth_intersection(a, b, k)),
-            SmoothKind::Difference => vals.fold(first, |a, b| smooth_difference(a, b, k)),
+            SmoothKind::Union => vals.fold(first, |x, y| b.union(x, y, k)),
+            SmoothKind::Intersection => vals.fold(first, |x, y| b.intersection(x, y, k)),
+            SmoothKind::Difference => vals.fold(first, |x, y| b.difference(x, y, k)),
         }
     }
 }
@@ -560,7 +634,7 @@ impl<F: Field> Field for SmoothN<F> {
     fn distance_box(&self) -> Option<DistanceBox> {
         match self.kind {
             SmoothKind::Union => union_distance_box(&self.children).map(|d| DistanceBox {
-                slack: d.slack + smooth_reach(self.k, self.children.len()),
+                slack: d.slack + self.reach(),
                 ..d
             }),
             SmoothKind::Intersection => intersection_distance_box(&self.children),
@@ -571,8 +645,7 @@ impl<F: Field> Field for SmoothN<F> {
         let lb = |c: &F| known(c.lower_bound(p));
         known(match self.kind {
             SmoothKind::Union => {
-                self.children.iter().map(lb).fold(f32::INFINITY, f32::min)
-                    - smooth_reach(self.k, self.children.len())
+                self.children.iter().map(lb).fold(f32::INFINITY, f32::min) - self.reach()
             }
             SmoothKind::Intersection => self
                 .children
@@ -583,11 +656,11 @@ impl<F: Field> Field for SmoothN<F> {
         })
     }
     fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
-        // Children exact within `cap + reach + k` make the blend exact within `cap`: a
-        // clamped child either lies `k` or more above the running value (and does not enter
-        // the blend) or the running value already lies above `cap + reach`, which the
+        // Children exact within `cap + reach + window` make the blend exact within `cap`: a
+        // clamped child either lies a window or more above the running value (and does not
+        // enter the blend) or the running value already lies above `cap + reach`, which the
         // remaining folds cannot bring below `cap`.
-        let inner = cap + smooth_reach(self.k, self.children.len()) + self.k;
+        let inner = cap + self.reach() + self.blend.window(self.k);
         self.fold(self.children.iter().map(|c| value_clamped(c, p, inner)))
             .clamp(-cap, cap)
     }
