@@ -32,7 +32,7 @@ world / spacing; mean, 95th percentile), the distance of the hit point from the 
 them, and normals interpolated from area-weighted vertex normals at the hit's barycentric
 coordinates). isokit against Open3D directly as well.
 
-    /work/venv-peers/bin/python tests/peers/bench_render.py --isokit target/release/isokit \
+    python tests/peers/bench_render.py --isokit target/release/isokit \
         --out /tmp/bench_render
 
 Writes results.md, results.json and side-by-side PNGs (isokit normals | Open3D normals |
@@ -459,7 +459,7 @@ def main():
                              ref_hits=int(ref["hit"].sum()), eye=eye.tolist())
         print(json.dumps({name: results[name]}), flush=True)
 
-    cmd = (f"/work/venv-peers/bin/python tests/peers/bench_render.py --isokit {a.isokit} "
+    cmd = (f"python tests/peers/bench_render.py --isokit {a.isokit} "
            f"--out {a.out} --res {a.res} --runs {a.runs}")
     ver = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout.strip()
     lines = [
