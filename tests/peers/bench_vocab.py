@@ -5,8 +5,12 @@ manifold3d's exact part (its booleans of cylinders for the flange, its 2D boolea
 for the gear, its revolve ∩ twisted extrusion for the vase's body; the vase's shell is an
 offset, which manifold3d cannot build exactly, so the whole vase has no reference).
 
-fogleman's `sdf` (the fork `sdfcad` on PyPI) is the peer this is meant to run beside; where
-it is not importable its rows are left out and the run says so.
+fogleman's `sdf` (its maintained fork `sdfcad` on PyPI, module `sdf`) builds the same parts
+from its own vocabulary (`circle`, `polygon`, `hexagon`, `circular_array`, `extrude`,
+`revolve`, `twist`, `shell`, `|`, `&`, `-`) and meshes them with its `generate` over isokit's
+sampled domain at isokit's spacing (2 workers); where it is not importable its rows are left
+out and the run says so. Its triangles come as a soup: vertices are welded where they are
+equal to 1e-6 before boundary edges are counted.
 
     python tests/peers/bench_vocab.py --isokit target/release/isokit --res 64 128 256 \\
         --out docs/bench_vocab.md
@@ -86,6 +90,48 @@ def run_isokit(exe, scene, res, tmp):
     return read_obj(out), stats, wall
 
 
+def sdfcad_part(name, scene):
+    """The part `name` in fogleman's vocabulary, with the parameters of its scene file."""
+    import sdf
+
+    prm = scene.get("params", {})
+    if name == "flange":
+        plate = sdf.circle(1.0).extrude(prm["plate"])
+        boss = sdf.circle(0.42).extrude(0.4).translate((0, 0, 0.2))
+        bore = sdf.circle(0.25).extrude(2.0)
+        hole = sdf.circle(prm["bolt_radius"], center=(prm["bolt_circle"], 0))
+        holes = sdf.d2.circular_array(hole, int(prm["bolts"])).extrude(1.0)
+        return (plate | boss) - bore - holes
+    if name == "gear":
+        tooth = sdf.polygon([[0.75, -0.09], [0.98, -0.05], [0.98, 0.05], [0.75, 0.09]])
+        teeth = sdf.d2.circular_array(tooth, int(prm["teeth"]))
+        return ((sdf.circle(0.8) | teeth) - sdf.circle(prm["bore"])).extrude(prm["thickness"])
+    profile = sdf.polygon([[-0.1, -0.8], [0.4, -0.8], [0.55, -0.45], [0.55, -0.1],
+                           [0.35, 0.35], [0.28, 0.6], [0.36, 0.8], [-0.1, 0.8]])
+    # isokit turns the section at height z by rate·z degrees; sdf's twist(k) evaluates its
+    # operand at the point turned by k·z radians, which turns the shape by −k·z.
+    hexa = sdf.hexagon(0.56).extrude(1.8).twist(-np.radians(prm["twist"]))
+    body = sdf.revolve(profile, 0) & hexa
+    if name == "vase body":
+        return body
+    return body.shell(prm["wall"]) - sdf.box((2, 2, 0.2), center=(0, 0, 0.85))
+
+
+def run_sdfcad(name, scene, stats):
+    """sdfcad's mesh of the part over isokit's sampled domain at isokit's spacing."""
+    f = sdfcad_part(name, scene)
+    lo, hi = stats["domain"]
+    t0 = time.perf_counter()
+    pts = f.generate(step=stats["spacing"], bounds=(tuple(lo), tuple(hi)), workers=2,
+                     verbose=False)
+    seconds = time.perf_counter() - t0
+    P = np.asarray(pts, dtype=np.float64)
+    V, inv = np.unique(np.round(P, 6), axis=0, return_inverse=True)
+    F = inv.reshape(-1, 3)
+    F = F[(F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])]
+    return (V, F), seconds
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--isokit", required=True)
@@ -93,18 +139,22 @@ def main():
     ap.add_argument("--out", type=pathlib.Path)
     a = ap.parse_args()
     try:
-        import sdfcad  # noqa: F401
+        from importlib.metadata import version
 
-        note = "sdfcad is importable but not driven yet: add its parts here"
+        import sdf  # noqa: F401
+
+        peer = True
+        note = f"sdfcad {version('sdfcad')}"
     except ImportError:
+        peer = False
         note = "sdfcad is not installed: its rows are absent"
     lines = [
         f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}; "
         f"Python {platform.python_version()}; {note}.",
         "",
-        "| part | res | lattice | seconds (evaluate, mesh, write) | wall s | triangles "
+        "| part | res | tool | lattice | seconds (evaluate, mesh, write) | wall s | triangles "
         "| boundary edges | Hausdorff to manifold3d (voxels) |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for name, scene, ref in cases():
         for res in a.res:
@@ -118,10 +168,21 @@ def main():
                 h = f"{d:.4f} ({d / stats['spacing']:.2f})"
             dims = "×".join(str(x) for x in stats["dims"])
             lines.append(
-                f"| {name} | {res} | {dims} | {seconds:.3f} | {wall:.2f} | {len(F)} "
+                f"| {name} | {res} | isokit | {dims} | {seconds:.3f} | {wall:.2f} | {len(F)} "
                 f"| {boundary_edges(F)} | {h} |"
             )
             print(lines[-1], flush=True)
+            if peer:
+                (SV, SF), s_seconds = run_sdfcad(name, scene, stats)
+                sh = "—"
+                if ref is not None and len(SF):
+                    d = hausdorff((SV, SF), ref)
+                    sh = f"{d:.4f} ({d / stats['spacing']:.2f})"
+                lines.append(
+                    f"| {name} | {res} | sdfcad | same | {s_seconds:.3f} | {s_seconds:.2f} "
+                    f"| {len(SF)} | {boundary_edges(SF)} | {sh} |"
+                )
+                print(lines[-1], flush=True)
     text = "\n".join(lines) + "\n"
     if a.out:
         a.out.write_text(text)
