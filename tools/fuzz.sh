@@ -7,7 +7,7 @@
 #                                            # executions, crashes and hangs; exit 1 on a crash
 #   bash tools/fuzz.sh targets               # the target names
 #
-# CI runs `build` and `run 5`. A long local campaign: `bash tools/fuzz.sh run 3600`, or one
+# CI runs `build` and `run 3`. A long local campaign: `bash tools/fuzz.sh run 3600`, or one
 # target in the background: `bash tools/fuzz.sh run 86400 obj &`. A crash is reproduced
 # with `fuzz/target/debug/isokit-fuzz-afl TARGET FILE` (after `cargo build` in fuzz/), then
 # copied to fuzz/corpus/TARGET/crash-NAME with a regression test beside the fix.
