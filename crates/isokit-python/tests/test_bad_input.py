@@ -72,6 +72,11 @@ def test_huge_resolutions_are_refused_before_allocating():
 def test_missing_and_malformed_files(tmp_path):
     with pytest.raises(FileNotFoundError, match="no such file"):
         isokit.mesh(tmp_path / "missing.obj")(np.zeros((1, 3)))
+    # Refused when the shape is made, not at its first evaluation.
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        isokit.mesh(tmp_path / "missing.obj")
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        isokit.points(tmp_path / "missing.ply")
     with pytest.raises(FileNotFoundError):
         isokit.load_scene(tmp_path / "missing.json")
     with pytest.raises(FileNotFoundError):

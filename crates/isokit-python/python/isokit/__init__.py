@@ -171,6 +171,16 @@ def _is_path(x) -> bool:
     return isinstance(x, (str, bytes, _os.PathLike))
 
 
+def _existing(shape, source):
+    """`shape` made from the file `source`, refused at once when the file is missing (it
+    is read lazily, when the shape is first evaluated; a typo should not wait for that).
+    Called after the shape is made, so that bad parameters are named first."""
+    path = _os.fsdecode(source)
+    if not _os.path.exists(path):
+        raise FileNotFoundError(2, "no such file", path)
+    return shape
+
+
 def _float_array(x, name):
     """float32/float64 arrays as they are (no copy); anything else as float64."""
     if isinstance(x, _np.ndarray) and x.dtype in (_np.float32, _np.float64):
@@ -202,7 +212,7 @@ def mesh(source, sign="auto", method="kdtree") -> Shape:
     ``shape.to_json(save_sources_to=DIR)``.
     """
     if _is_path(source):
-        return _isokit._mesh_path(_os.fsdecode(source), sign, method)
+        return _existing(_isokit._mesh_path(_os.fsdecode(source), sign, method), source)
     if hasattr(source, "vertices") and hasattr(source, "faces"):
         source = (source.vertices, source.faces)
     try:
@@ -227,7 +237,7 @@ def points(source, k=None, normals="auto") -> Shape:
         minimum-spanning-tree orientation).
     """
     if _is_path(source):
-        return _isokit._points_path(_os.fsdecode(source), k, normals)
+        return _existing(_isokit._points_path(_os.fsdecode(source), k, normals), source)
     if isinstance(source, tuple) and len(source) == 2:
         P, N = source
     else:
