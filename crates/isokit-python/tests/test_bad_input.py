@@ -77,6 +77,8 @@ def test_missing_and_malformed_files(tmp_path):
         isokit.mesh(tmp_path / "missing.obj")
     with pytest.raises(FileNotFoundError, match="no such file"):
         isokit.points(tmp_path / "missing.ply")
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        isokit.volume(tmp_path / "missing.nrrd")
     with pytest.raises(FileNotFoundError):
         isokit.load_scene(tmp_path / "missing.json")
     with pytest.raises(FileNotFoundError):

@@ -272,7 +272,7 @@ def volume(source, origin=None, spacing=None, inside="below", iso=0.0, filter="t
             raise ValueError(
                 "origin and spacing come from the file (its NRRD header or .npy.json sidecar); "
                 "for a bare .npy, load it with numpy and pass the array")
-        return _isokit._volume_path(_os.fsdecode(source), iso, inside, filter)
+        return _existing(_isokit._volume_path(_os.fsdecode(source), iso, inside, filter), source)
     if isinstance(source, Field):
         if origin is not None or spacing is not None:
             raise ValueError("a Field has its own origin and spacing")
