@@ -1229,6 +1229,36 @@ pub fn entry_crossing(u: &Uniforms, t0: f32, r: f32) -> Option<Segment> {
     })
 }
 
+/// The first sample of a block's segment `[t0, t1]`, shared by both searches: the segment
+/// ends there as a cap (`first` and inside), as a crossing at the block's face (inside after
+/// an outside sample in the previous block) or as empty (no length); otherwise the
+/// residual at `t0` and the segment's length.
+#[inline]
+fn segment_start(
+    u: &Uniforms,
+    pool: &[f32],
+    ray: &SegmentRay,
+    t0: f32,
+    t1: f32,
+    first: bool,
+    samples: &mut u32,
+) -> Result<(f32, f32), Segment> {
+    let r = ray.residual_at(u, pool, t0, samples);
+    if r < 0.0 {
+        if first {
+            return Err(Segment::Cap);
+        }
+        if let Some(entry) = entry_crossing(u, t0, r) {
+            return Err(entry);
+        }
+    }
+    let len = t1 - t0;
+    if len.is_nan() || len <= 0.0 {
+        return Err(Segment::Empty);
+    }
+    Ok((r, len))
+}
+
 /// Samples the segment `[t0, t1]` of a block for the first crossing from outside to inside
 /// (see the module docs, step 4). `first` asks for the cap test on the first sample.
 pub fn march_segment(
@@ -1241,19 +1271,10 @@ pub fn march_segment(
     samples: &mut u32,
 ) -> Segment {
     let mut ta = t0;
-    let mut ra = ray.residual_at(u, pool, t0, samples);
-    if ra < 0.0 {
-        if first {
-            return Segment::Cap;
-        }
-        if let Some(entry) = entry_crossing(u, t0, ra) {
-            return entry;
-        }
-    }
-    let len = t1 - t0;
-    if len.is_nan() || len <= 0.0 {
-        return Segment::Empty;
-    }
+    let (mut ra, len) = match segment_start(u, pool, ray, t0, t1, first, samples) {
+        Ok(start) => start,
+        Err(end) => return end,
+    };
     // At most a block's diagonal (√3 · 32 voxels) times r0 (at most 64): fits in u32.
     let m = (len * u.r0).ceil().max(1.0) as u32;
     let step = len / m as f32;
@@ -1311,19 +1332,10 @@ pub fn march_sphere(
     samples: &mut u32,
 ) -> Segment {
     let mut t = t0;
-    let mut r = ray.residual_at(u, pool, t0, samples);
-    if r < 0.0 {
-        if first {
-            return Segment::Cap;
-        }
-        if let Some(entry) = entry_crossing(u, t0, r) {
-            return entry;
-        }
-    }
-    let len = t1 - t0;
-    if len.is_nan() || len <= 0.0 {
-        return Segment::Empty;
-    }
+    let (mut r, len) = match segment_start(u, pool, ray, t0, t1, first, samples) {
+        Ok(start) => start,
+        Err(end) => return end,
+    };
     let min_step = 1.0 / (u.r0 * u.fine as f32);
     // Every step is at least `min_step` long (a bound on the loop, as in the shader).
     let max_steps = (len / min_step).ceil() as u32 + 1;
