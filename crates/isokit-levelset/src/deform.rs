@@ -223,35 +223,44 @@ impl<F: Field> Twist<F> {
     }
 }
 
-impl<F: Field> Field for Twist<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        let (q, g) = self.local(p);
-        guarded(self.inner.value(q) as f64 / self.factor, g)
-    }
-    fn bounds(&self) -> Aabb {
-        self.bounds
-    }
-    fn lipschitz(&self) -> f32 {
-        self.inner.lipschitz().max(1.0)
-    }
-    fn distance_box(&self) -> Option<DistanceBox> {
-        Some(DistanceBox::exact(self.bounds))
-    }
-    fn lower_bound(&self, p: Vec3) -> f32 {
-        let (q, g) = self.local(p);
-        let lb = self.inner.lower_bound(q) as f64 / self.factor;
-        let lb = if lb.is_nan() { f64::NEG_INFINITY } else { lb };
-        // The box's bound as the default would give it, and the guard (≤ the value).
-        let boxed = DistanceBox::exact(self.bounds).lower_bound(p);
-        guarded(lb, g).max(boxed)
-    }
-    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
-        let (q, g) = self.local(p);
-        let inner_cap = (cap as f64 * self.factor) as f32;
-        let v = value_clamped(&self.inner, q, inner_cap) as f64 / self.factor;
-        guarded(v, g).clamp(-cap, cap)
-    }
+/// The `Field` of a map whose `local(p)` gives the operand's point and the guard, and whose
+/// `factor` is the largest stretch over its region: the operand's value divided by it, with
+/// the guard outside the region; pruned bounds likewise, and the box's bound beside them.
+macro_rules! stretch_bounded_field {
+    ($map:ident) => {
+        impl<F: Field> Field for $map<F> {
+            fn value(&self, p: Vec3) -> f32 {
+                let (q, g) = self.local(p);
+                guarded(self.inner.value(q) as f64 / self.factor, g)
+            }
+            fn bounds(&self) -> Aabb {
+                self.bounds
+            }
+            fn lipschitz(&self) -> f32 {
+                self.inner.lipschitz().max(1.0)
+            }
+            fn distance_box(&self) -> Option<DistanceBox> {
+                Some(DistanceBox::exact(self.bounds))
+            }
+            fn lower_bound(&self, p: Vec3) -> f32 {
+                let (q, g) = self.local(p);
+                let lb = self.inner.lower_bound(q) as f64 / self.factor;
+                let lb = if lb.is_nan() { f64::NEG_INFINITY } else { lb };
+                // The box's bound as the default would give it, and the guard (≤ the value).
+                let boxed = DistanceBox::exact(self.bounds).lower_bound(p);
+                guarded(lb, g).max(boxed)
+            }
+            fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
+                let (q, g) = self.local(p);
+                let inner_cap = (cap as f64 * self.factor) as f32;
+                let v = value_clamped(&self.inner, q, inner_cap) as f64 / self.factor;
+                guarded(v, g).clamp(-cap, cap)
+            }
+        }
+    };
 }
+
+stretch_bounded_field!(Twist);
 
 // ---------------------------------------------------------------- bend
 
@@ -541,34 +550,7 @@ impl<F: Field> Taper<F> {
     }
 }
 
-impl<F: Field> Field for Taper<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        let (q, g) = self.local(p);
-        guarded(self.inner.value(q) as f64 / self.factor, g)
-    }
-    fn bounds(&self) -> Aabb {
-        self.bounds
-    }
-    fn lipschitz(&self) -> f32 {
-        self.inner.lipschitz().max(1.0)
-    }
-    fn distance_box(&self) -> Option<DistanceBox> {
-        Some(DistanceBox::exact(self.bounds))
-    }
-    fn lower_bound(&self, p: Vec3) -> f32 {
-        let (q, g) = self.local(p);
-        let lb = self.inner.lower_bound(q) as f64 / self.factor;
-        let lb = if lb.is_nan() { f64::NEG_INFINITY } else { lb };
-        let boxed = DistanceBox::exact(self.bounds).lower_bound(p);
-        guarded(lb, g).max(boxed)
-    }
-    fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
-        let (q, g) = self.local(p);
-        let inner_cap = (cap as f64 * self.factor) as f32;
-        let v = value_clamped(&self.inner, q, inner_cap) as f64 / self.factor;
-        guarded(v, g).clamp(-cap, cap)
-    }
-}
+stretch_bounded_field!(Taper);
 
 // ---------------------------------------------------------------- elongate
 
