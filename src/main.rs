@@ -57,6 +57,9 @@ enum Command {
     /// Splat a molecule (PDB or mmCIF) as quadrics: ball-and-stick or space-filling, CPK
     /// colours, soft shadows and outlines on request.
     Molecule(Box<cmd::molecule::Args>),
+    /// A live window on a scene, volume or molecule, rendered again whenever it or a file
+    /// it depends on is saved (file events); orbit, pan and zoom with the mouse.
+    View(cmd::view::Args),
     /// Render the bundled demo scene (a mesh blended with a sphere, curvature-shaded) to
     /// demo.png, printing each stage and its time.
     Demo(cmd::demo::Args),
@@ -101,6 +104,7 @@ fn main() -> ExitCode {
         Command::Mesh(a) => cmd::mesh::run(a),
         Command::Render(a) => cmd::render::run(*a),
         Command::Molecule(a) => cmd::molecule::run(*a),
+        Command::View(a) => cmd::view::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Bench(b) => cmd::bench::run(b),
     };

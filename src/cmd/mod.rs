@@ -22,6 +22,7 @@ pub mod sample;
 pub mod sample_options;
 pub mod scene;
 pub mod sdf;
+pub mod view;
 
 use anyhow::{Context, bail};
 use glam::Vec3;

@@ -55,6 +55,16 @@ pub struct BrickGrid {
     /// Brick samples, `(brick + 2 apron)^3` per brick, x fastest, in `infos` order.
     pool: Vec<f32>,
     evaluated: u64,
+    reused: usize,
+}
+
+/// An earlier sampling to take bricks from ([`BrickGrid::sample_field_reusing`]).
+#[derive(Clone, Copy)]
+pub struct Reuse<'a> {
+    /// The earlier sampling.
+    pub previous: &'a BrickGrid,
+    /// Whether the field may have changed anywhere in a box (world coordinates).
+    pub changed: &'a (dyn Fn(crate::Aabb) -> bool + Sync),
 }
 
 const ABSENT: u32 = u32::MAX;
@@ -143,6 +153,7 @@ impl BrickGrid {
             infos: Vec::new(),
             pool: Vec::new(),
             evaluated: 0,
+            reused: 0,
         })
     }
 
@@ -245,8 +256,48 @@ impl BrickGrid {
         background: f32,
         job: &Job,
     ) -> Result<Self, FieldError> {
+        Self::sample_field_reusing(
+            field, dims, origin, spacing, brick, apron, band, background, None, job,
+        )
+    }
+
+    /// [`BrickGrid::sample_field_job`] taking the bricks of an earlier sampling where the
+    /// field cannot have changed: a brick of `reuse.previous` (same lattice, brick size,
+    /// apron and background) whose box `reuse.changed` says is untouched keeps its decision
+    /// (kept, inside, outside), samples and bookkeeping, and nothing of it is evaluated.
+    /// [`BrickGrid::reused_bricks`] counts them. Without a matching lattice every brick is
+    /// evaluated. The caller answers for `changed`: the field at every sample of a brick it
+    /// passes (the box spans the brick's samples, its apron and the next layer) must be the
+    /// same as when `previous` was sampled, with the same `band`.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "grid geometry plus brick layout, reuse and job"
+    )]
+    pub fn sample_field_reusing(
+        field: &dyn Field,
+        dims: [usize; 3],
+        origin: Vec3,
+        spacing: f32,
+        brick: usize,
+        apron: usize,
+        band: f32,
+        background: f32,
+        reuse: Option<Reuse<'_>>,
+        job: &Job,
+    ) -> Result<Self, FieldError> {
         job.check()?;
         let mut b = Self::new(dims, origin, spacing, brick, apron, background)?;
+        let reuse = reuse.filter(|r| r.previous.same_lattice(&b));
+        // Per brick: the earlier brick's slot where it is reused.
+        let old: Vec<Option<u32>> = match &reuse {
+            Some(r) => b
+                .all_brick_coords()
+                .par_iter()
+                .map(|&c| (!(r.changed)(b.brick_box(c))).then(|| r.previous.index[b.flat(c)]))
+                .collect(),
+            None => Vec::new(),
+        };
+        let old_at = |n: usize| old.get(n).copied().flatten();
         let side = brick + 2 * apron;
         let lip = field.lipschitz().max(0.0);
         let reach = 0.5 * ((brick + 2 * apron) as f32) * spacing * 3f32.sqrt();
@@ -258,8 +309,16 @@ impl BrickGrid {
         let progress = job.counter("sampling bricks", 2 * coords.len() as u64);
         let keep: Vec<Option<bool>> = coords
             .par_iter()
-            .map(|&c| {
+            .enumerate()
+            .map(|(n, &c)| {
                 progress.advance(1);
+                if let Some(slot) = old_at(n) {
+                    return match slot {
+                        ABSENT => Some(false),
+                        ABSENT_INSIDE => None,
+                        _ => Some(true),
+                    };
+                }
                 let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                 let centre = origin + spacing * (lo.as_vec3() + Vec3::splat(0.5 * brick as f32));
                 let v = field.value(centre);
@@ -292,8 +351,14 @@ impl BrickGrid {
         let cores: Vec<Option<Vec<f32>>> = coords
             .par_iter()
             .zip(keep.par_iter())
-            .map(|(&c, &k)| {
+            .enumerate()
+            .map(|(n, (&c, &k))| {
                 progress.advance(1);
+                if let (Some(r), Some(slot)) = (&reuse, old_at(n))
+                    && k == Some(true)
+                {
+                    return Some(r.previous.core_of(slot as usize));
+                }
                 (k == Some(true) && !job.is_cancelled()).then(|| {
                     let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
                     (0..brick * brick * brick)
@@ -330,8 +395,17 @@ impl BrickGrid {
         let bricks: Vec<(BrickInfo, Vec<f32>, u64)> = coords
             .par_iter()
             .zip(cores.par_iter())
-            .filter_map(|(&c, core)| core.as_ref().map(|_| c))
-            .map(|c| {
+            .enumerate()
+            .filter_map(|(n, (&c, core))| core.as_ref().map(|_| (n, c)))
+            .map(|(n, c)| {
+                if let (Some(r), Some(slot)) = (&reuse, old_at(n)) {
+                    let slot = slot as usize;
+                    return (
+                        r.previous.infos[slot],
+                        r.previous.brick_data(slot).to_vec(),
+                        u64::MAX,
+                    );
+                }
                 let extra = Cell::new(0u64);
                 let mut data = vec![0.0; side * side * side];
                 b.fill_brick(c, &mut data, |i, j, k| virtual_at(i, j, k, &extra));
@@ -354,8 +428,17 @@ impl BrickGrid {
         let kept = bricks.len() as u64;
         let skipped = keep.len() as u64 - kept;
         // Core samples beyond the grid's end are clamped copies: count only real ones.
-        let mut evaluated = skipped;
+        // Reused skipped bricks cost nothing either.
+        let reused_skipped = (0..keep.len())
+            .filter(|&n| keep[n] != Some(true) && old_at(n).is_some())
+            .count() as u64;
+        let mut evaluated = skipped - reused_skipped;
         for (info, data, extra) in bricks {
+            if extra == u64::MAX {
+                b.reused += 1;
+                b.push(info, data);
+                continue;
+            }
             let lo = info.coord.map(|v| v as usize * brick);
             let real: usize = (0..3).map(|a| brick.min(dims[a] - lo[a])).product();
             evaluated += real as u64 + extra;
@@ -363,6 +446,59 @@ impl BrickGrid {
         }
         b.evaluated = evaluated;
         Ok(b)
+    }
+
+    /// Kept bricks taken from an earlier sampling by [`BrickGrid::sample_field_reusing`]
+    /// without evaluating anything (skipped bricks it reused are not counted: they cost one
+    /// sample each otherwise).
+    pub fn reused_bricks(&self) -> usize {
+        self.reused
+    }
+
+    /// Same samples, brick layout and background as `other`.
+    fn same_lattice(&self, other: &BrickGrid) -> bool {
+        self.dims == other.dims
+            && self.origin == other.origin
+            && self.spacing == other.spacing
+            && self.brick == other.brick
+            && self.apron == other.apron
+            && self.background.to_bits() == other.background.to_bits()
+    }
+
+    fn flat(&self, c: [u32; 3]) -> usize {
+        let [bx, by, _] = self.brick_dims;
+        c[0] as usize + bx * (c[1] as usize + by * c[2] as usize)
+    }
+
+    /// The world box of the samples brick `c` depends on: its own, its apron's and the next
+    /// layer (read by the bookkeeping when there is no apron).
+    pub fn brick_box(&self, c: [u32; 3]) -> crate::Aabb {
+        let lo = c.map(|v| (v as usize * self.brick) as f32 - self.apron as f32);
+        let reach = self.brick as f32 + self.apron.max(1) as f32;
+        let hi: [f32; 3] = std::array::from_fn(|a| {
+            (c[a] as f32 * self.brick as f32 + reach).min(self.dims[a] as f32 - 1.0)
+        });
+        crate::Aabb::from_corners(
+            self.origin + self.spacing * Vec3::from_array(lo).max(Vec3::ZERO),
+            self.origin + self.spacing * Vec3::from_array(hi),
+        )
+    }
+
+    /// The core samples (no apron) of stored brick `slot`.
+    fn core_of(&self, slot: usize) -> Vec<f32> {
+        let (brick, apron) = (self.brick, self.apron);
+        let side = brick + 2 * apron;
+        let data = self.brick_data(slot);
+        (0..brick * brick * brick)
+            .map(|n| {
+                let (i, j, k) = (
+                    n % brick + apron,
+                    (n / brick) % brick + apron,
+                    n / (brick * brick) + apron,
+                );
+                data[i + side * (j + side * k)]
+            })
+            .collect()
     }
 
     fn max_index(&self) -> IVec3 {

@@ -44,7 +44,7 @@ pub mod rng;
 pub mod transform;
 
 pub use aabb::Aabb;
-pub use brick::{BrickGrid, BrickInfo};
+pub use brick::{BrickGrid, BrickInfo, Reuse};
 pub use camera::{Camera, Projection, Ray};
 pub use cloud::PointCloud;
 pub use error::FieldError;

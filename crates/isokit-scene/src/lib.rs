@@ -64,6 +64,7 @@ mod params;
 pub mod primitives;
 pub mod profiles;
 mod render;
+mod reuse;
 mod sample;
 mod scene;
 mod source;
@@ -80,8 +81,9 @@ pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats};
 pub use node::{BandMethod, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData};
 pub use render::{
     Frame, FrameStats, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer,
-    camera_for, shading_for,
+    camera_for, scene_options, shading_for,
 };
+pub use reuse::{Sampled, changed_boxes};
 pub use sample::{Plan, SampleOptions, SampleStats, SourceStats, band_to_grid, clamp_to_band};
 pub use scene::{ColoredPart, MAX_DEPTH, MAX_NODES, NodeHash, Scene, SourceInfo};
 

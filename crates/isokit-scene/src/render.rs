@@ -98,6 +98,19 @@ pub enum RenderTarget<'a> {
     /// A volume on the ray caster's layout (a file's samples, possibly with a second
     /// operand for on-the-fly CSG); not known to be a distance field.
     Volume(&'a Volume),
+    /// A compiled scene with its band already sampled (by [`Scene::sample_again`], with the
+    /// options [`scene_options`] gives).
+    Sampled(&'a Scene, &'a crate::Sampled),
+}
+
+impl<'a> RenderTarget<'a> {
+    /// The scene, for scene targets.
+    pub fn scene(self) -> Option<&'a Scene> {
+        match self {
+            RenderTarget::Scene(s) | RenderTarget::Sampled(s, _) => Some(s),
+            RenderTarget::Volume(_) => None,
+        }
+    }
 }
 
 /// How to render: image size, camera, shading, the ray caster's knobs.
@@ -264,6 +277,24 @@ impl Prepared<'_> {
     pub fn multiview(&self) -> Option<&MultiView> {
         self.multiview.as_ref()
     }
+    /// The scene's sampling statistics (for scenes).
+    pub fn sampling(&self) -> Option<&SampleStats> {
+        self.sampling.as_ref()
+    }
+    /// Looks from another camera (its size is the next frame's), keeping the sampled volume:
+    /// what a live viewer does while the user orbits.
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera = camera;
+    }
+    /// Another shading mode for the next frame.
+    pub fn set_mode(&mut self, mode: ShadingMode) {
+        self.shading.mode = mode;
+    }
+    /// Another isovalue for the next frame (the volume is kept: for a scene, values beyond
+    /// its sampled band are clamped, so an isovalue outside the band shows nothing).
+    pub fn set_iso(&mut self, iso: f32) {
+        self.options.iso = iso;
+    }
 }
 
 /// The renderer: the GPU twin on a device, or the CPU twin; the same frames either way (to
@@ -344,12 +375,16 @@ impl Renderer {
         let err = |e: RenderError| SceneError::new(target_name(target), "", e.to_string());
         let mut notes = Vec::new();
         let (volume, sampling, specs) = match target {
-            RenderTarget::Scene(scene) => {
-                let mut opts = SampleOptions::from_scene(scene);
-                if let Some(r) = settings.resolution {
-                    opts.resolution = r;
-                }
-                let (band, stats) = scene.sample_job(&opts, job)?;
+            RenderTarget::Scene(_) | RenderTarget::Sampled(..) => {
+                let (scene, band, stats) = match target {
+                    RenderTarget::Sampled(scene, s) => (scene, s.grid.clone(), s.stats.clone()),
+                    _ => {
+                        let scene = target.scene().expect("a scene target");
+                        let (band, stats) =
+                            scene.sample_job(&scene_options(scene, settings), job)?;
+                        (scene, band, stats)
+                    }
+                };
                 if let Some(iso) = settings.iso
                     && iso.abs() >= stats.band
                 {
@@ -422,10 +457,7 @@ impl Renderer {
         }
         Ok(Prepared {
             volume,
-            scene: match target {
-                RenderTarget::Scene(s) => Some(s),
-                RenderTarget::Volume(_) => None,
-            },
+            scene: target.scene(),
             camera,
             shading,
             options,
@@ -629,8 +661,15 @@ fn colour_parts(
 }
 
 fn target_name(t: RenderTarget<'_>) -> &str {
-    match t {
-        RenderTarget::Scene(s) => s.name(),
-        RenderTarget::Volume(_) => "<volume>",
+    t.scene().map_or("<volume>", Scene::name)
+}
+
+/// The sampling options a scene target is sampled with: the scene's, with the settings'
+/// resolution.
+pub fn scene_options(scene: &Scene, settings: &RenderSettings) -> SampleOptions {
+    let mut opts = SampleOptions::from_scene(scene);
+    if let Some(r) = settings.resolution {
+        opts.resolution = r;
     }
+    opts
 }

@@ -88,6 +88,10 @@ pub struct SampleStats {
     pub bricks_kept: usize,
     /// Bricks of the lattice.
     pub bricks_total: usize,
+    /// Kept bricks taken unchanged from the scene's previous sampling
+    /// ([`Scene::sample_again`]), none of their samples evaluated; 0 otherwise.
+    /// `bricks_kept` counts them too.
+    pub bricks_reused: usize,
     /// Per source.
     pub sources: Vec<SourceStats>,
     /// Meshes given a prism band, and where it was computed (`cpu` or `gpu`).
@@ -130,37 +134,8 @@ impl Scene {
         opts: &SampleOptions,
         job: &Job,
     ) -> Result<(BrickGrid, SampleStats), SceneError> {
-        let t0 = Instant::now();
-        self.reset_counts();
-        let plan = self.plan(opts)?;
-        let reach = 0.5 * ((plan.brick + 2 * opts.apron) as f32) * plan.spacing * 3f32.sqrt();
-        // Just above what the sampler's brick test needs (see `BrickGrid::sample_field`).
-        let cap = (plan.band + self.lipschitz() * reach) * 1.001 + plan.spacing;
-        let prism_bands = self.prepare_prism_bands(&plan, cap)?;
-        let field = Clamped { scene: self, cap };
-        let grid = BrickGrid::sample_field_job(
-            &field,
-            plan.dims,
-            plan.origin,
-            plan.spacing,
-            plan.brick,
-            opts.apron,
-            plan.band,
-            plan.band,
-            job,
-        )
-        .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
-        let dense = plan.dims.iter().map(|&d| d as f64).product::<f64>();
-        let mut stats = self.stats(
-            &plan,
-            grid.evaluated_fraction(),
-            dense,
-            grid.brick_count(),
-            grid.brick_dims().iter().product(),
-            t0,
-        );
-        stats.prism_bands = prism_bands;
-        Ok((grid, stats))
+        let s = self.sample_kept(opts, job)?;
+        Ok((s.grid, s.stats))
     }
 
     /// [`Scene::sample_job`] made dense: the band clamped to `±band` on the whole lattice
@@ -212,7 +187,7 @@ impl Scene {
 
     /// Computes the prism band of every mesh with the prism method on the lattice of
     /// `plan` (in each mesh's frame), wide enough for values clamped to `cap`.
-    fn prepare_prism_bands(
+    pub(crate) fn prepare_prism_bands(
         &self,
         plan: &Plan,
         cap: f32,
@@ -249,7 +224,7 @@ impl Scene {
         Ok(out)
     }
 
-    fn stats(
+    pub(crate) fn stats(
         &self,
         plan: &Plan,
         fraction: f64,
@@ -268,6 +243,7 @@ impl Scene {
             dense_samples: dense as u64,
             bricks_kept: kept,
             bricks_total: total,
+            bricks_reused: 0,
             seconds: t0.elapsed().as_secs_f64(),
             sources: self
                 .sources()
@@ -354,9 +330,9 @@ impl Scene {
 }
 
 /// The scene clamped to `±cap`: what the lazy sampler evaluates.
-struct Clamped<'a> {
-    scene: &'a Scene,
-    cap: f32,
+pub(crate) struct Clamped<'a> {
+    pub(crate) scene: &'a Scene,
+    pub(crate) cap: f32,
 }
 
 impl Field for Clamped<'_> {

@@ -71,6 +71,12 @@ pub struct NodeHash {
     pub hash: u64,
     /// The subtree's bounding box.
     pub bounds: Aabb,
+    /// Depth in the tree (the root is 0); with the pre-order of [`Scene::hashes`] it gives
+    /// each node's children.
+    pub depth: usize,
+    /// The subtree's distance box ([`Field::distance_box`]): where its value can be below
+    /// the distance to that box less a slack. In the coordinates of the node's frame.
+    pub distance_box: Option<isokit_field::DistanceBox>,
 }
 
 /// The frame of a node below transforms: world = translation + scale · rotation(local).
@@ -617,6 +623,8 @@ impl Builder<'_> {
             node: path.clone(),
             hash: 0,
             bounds: Aabb::EMPTY,
+            depth: self.depth - 1,
+            distance_box: None,
         });
         // A coloured node: reserve its entry so that the entries stay in pre-order too.
         let entry = color.map(|c| {
@@ -661,6 +669,7 @@ impl Builder<'_> {
                 let h = &mut self.hashes[slot];
                 h.hash = c.hash;
                 h.bounds = c.field.bounds();
+                h.distance_box = c.field.distance_box();
                 Ok(c)
             }
             Err(e) => Err(e),

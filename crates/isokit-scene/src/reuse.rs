@@ -1,0 +1,198 @@
+//! Sampling a scene again after an edit, evaluating only the bricks the edit can have
+//! changed (what a live viewer does on every save).
+//!
+//! Two compiled versions of a scene list every node's content hash in pre-order
+//! ([`Scene::hashes`]). Walking both from the root, a node with equal hashes computes the
+//! same field; a union, intersection or difference whose hash differs passes the comparison
+//! on to its children (it is the minimum or maximum of them, in the world frame); any other
+//! node that differs changed as a whole, and its distance boxes before and after the edit
+//! bound where it can matter. For a union, intersection or difference the value clamped to
+//! `±cap` does not depend on an operand whose value is at least `cap`, so a brick farther
+//! than `cap` (plus the box's slack) from every changed box samples the same values as
+//! before: it keeps its earlier decision and samples.
+
+use crate::sample::Clamped;
+use crate::{NodeHash, Plan, SampleOptions, SampleStats, Scene, SceneError};
+use isokit_field::{Aabb, BrickGrid, DistanceBox, Field, Job, Reuse};
+use std::time::Instant;
+
+/// A sampling kept for the next one ([`Scene::sample_again`]).
+#[derive(Clone, Debug)]
+pub struct Sampled {
+    /// The band.
+    pub grid: BrickGrid,
+    /// What it cost.
+    pub stats: SampleStats,
+    hashes: Vec<NodeHash>,
+    plan: Plan,
+    opts: SampleOptions,
+    lipschitz: f32,
+}
+
+/// The last segment of a node path: its kind (`shape.union[1].sphere` → `sphere`).
+fn kind(path: &str) -> &str {
+    path.rsplit('.').next().unwrap_or(path)
+}
+
+/// The indices of the children of node `i` of a pre-order list.
+fn children(list: &[NodeHash], i: usize) -> Vec<usize> {
+    let d = list[i].depth;
+    let mut out = Vec::new();
+    for (j, h) in list.iter().enumerate().skip(i + 1) {
+        if h.depth <= d {
+            break;
+        }
+        if h.depth == d + 1 {
+            out.push(j);
+        }
+    }
+    out
+}
+
+/// The boxes outside of which the new scene's field, clamped to any cap, equals the old
+/// one's as far as unions, intersections and differences at the top of the tree tell;
+/// `None` when a changed node has no distance box (anything may have changed).
+pub fn changed_boxes(old: &[NodeHash], new: &[NodeHash]) -> Option<Vec<DistanceBox>> {
+    let mut out = Vec::new();
+    if old.is_empty() || new.is_empty() {
+        return None;
+    }
+    diff(old, 0, new, 0, &mut out)?;
+    Some(out)
+}
+
+fn diff(
+    old: &[NodeHash],
+    i: usize,
+    new: &[NodeHash],
+    j: usize,
+    out: &mut Vec<DistanceBox>,
+) -> Option<()> {
+    let (a, b) = (&old[i], &new[j]);
+    if a.hash == b.hash && a.node == b.node {
+        return Some(());
+    }
+    let csg = ["union", "intersection", "difference"];
+    if a.node == b.node && csg.contains(&kind(&a.node)) {
+        let (ca, cb) = (children(old, i), children(new, j));
+        for k in 0..ca.len().max(cb.len()) {
+            match (ca.get(k), cb.get(k)) {
+                (Some(&x), Some(&y)) => diff(old, x, new, y, out)?,
+                (Some(&x), None) => out.push(old[x].distance_box?),
+                (None, Some(&y)) => out.push(new[y].distance_box?),
+                (None, None) => {}
+            }
+        }
+        return Some(());
+    }
+    out.push(a.distance_box?);
+    out.push(b.distance_box?);
+    Some(())
+}
+
+/// The distance between two boxes (0 where they meet).
+fn box_gap(a: &Aabb, b: &Aabb) -> f32 {
+    let d = (a.min - b.max).max(b.min - a.max).max(glam::Vec3::ZERO);
+    d.length()
+}
+
+impl Sampled {
+    /// The options it was sampled with.
+    pub fn options(&self) -> &SampleOptions {
+        &self.opts
+    }
+}
+
+impl Scene {
+    /// [`Scene::sample_job`], keeping what the next sampling needs to reuse bricks.
+    pub fn sample_kept(&self, opts: &SampleOptions, job: &Job) -> Result<Sampled, SceneError> {
+        self.sample_again(opts, None, job)
+    }
+
+    /// Samples the band like [`Scene::sample_job`], taking from `previous` (an earlier
+    /// version of the scene) every brick the edit cannot have changed (see the module
+    /// docs); [`SampleStats::bricks_reused`] counts them. The lattice of `previous` is kept
+    /// when the options are the same and the new shape still fits inside it (so an edit
+    /// does not move every sample); otherwise, or when the scene's slope bound changed,
+    /// everything is sampled again.
+    pub fn sample_again(
+        &self,
+        opts: &SampleOptions,
+        previous: Option<&Sampled>,
+        job: &Job,
+    ) -> Result<Sampled, SceneError> {
+        let t0 = Instant::now();
+        self.reset_counts();
+        let fresh = self.plan(opts)?;
+        let usable = previous.filter(|p| {
+            p.opts == *opts
+                && p.lipschitz == self.lipschitz()
+                && p.plan.brick == fresh.brick
+                && fits(p.plan, fresh)
+        });
+        let plan = usable.map_or(fresh, |p| p.plan);
+        let changed = usable.and_then(|p| changed_boxes(&p.hashes, self.hashes()));
+        let reach = 0.5 * ((plan.brick + 2 * opts.apron) as f32) * plan.spacing * 3f32.sqrt();
+        // Just above what the sampler's brick test needs (see `BrickGrid::sample_field`).
+        let cap = (plan.band + self.lipschitz() * reach) * 1.001 + plan.spacing;
+        let prism_bands = self.prepare_prism_bands(&plan, cap)?;
+        let field = Clamped { scene: self, cap };
+        let test = |b: Aabb| {
+            changed.as_ref().is_none_or(|boxes| {
+                boxes
+                    .iter()
+                    .any(|d| box_gap(&b, &d.aabb) - d.slack <= cap * 1.001 + plan.spacing)
+            })
+        };
+        let reuse = match (usable, &changed) {
+            (Some(p), Some(_)) => Some(Reuse {
+                previous: &p.grid,
+                changed: &test,
+            }),
+            _ => None,
+        };
+        let grid = BrickGrid::sample_field_reusing(
+            &field,
+            plan.dims,
+            plan.origin,
+            plan.spacing,
+            plan.brick,
+            opts.apron,
+            plan.band,
+            plan.band,
+            reuse,
+            job,
+        )
+        .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
+        let dense = plan.dims.iter().map(|&d| d as f64).product::<f64>();
+        let mut stats = self.stats(
+            &plan,
+            grid.evaluated_fraction(),
+            dense,
+            grid.brick_count(),
+            grid.brick_dims().iter().product(),
+            t0,
+        );
+        stats.prism_bands = prism_bands;
+        stats.bricks_reused = grid.reused_bricks();
+        Ok(Sampled {
+            grid,
+            stats,
+            hashes: self.hashes().to_vec(),
+            plan,
+            opts: *opts,
+            lipschitz: self.lipschitz(),
+        })
+    }
+}
+
+/// Whether the lattice `old` can stand for `fresh`: it covers `fresh`'s box and its
+/// spacing is within 25% of `fresh`'s (a shape that shrank a lot gets a new lattice).
+fn fits(old: Plan, fresh: Plan) -> bool {
+    let span = |p: Plan| {
+        let d = glam::Vec3::new(p.dims[0] as f32, p.dims[1] as f32, p.dims[2] as f32) - 1.0;
+        (p.origin, p.origin + p.spacing * d)
+    };
+    let ((olo, ohi), (flo, fhi)) = (span(old), span(fresh));
+    olo.cmple(flo).all() && ohi.cmpge(fhi).all() && old.spacing <= 1.25 * fresh.spacing
+}

@@ -1,0 +1,114 @@
+//! Sampling again after an edit: the bricks taken from the previous sampling, and the band as
+//! a whole, equal a fresh sampling of the edited scene, and fewer bricks are evaluated.
+
+use isokit_field::Job;
+use isokit_scene::{SampleOptions, Scene, SceneFormat, changed_boxes};
+use std::path::Path;
+
+fn scene(shape: &str) -> Scene {
+    // Fixed bounds: both versions use one lattice, so a fresh sampling is comparable.
+    let text = format!(
+        r#"{{"sampling": {{"bounds": [[-2.5, -1.5, -1.5], [2.5, 1.5, 1.5]]}}, "shape": {shape}}}"#
+    );
+    Scene::from_text(&text, SceneFormat::Json, "edit.json", Path::new(".")).unwrap()
+}
+
+fn part(r: f32, dx: f32, extra: &str) -> String {
+    format!(
+        r#"{{"union": [
+            {{"sphere": {{"radius": {r}, "center": [-1.2, 0, 0]}}}},
+            {{"transform": {{"translate": [{dx}, 0, 0], "of": {{"box": {{"half": [0.4, 0.4, 0.4]}}}}}}}},
+            {{"smooth_union": {{"radius": 0.2, "of": [
+                {{"sphere": {{"radius": 0.3, "center": [0, 0.8, 0]}}}},
+                {{"sphere": {{"radius": 0.3, "center": [0, 0.8, 0.4]}}}}]}}}}{extra}
+        ]}}"#
+    )
+}
+
+/// Samples `before`, then `after` reusing it, and checks the result against a fresh
+/// sampling of `after`; returns (bricks reused, evaluated fraction with reuse, fresh).
+fn edit(before: &str, after: &str) -> (usize, f64, f64) {
+    let opts = SampleOptions {
+        resolution: 96,
+        ..Default::default()
+    };
+    let job = Job::default();
+    let old = scene(before).sample_kept(&opts, &job).unwrap();
+    let new_scene = scene(after);
+    let again = new_scene.sample_again(&opts, Some(&old), &job).unwrap();
+    let fresh = new_scene.sample_kept(&opts, &job).unwrap();
+    assert_eq!(again.grid.brick_count(), fresh.grid.brick_count());
+    let (a, f) = (again.grid.to_grid().unwrap(), fresh.grid.to_grid().unwrap());
+    let worst = a
+        .data()
+        .iter()
+        .zip(f.data())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    assert_eq!(worst, 0.0, "{before} -> {after}: samples differ by {worst}");
+    (
+        again.stats.bricks_reused,
+        again.stats.dense_fraction,
+        fresh.stats.dense_fraction,
+    )
+}
+
+#[test]
+fn a_radius_edit_reuses_the_bricks_away_from_the_primitive() {
+    let (reused, with, fresh) = edit(&part(0.5, 1.0, ""), &part(0.6, 1.0, ""));
+    assert!(reused > 0, "no brick reused");
+    assert!(
+        with < 0.5 * fresh,
+        "evaluated {with} of the grid, fresh {fresh}"
+    );
+}
+
+#[test]
+fn moving_adding_and_removing_children_and_nested_blends_match_a_fresh_sampling() {
+    let extra = r#", {"sphere": {"radius": 0.2, "center": [1.8, 0.9, 0.9]}}"#;
+    // A child under a transform moves; a child is added; removed.
+    assert!(edit(&part(0.5, 1.0, ""), &part(0.5, 1.3, "")).0 > 0);
+    assert!(edit(&part(0.5, 1.0, ""), &part(0.5, 1.0, extra)).0 > 0);
+    assert!(edit(&part(0.5, 1.0, extra), &part(0.5, 1.0, "")).0 > 0);
+    // The blend inside the smooth union changes: the whole smooth union is re-evaluated.
+    let k = part(0.5, 1.0, "").replace(r#""radius": 0.2, "of""#, r#""radius": 0.35, "of""#);
+    assert!(edit(&part(0.5, 1.0, ""), &k).0 > 0);
+    // The root itself changes kind: nothing can be reused, and still equal.
+    let root = format!(
+        r#"{{"offset": {{"by": 0.05, "of": {}}}}}"#,
+        part(0.5, 1.0, "")
+    );
+    assert_eq!(edit(&part(0.5, 1.0, ""), &root).0, 0);
+    // The same scene again: every kept brick is reused.
+    let same = edit(&part(0.5, 1.0, ""), &part(0.5, 1.0, ""));
+    assert!(same.1 < 1e-9, "nothing evaluated: {}", same.1);
+}
+
+#[test]
+fn the_changed_boxes_are_those_of_the_edited_subtree() {
+    let (a, b) = (scene(&part(0.5, 1.0, "")), scene(&part(0.6, 1.0, "")));
+    let boxes = changed_boxes(a.hashes(), b.hashes()).unwrap();
+    // The old and the new sphere only.
+    assert_eq!(boxes.len(), 2);
+    assert!(boxes.iter().all(|d| d.aabb.max.x < -0.5), "{boxes:?}");
+    assert!(changed_boxes(a.hashes(), a.hashes()).unwrap().is_empty());
+}
+
+#[test]
+fn without_explicit_bounds_the_lattice_is_kept_while_the_shape_fits() {
+    let s = |r: f32| {
+        let text = format!(r#"{{"shape": {}}}"#, part(r, 1.0, ""));
+        Scene::from_text(&text, SceneFormat::Json, "e.json", Path::new(".")).unwrap()
+    };
+    let opts = SampleOptions::default();
+    let job = Job::default();
+    let old = s(0.5).sample_kept(&opts, &job).unwrap();
+    // Smaller: fits the old lattice, which is kept.
+    let shrunk = s(0.45).sample_again(&opts, Some(&old), &job).unwrap();
+    assert!(shrunk.stats.bricks_reused > 0);
+    assert_eq!(shrunk.stats.dims, old.stats.dims);
+    // Larger than the old lattice: a new one, nothing reused.
+    let grown = s(1.1).sample_again(&opts, Some(&old), &job).unwrap();
+    assert_eq!(grown.stats.bricks_reused, 0);
+    assert_ne!(grown.stats.dims, old.stats.dims);
+}

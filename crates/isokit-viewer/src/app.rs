@@ -1,0 +1,539 @@
+//! The window thread: input, the camera, the panel, presenting frames, the events file.
+
+use crate::events::{EventLog, Reason};
+use crate::orbit::Orbit;
+use crate::panel;
+use crate::watch::FileWatch;
+use crate::worker::{self, CancelSlot, InputKind, Knobs, Reply, Request};
+use crate::{ViewError, ViewOptions};
+use isokit_render::ShadingMode;
+use std::num::NonZeroU32;
+use std::rc::Rc;
+use std::sync::mpsc::{Sender, channel};
+use std::time::{Duration, Instant};
+use winit::application::ApplicationHandler;
+use winit::dpi::{PhysicalPosition, PhysicalSize};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, EventLoopProxy};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+/// Events the other threads send to the window thread.
+pub(crate) enum UserEvent {
+    Reply(Reply),
+    Edit(Instant),
+}
+
+/// After the last camera input, how long to wait before asking for the final frame.
+const SETTLE: Duration = Duration::from_millis(120);
+
+struct Shown {
+    pixels: Vec<u32>,
+    width: u32,
+    height: u32,
+}
+
+#[derive(Default)]
+struct Live {
+    frame_ms: f64,
+    latency_ms: f64,
+    evaluated: usize,
+    reused: usize,
+    dense_fraction: f64,
+    bricks_loaded: u64,
+    fps: f64,
+    last_present: Option<Instant>,
+}
+
+type Surface = softbuffer::Surface<Rc<Window>, Rc<Window>>;
+
+struct App {
+    opts: ViewOptions,
+    kind: InputKind,
+    proxy: EventLoopProxy<UserEvent>,
+    window: Option<(Rc<Window>, Surface)>,
+    tx: Option<Sender<Request>>,
+    slot: CancelSlot,
+    watch: Option<FileWatch>,
+    orbit: Option<Orbit>,
+    home: Option<Orbit>,
+    knobs: Knobs,
+    size: (u32, u32),
+    shown: Option<Shown>,
+    last_final: Option<(Vec<u8>, u32, u32)>,
+    error: Option<String>,
+    notes: Vec<String>,
+    device: String,
+    live: Live,
+    log: EventLog,
+    finals: u64,
+    start: Instant,
+    buttons: (bool, bool),
+    shift: bool,
+    cursor: Option<PhysicalPosition<f64>>,
+    settle_at: Option<Instant>,
+    show_panel: bool,
+    failure: Option<ViewError>,
+}
+
+/// Runs the window until it closes or an exit condition is met.
+pub(crate) fn run(opts: ViewOptions) -> Result<(), ViewError> {
+    let event_loop = EventLoop::<UserEvent>::with_user_event()
+        .build()
+        .map_err(|e| ViewError::Window(format!("{e} (is DISPLAY set? under CI use xvfb-run)")))?;
+    let log = EventLog::open(opts.events.as_deref()).map_err(ViewError::Output)?;
+    let proxy = event_loop.create_proxy();
+    let mut app = App {
+        kind: InputKind::of(&opts.input),
+        size: (opts.width, opts.height),
+        opts,
+        proxy,
+        window: None,
+        tx: None,
+        slot: CancelSlot::default(),
+        watch: None,
+        orbit: None,
+        home: None,
+        knobs: Knobs::default(),
+        shown: None,
+        last_final: None,
+        error: None,
+        notes: Vec::new(),
+        device: String::new(),
+        live: Live::default(),
+        log,
+        finals: 0,
+        start: Instant::now(),
+        buttons: (false, false),
+        shift: false,
+        cursor: None,
+        settle_at: None,
+        show_panel: true,
+        failure: None,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| ViewError::Window(e.to_string()))?;
+    app.finish()
+}
+
+impl App {
+    fn finish(&mut self) -> Result<(), ViewError> {
+        if let Some(f) = self.failure.take() {
+            return Err(f);
+        }
+        if let Some(path) = &self.opts.screenshot {
+            let Some((rgba, w, h)) = &self.last_final else {
+                return Err(ViewError::Output(format!(
+                    "--screenshot {}: no frame was finished",
+                    path.display()
+                )));
+            };
+            isokit_io::write_png(path, *w, *h, rgba)
+                .map_err(|e| ViewError::Output(format!("--screenshot {}: {e}", path.display())))?;
+        }
+        if let Some(e) = self.log.failure() {
+            return Err(ViewError::Output(format!("--events: {e}")));
+        }
+        Ok(())
+    }
+
+    fn open(&mut self, el: &ActiveEventLoop) -> Result<(), String> {
+        let title = format!("isokit view {}", self.opts.input.display());
+        let attrs = Window::default_attributes()
+            .with_title(title)
+            .with_inner_size(PhysicalSize::new(self.opts.width, self.opts.height));
+        let window = Rc::new(el.create_window(attrs).map_err(|e| e.to_string())?);
+        let context = softbuffer::Context::new(window.clone()).map_err(|e| e.to_string())?;
+        let surface = Surface::new(&context, window.clone()).map_err(|e| e.to_string())?;
+        self.window = Some((window, surface));
+        // The worker and the file events.
+        let (tx, rx) = channel();
+        let proxy = self.proxy.clone();
+        let (input, backend, slot) = (
+            self.opts.input.clone(),
+            self.opts.backend,
+            self.slot.clone(),
+        );
+        std::thread::Builder::new()
+            .name("isokit-view-render".into())
+            .spawn(move || {
+                worker::run(input, backend, rx, slot, |r| {
+                    let _ = proxy.send_event(UserEvent::Reply(r));
+                })
+            })
+            .map_err(|e| e.to_string())?;
+        self.tx = Some(tx);
+        let proxy = self.proxy.clone();
+        let quiet = Duration::from_millis(self.opts.quiet_ms);
+        let mut watch = FileWatch::new(quiet, move |t| {
+            let _ = proxy.send_event(UserEvent::Edit(t));
+        })?;
+        watch.set_files(std::slice::from_ref(&self.opts.input));
+        self.watch = Some(watch);
+        self.request(Reason::Start, Instant::now(), true, false, false);
+        Ok(())
+    }
+
+    fn request(&mut self, reason: Reason, t0: Instant, reload: bool, resample: bool, draft: bool) {
+        if reload || resample {
+            // A newer edit cancels what is still running for an older one.
+            self.slot.lock().unwrap_or_else(|p| p.into_inner()).cancel();
+        }
+        let req = Request {
+            reason,
+            t0,
+            reload,
+            resample,
+            orbit: self.orbit,
+            knobs: self.knobs,
+            draft,
+            width: self.size.0.max(1),
+            height: self.size.1.max(1),
+        };
+        if let Some(tx) = &self.tx {
+            let _ = tx.send(req);
+        }
+    }
+
+    fn camera_moved(&mut self, draft: bool) {
+        self.request(Reason::Camera, Instant::now(), false, false, draft);
+        self.settle_at = draft.then(|| Instant::now() + SETTLE);
+    }
+
+    fn panel_lines(&self) -> Vec<(String, u32)> {
+        let t = panel::TEXT;
+        let mode = self.knobs.mode.map_or("scene's", ShadingMode::name);
+        let mut lines = vec![
+            (format!("{}  [H] hide panel", self.opts.input.display()), t),
+            (format!("shading  {mode}  [M]/[N] next/previous"), t),
+            (
+                format!(
+                    "iso      {}  [I]/[K] up/down",
+                    self.knobs
+                        .iso
+                        .map_or("default".into(), |v| format!("{v:.4}"))
+                ),
+                t,
+            ),
+        ];
+        if self.kind == InputKind::Scene {
+            lines.push((
+                format!(
+                    "sampling {}  [+]/[-] resolution",
+                    self.knobs
+                        .resolution
+                        .map_or("scene's".into(), |r| r.to_string())
+                ),
+                t,
+            ));
+        }
+        let l = &self.live;
+        lines.extend([
+            (format!("backend  {}", self.device), t),
+            (
+                format!(
+                    "frame {:.1} ms  {:.1} fps  edit latency {:.0} ms",
+                    l.frame_ms, l.fps, l.latency_ms
+                ),
+                t,
+            ),
+            (
+                format!(
+                    "bricks evaluated {} reused {}  grid evaluated {:.1}%  loaded {}",
+                    l.evaluated,
+                    l.reused,
+                    100.0 * l.dense_fraction,
+                    l.bricks_loaded
+                ),
+                t,
+            ),
+            (
+                "drag: orbit  shift/right drag: pan  wheel: zoom  [R] reset  [Q] quit".into(),
+                t,
+            ),
+        ]);
+        lines.extend(self.notes.iter().map(|n| (n.clone(), t)));
+        if let Some(e) = &self.error {
+            lines.push((e.clone(), panel::ERROR));
+        }
+        lines
+    }
+
+    /// Draws the frame shown (scaled to the window, nearest sample) and the panel.
+    fn present(&mut self) {
+        let lines = if self.show_panel {
+            self.panel_lines()
+        } else {
+            self.error
+                .iter()
+                .map(|e| (e.clone(), panel::ERROR))
+                .collect()
+        };
+        let Some((window, surface)) = &mut self.window else {
+            return;
+        };
+        let size = window.inner_size();
+        let (Some(w), Some(h)) = (NonZeroU32::new(size.width), NonZeroU32::new(size.height)) else {
+            return;
+        };
+        if surface.resize(w, h).is_err() {
+            return;
+        }
+        let Ok(mut buf) = surface.buffer_mut() else {
+            return;
+        };
+        let (ww, wh) = (size.width as usize, size.height as usize);
+        match &self.shown {
+            Some(s) => {
+                let (fw, fh) = (s.width as usize, s.height as usize);
+                for y in 0..wh {
+                    let sy = (y * fh / wh).min(fh - 1);
+                    for x in 0..ww {
+                        let sx = (x * fw / ww).min(fw - 1);
+                        buf[y * ww + x] = s.pixels[sy * fw + sx];
+                    }
+                }
+            }
+            None => buf.fill(0x0030_3030),
+        }
+        panel::draw(&mut buf, ww, wh, &lines, if wh >= 720 { 2 } else { 1 });
+        let _ = buf.present();
+    }
+
+    fn on_reply(&mut self, el: &ActiveEventLoop, r: Reply) {
+        match r {
+            Reply::Frame {
+                pixels,
+                rgba,
+                width,
+                height,
+                mut event,
+                t0,
+                notes,
+            } => {
+                self.shown = Some(Shown {
+                    pixels,
+                    width,
+                    height,
+                });
+                if event.final_ {
+                    self.last_final = Some((rgba, width, height));
+                    self.error = None;
+                    self.notes = notes;
+                }
+                self.present();
+                let now = Instant::now();
+                event.latency_ms = 1e3 * now.duration_since(t0).as_secs_f64();
+                let l = &mut self.live;
+                if let Some(prev) = l.last_present {
+                    let dt = now.duration_since(prev).as_secs_f64();
+                    if dt > 0.0 {
+                        l.fps = 1.0 / dt;
+                    }
+                }
+                l.last_present = Some(now);
+                l.frame_ms = event.frame_ms;
+                if event.reason >= Reason::Edit || event.reason == Reason::Panel {
+                    l.latency_ms = event.latency_ms;
+                }
+                if event.evaluated_bricks + event.reused_bricks > 0 {
+                    l.evaluated = event.evaluated_bricks;
+                    l.reused = event.reused_bricks;
+                    l.dense_fraction = event.dense_fraction;
+                }
+                l.bricks_loaded = event.bricks_loaded;
+                self.log.frame(&event);
+                if event.final_ {
+                    self.finals += 1;
+                    if self
+                        .opts
+                        .exit_after_frames
+                        .is_some_and(|n| self.finals >= n)
+                    {
+                        el.exit();
+                    }
+                }
+            }
+            Reply::Error {
+                file,
+                node,
+                message,
+                reason,
+            } => {
+                let mut line = String::new();
+                for part in [file.as_str(), node.as_str()] {
+                    if !part.is_empty() {
+                        line.push_str(part);
+                        line.push_str(": ");
+                    }
+                }
+                line.push_str(&message);
+                self.error = Some(line.lines().next().unwrap_or_default().to_string());
+                self.log.error(&file, &node, &message, reason);
+                self.present();
+            }
+            Reply::Loaded { files, camera } => {
+                if let Some(w) = &mut self.watch {
+                    w.set_files(&files);
+                }
+                if camera.is_some() {
+                    self.home = camera;
+                    if self.orbit.is_none() {
+                        self.orbit = camera;
+                    }
+                }
+            }
+            Reply::Device(d) => self.device = d,
+        }
+    }
+
+    fn key(&mut self, el: &ActiveEventLoop, key: &Key) {
+        let modes = ShadingMode::ALL;
+        let step_mode = |cur: Option<ShadingMode>, d: isize| {
+            let i = cur
+                .and_then(|m| modes.iter().position(|(_, x)| *x == m))
+                .map_or(0, |i| i as isize + d);
+            modes[i.rem_euclid(modes.len() as isize) as usize].1
+        };
+        let iso_step = self.orbit.map_or(0.01, |o| 0.002 * o.offset.length());
+        match key {
+            Key::Named(NamedKey::Escape) => el.exit(),
+            Key::Character(c) => match c.as_str() {
+                "q" | "Q" => el.exit(),
+                "h" | "H" => {
+                    self.show_panel = !self.show_panel;
+                    self.present();
+                }
+                "m" | "M" => {
+                    self.knobs.mode = Some(step_mode(self.knobs.mode, 1));
+                    self.request(Reason::Panel, Instant::now(), false, false, false);
+                }
+                "n" | "N" => {
+                    self.knobs.mode = Some(step_mode(self.knobs.mode, -1));
+                    self.request(Reason::Panel, Instant::now(), false, false, false);
+                }
+                "i" | "I" | "k" | "K" => {
+                    let d = if matches!(c.as_str(), "i" | "I") {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    self.knobs.iso = Some(self.knobs.iso.unwrap_or(0.0) + d * iso_step);
+                    self.request(Reason::Panel, Instant::now(), false, false, false);
+                }
+                "+" | "=" | "-" if self.kind == InputKind::Scene => {
+                    let r = self.knobs.resolution.unwrap_or(128);
+                    let r = if c.as_str() == "-" {
+                        (r / 2).max(16)
+                    } else {
+                        (r * 2).min(1024)
+                    };
+                    self.knobs.resolution = Some(r);
+                    self.request(Reason::Panel, Instant::now(), false, true, false);
+                }
+                "r" | "R" => {
+                    self.orbit = self.home;
+                    self.camera_moved(false);
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+}
+
+impl ApplicationHandler<UserEvent> for App {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.window.is_none()
+            && let Err(e) = self.open(el)
+        {
+            self.failure = Some(ViewError::Window(e));
+            el.exit();
+        }
+    }
+
+    fn user_event(&mut self, el: &ActiveEventLoop, ev: UserEvent) {
+        match ev {
+            UserEvent::Reply(r) => self.on_reply(el, r),
+            UserEvent::Edit(t) => self.request(Reason::Edit, t, true, false, false),
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, ev: WindowEvent) {
+        match ev {
+            WindowEvent::CloseRequested => el.exit(),
+            WindowEvent::RedrawRequested => self.present(),
+            WindowEvent::Resized(s) => {
+                if (s.width, s.height) != self.size && s.width > 0 && s.height > 0 {
+                    self.size = (s.width, s.height);
+                    self.camera_moved(false);
+                }
+                self.present();
+            }
+            WindowEvent::ModifiersChanged(m) => self.shift = m.state().shift_key(),
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                self.key(el, &event.logical_key);
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => self.buttons.0 = down,
+                    MouseButton::Right | MouseButton::Middle => self.buttons.1 = down,
+                    _ => {}
+                }
+                if !down {
+                    self.camera_moved(false);
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let prev = self.cursor.replace(position);
+                let (Some(prev), Some(o)) = (prev, self.orbit.as_mut()) else {
+                    return;
+                };
+                let (dx, dy) = ((position.x - prev.x) as f32, (position.y - prev.y) as f32);
+                let h = self.size.1.max(1) as f32;
+                if self.buttons.1 || (self.buttons.0 && self.shift) {
+                    o.pan(dx / h, dy / h);
+                } else if self.buttons.0 {
+                    o.rotate(3.0 * dx / h, 3.0 * dy / h);
+                } else {
+                    return;
+                }
+                self.camera_moved(true);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let clicks = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                if let Some(o) = self.orbit.as_mut() {
+                    o.zoom(0.9f32.powf(clicks));
+                    self.camera_moved(true);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        let now = Instant::now();
+        if let Some(t) = self.settle_at
+            && now >= t
+        {
+            self.camera_moved(false);
+        }
+        let deadline = self
+            .opts
+            .exit_after_seconds
+            .map(|s| self.start + Duration::from_secs_f64(s));
+        if deadline.is_some_and(|d| now >= d) {
+            el.exit();
+            return;
+        }
+        match [self.settle_at, deadline].into_iter().flatten().min() {
+            Some(t) => el.set_control_flow(ControlFlow::WaitUntil(t)),
+            None => el.set_control_flow(ControlFlow::Wait),
+        }
+    }
+}

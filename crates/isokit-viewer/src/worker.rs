@@ -1,0 +1,612 @@
+//! The worker thread: compiles, samples and renders what the window asks for, always the
+//! newest request (older ones still queued are merged into it), with the work of a load
+//! cancellable from the window thread.
+
+use crate::events::{FrameEvent, Reason};
+use crate::orbit::Orbit;
+use isokit_field::{Job, Projection};
+use isokit_gpu::BackendChoice;
+use isokit_render::{Layout, ShadingMode, Volume};
+use isokit_scene::{
+    CameraSpec, Frame, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer, Scene,
+    SceneError, SceneFormat, SourceCache, camera_for,
+};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// What the input file is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum InputKind {
+    Scene,
+    Volume,
+    Molecule,
+}
+
+impl InputKind {
+    pub fn of(path: &Path) -> Self {
+        if SceneFormat::from_path(path).is_some() {
+            return InputKind::Scene;
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let name = name.strip_suffix(".gz").unwrap_or(&name);
+        if [".pdb", ".ent", ".cif", ".mmcif"]
+            .iter()
+            .any(|e| name.ends_with(e))
+        {
+            InputKind::Molecule
+        } else {
+            InputKind::Volume
+        }
+    }
+}
+
+/// The panel's settings.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Knobs {
+    pub mode: Option<ShadingMode>,
+    pub iso: Option<f32>,
+    pub resolution: Option<usize>,
+}
+
+/// A frame the window asks for.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Request {
+    pub reason: Reason,
+    /// When the file event or input happened (latencies run from it).
+    pub t0: Instant,
+    /// Compile the input again (a file changed).
+    pub reload: bool,
+    /// Sample again (resolution or band changed).
+    pub resample: bool,
+    /// The camera; `None`: the input's own.
+    pub orbit: Option<Orbit>,
+    pub knobs: Knobs,
+    /// Render a draft at half size (while the camera moves); the window asks for the final
+    /// frame when it stops.
+    pub draft: bool,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Request {
+    /// `self` followed by the newer `n`: the newest camera and settings, the oldest event
+    /// time, and every reload or resample either asked for.
+    fn then(self, n: Request) -> Request {
+        let file = self.reload || n.reload;
+        Request {
+            reason: if file {
+                self.reason.max(n.reason).max(Reason::Edit)
+            } else {
+                self.reason.max(n.reason)
+            },
+            t0: if self.reload && !n.reload {
+                self.t0
+            } else {
+                self.t0.min(n.t0)
+            },
+            reload: file,
+            resample: self.resample || n.resample,
+            ..n
+        }
+    }
+}
+
+/// What the worker sends back.
+pub(crate) enum Reply {
+    /// A frame (0RGB pixels, row by row), with the request it answers.
+    Frame {
+        pixels: Vec<u32>,
+        rgba: Vec<u8>,
+        width: u32,
+        height: u32,
+        event: FrameEvent,
+        t0: Instant,
+        notes: Vec<String>,
+    },
+    /// A load or render failed; the window keeps its last good frame.
+    Error {
+        file: String,
+        node: String,
+        message: String,
+        reason: Reason,
+    },
+    /// The files the input depends on (watched from now on), and its own camera (`None`
+    /// when it failed to load).
+    Loaded {
+        files: Vec<PathBuf>,
+        camera: Option<Orbit>,
+    },
+    /// The renderer in use (for the panel).
+    Device(String),
+}
+
+/// The work of the load in progress, which the window cancels when a newer edit arrives.
+pub(crate) type CancelSlot = Arc<Mutex<Job>>;
+
+struct Worker<F: Fn(Reply)> {
+    input: PathBuf,
+    kind: InputKind,
+    renderer: Renderer,
+    cache: SourceCache,
+    /// The last full sampling of the scene, for the next edit to reuse bricks from.
+    previous: Option<isokit_scene::Sampled>,
+    send: F,
+    slot: CancelSlot,
+    rx: Receiver<Request>,
+}
+
+/// Runs the worker until the window's side of the channel closes.
+pub(crate) fn run(
+    input: PathBuf,
+    backend: BackendChoice,
+    rx: Receiver<Request>,
+    slot: CancelSlot,
+    send: impl Fn(Reply),
+) {
+    let renderer = match Renderer::new(backend) {
+        Ok(r) => r,
+        Err(e) => {
+            send(Reply::Error {
+                file: String::new(),
+                node: "backend".into(),
+                message: format!("{e}; rendering on the CPU"),
+                reason: Reason::Start,
+            });
+            Renderer::cpu()
+        }
+    };
+    let device = match renderer.note() {
+        Some(n) => format!("{} ({n})", renderer.device()),
+        None => renderer.device(),
+    };
+    send(Reply::Device(device));
+    let mut w = Worker {
+        kind: InputKind::of(&input),
+        input,
+        renderer,
+        cache: SourceCache::default(),
+        previous: None,
+        send,
+        slot,
+        rx,
+    };
+    let mut pending: Option<Request> = None;
+    loop {
+        let req = match pending.take() {
+            Some(r) => r,
+            None => match w.rx.recv() {
+                Ok(r) => r,
+                Err(_) => return,
+            },
+        };
+        let req = w.newest(req);
+        pending = match w.kind {
+            InputKind::Scene => w.scene(req),
+            InputKind::Volume => w.volume(req),
+            InputKind::Molecule => w.molecule(req),
+        };
+        if pending.is_none() && w.closed() {
+            return;
+        }
+    }
+}
+
+/// sRGB bytes (RGBA) as the framebuffer's 0RGB words.
+pub(crate) fn to_0rgb(rgba: &[u8]) -> Vec<u32> {
+    rgba.chunks_exact(4)
+        .map(|p| (u32::from(p[0]) << 16) | (u32::from(p[1]) << 8) | u32::from(p[2]))
+        .collect()
+}
+
+/// A camera spec from an orbit.
+fn spec(o: &Orbit) -> CameraSpec {
+    CameraSpec {
+        eye: o.eye().to_array(),
+        target: o.target.to_array(),
+        up: o.up.to_array(),
+        fov: o.fov,
+    }
+}
+
+fn orbit_of(c: &isokit_field::Camera) -> Orbit {
+    let fov = match c.projection() {
+        Projection::Perspective { fov_y_degrees } => fov_y_degrees,
+        Projection::Orthographic { .. } => 45.0,
+    };
+    Orbit::new(c.eye(), c.target(), c.up(), fov)
+}
+
+fn size_of(req: &Request) -> (u32, u32) {
+    if req.draft {
+        ((req.width / 2).max(1), (req.height / 2).max(1))
+    } else {
+        (req.width, req.height)
+    }
+}
+
+impl<F: Fn(Reply)> Worker<F> {
+    fn closed(&self) -> bool {
+        // A disconnected channel makes recv fail: the main loop returns then.
+        false
+    }
+
+    /// `req` merged with every request queued behind it.
+    fn newest(&self, mut req: Request) -> Request {
+        while let Ok(n) = self.rx.try_recv() {
+            req = req.then(n);
+        }
+        req
+    }
+
+    /// The next request when one is already queued that needs a reload (the current work
+    /// is stale).
+    fn stale(&self, req: &mut Option<Request>) -> bool {
+        while let Ok(n) = self.rx.try_recv() {
+            *req = Some(match req.take() {
+                Some(r) => r.then(n),
+                None => n,
+            });
+        }
+        req.is_some_and(|r| r.reload || r.resample)
+    }
+
+    fn error(&self, e: &SceneError, reason: Reason) {
+        (self.send)(Reply::Error {
+            file: e.file.clone(),
+            node: e.node.clone(),
+            message: e.message.clone(),
+            reason,
+        });
+    }
+
+    fn new_job(&self) -> Job {
+        let job = Job::new();
+        *self.slot.lock().unwrap_or_else(|p| p.into_inner()) = job.clone();
+        job
+    }
+
+    fn settings(&self, req: &Request, resolution: Option<usize>) -> RenderSettings {
+        let (width, height) = size_of(req);
+        RenderSettings {
+            width,
+            height,
+            iso: req.knobs.iso,
+            mode: req.knobs.mode,
+            camera: req.orbit.as_ref().map(spec),
+            resolution,
+            ..RenderSettings::default()
+        }
+    }
+
+    fn send_frame(&self, frame: &Frame, req: &Request, final_: bool, reused: Option<usize>) {
+        let rgba = frame.image.to_rgba8();
+        let pixels = to_0rgb(&rgba);
+        let st = &frame.stats;
+        let (evaluated, reused, dense) = match (&st.sampling, reused) {
+            (Some(s), Some(r)) => (s.bricks_kept.saturating_sub(r), r, s.dense_fraction),
+            _ => (0, 0, 0.0),
+        };
+        (self.send)(Reply::Frame {
+            pixels,
+            rgba,
+            width: frame.image.width,
+            height: frame.image.height,
+            event: FrameEvent {
+                reason: req.reason,
+                final_,
+                latency_ms: 0.0,
+                frame_ms: 1e3 * (st.trace_seconds + st.shade_seconds),
+                evaluated_bricks: evaluated,
+                reused_bricks: reused,
+                bricks_loaded: st.bricks_loaded,
+                dense_fraction: dense,
+                width: frame.image.width,
+                height: frame.image.height,
+                backend: st.backend,
+            },
+            t0: req.t0,
+            notes: frame.notes.clone(),
+        });
+    }
+
+    /// Renders `p` for `req` from its camera; errors are reported.
+    /// `reused`: when the frame's volume was just sampled, how many of its bricks were
+    /// taken from the previous sampling; `None` for a frame of an earlier sampling.
+    fn render(
+        &mut self,
+        p: &mut Prepared<'_>,
+        req: &Request,
+        final_: bool,
+        reused: Option<usize>,
+    ) -> bool {
+        let name = self.input.display().to_string();
+        let (w, h) = size_of(req);
+        if let Some(o) = &req.orbit {
+            let bounds = p.volume().bounds();
+            match camera_for(Some(&spec(o)), bounds, ProjectionKind::Perspective, w, h) {
+                Ok(c) => p.set_camera(c),
+                Err(e) => {
+                    self.error(&SceneError::new(&name, "camera", e.to_string()), req.reason);
+                    return false;
+                }
+            }
+        }
+        if let Some(m) = req.knobs.mode {
+            p.set_mode(m);
+        }
+        if let Some(iso) = req.knobs.iso {
+            p.set_iso(iso);
+        }
+        match self.renderer.render_prepared(p, &name) {
+            Ok(frame) => {
+                self.send_frame(&frame, req, final_, reused);
+                true
+            }
+            Err(e) => {
+                self.error(&e, req.reason);
+                false
+            }
+        }
+    }
+
+    /// Serves camera and shading requests from one prepared target until a request needs
+    /// a reload or a resample; returns that request.
+    fn serve(&mut self, p: &mut Prepared<'_>) -> Option<Request> {
+        loop {
+            let req = self.newest(self.rx.recv().ok()?);
+            if req.reload || req.resample {
+                return Some(req);
+            }
+            self.render(p, &req, !req.draft, None);
+        }
+    }
+
+    fn scene(&mut self, req: Request) -> Option<Request> {
+        let job = self.new_job();
+        let scene = match Scene::load_with(&self.input, &mut self.cache) {
+            Ok(s) => s,
+            Err(e) => {
+                self.error(&e, req.reason);
+                (self.send)(Reply::Loaded {
+                    files: isokit_scene::watch::files_of(&self.input),
+                    camera: None,
+                });
+                return None;
+            }
+        };
+        let full = req
+            .knobs
+            .resolution
+            .or(scene.settings().sampling.resolution);
+        let base = full.unwrap_or(isokit_scene::SampleOptions::default().resolution);
+        let s = self.settings(&req, full);
+        let opts = isokit_scene::scene_options(&scene, &s);
+        let reusable = self.previous.as_ref().is_some_and(|p| *p.options() == opts);
+        let mut pending = None;
+        // A coarse frame first (a quarter of the resolution, half the image) when nothing
+        // can be reused, unless only the camera or shading changed.
+        if !reusable && req.reason >= Reason::Edit && base >= 64 && !req.draft {
+            let coarse = Request { draft: true, ..req };
+            let cs = self.settings(&coarse, Some((base / 4).max(24)));
+            match self
+                .renderer
+                .prepare(RenderTarget::Scene(&scene), &cs, &job)
+            {
+                Ok(mut p) => {
+                    self.loaded(&scene, &p);
+                    self.render(&mut p, &coarse, false, Some(0));
+                }
+                Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
+                Err(e) => {
+                    self.error(&e, req.reason);
+                    return None;
+                }
+            }
+            if self.stale(&mut pending) {
+                return pending;
+            }
+        }
+        let sampled = match scene.sample_again(&opts, self.previous.as_ref(), &job) {
+            Ok(x) => x,
+            Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
+            Err(e) => {
+                self.error(&e, req.reason);
+                return None;
+            }
+        };
+        let reused = sampled.stats.bricks_reused;
+        self.previous = Some(sampled.clone());
+        let mut p = match self
+            .renderer
+            .prepare(RenderTarget::Sampled(&scene, &sampled), &s, &job)
+        {
+            Ok(p) => p,
+            Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
+            Err(e) => {
+                self.error(&e, req.reason);
+                return None;
+            }
+        };
+        self.loaded(&scene, &p);
+        if self.stale(&mut pending) {
+            return pending;
+        }
+        let ok = self.render(&mut p, &req, true, Some(reused));
+        if let Some(r) = pending.take() {
+            if r.reload || r.resample {
+                return Some(r);
+            }
+            self.render(&mut p, &r, !r.draft, None);
+        }
+        if !ok {
+            return None;
+        }
+        self.serve(&mut p)
+    }
+
+    fn loaded(&self, scene: &Scene, p: &Prepared<'_>) {
+        // The scene's own camera (what [R] resets to), whatever the window looks from now.
+        let c = p.camera();
+        let camera = camera_for(
+            scene.settings().camera.as_ref(),
+            p.volume().bounds(),
+            ProjectionKind::Perspective,
+            c.width(),
+            c.height(),
+        )
+        .ok()
+        .map(|c| orbit_of(&c));
+        let mut files = scene.dependencies().to_vec();
+        if files.is_empty() {
+            files.push(self.input.clone());
+        }
+        (self.send)(Reply::Loaded { files, camera });
+    }
+
+    /// After a cancelled load: the request that cancelled it (waiting for it if it is not
+    /// queued yet).
+    fn newest_after_cancel(&self, req: Request) -> Option<Request> {
+        let next = match self.rx.try_recv() {
+            Ok(n) => n,
+            Err(_) => self.rx.recv().ok()?,
+        };
+        Some(self.newest(req.then(next)))
+    }
+
+    fn volume(&mut self, req: Request) -> Option<Request> {
+        let name = self.input.display().to_string();
+        let read = isokit_io::read_volume(&self.input)
+            .map_err(|e| e.to_string())
+            .and_then(|v| {
+                if v.is_uniform() {
+                    v.into_grid().map_err(|e| e.to_string())
+                } else {
+                    let h = v.spacing.min_element();
+                    v.resample_uniform(h).map_err(|e| e.to_string())
+                }
+            })
+            .and_then(|g| Volume::from_grid(g, Layout::default()).map_err(|e| e.to_string()));
+        let volume = match read {
+            Ok(v) => v,
+            Err(m) => {
+                self.error(&SceneError::new(&name, "", m), req.reason);
+                (self.send)(Reply::Loaded {
+                    files: vec![self.input.clone()],
+                    camera: None,
+                });
+                return None;
+            }
+        };
+        let s = self.settings(&req, None);
+        let mut p = match self
+            .renderer
+            .prepare(RenderTarget::Volume(&volume), &s, &Job::new())
+        {
+            Ok(p) => p,
+            Err(e) => {
+                self.error(&e, req.reason);
+                return None;
+            }
+        };
+        let own = camera_for(None, p.volume().bounds(), ProjectionKind::Perspective, 1, 1);
+        (self.send)(Reply::Loaded {
+            files: vec![self.input.clone()],
+            camera: own.ok().map(|c| orbit_of(&c)),
+        });
+        if !self.render(&mut p, &req, true, None) {
+            return None;
+        }
+        self.serve(&mut p)
+    }
+
+    fn molecule(&mut self, req: Request) -> Option<Request> {
+        let name = self.input.display().to_string();
+        let mol = match isokit_molecule::read_molecule(&self.input) {
+            Ok(m) => m,
+            Err(e) => {
+                self.error(&SceneError::new(&name, "", e.to_string()), req.reason);
+                (self.send)(Reply::Loaded {
+                    files: vec![self.input.clone()],
+                    camera: None,
+                });
+                return None;
+            }
+        };
+        let mut req = req;
+        let mut first = true;
+        loop {
+            let (w, h) = size_of(&req);
+            let camera = match &req.orbit {
+                Some(o) => camera_for(
+                    Some(&spec(o)),
+                    isokit_field::Aabb::EMPTY,
+                    ProjectionKind::Perspective,
+                    w,
+                    h,
+                )
+                .ok(),
+                None => None,
+            };
+            let settings = isokit_scene::MoleculeSettings {
+                width: w,
+                height: h,
+                mode: req.knobs.mode.unwrap_or(ShadingMode::Phong),
+                camera,
+                ..Default::default()
+            };
+            let t = Instant::now();
+            match self.renderer.render_molecule(&mol, &settings) {
+                Ok(f) => {
+                    if first {
+                        let camera = isokit_molecule::molecule_scene(&mol, &settings.model)
+                            .and_then(|sc| isokit_molecule::framing_camera(&sc, w, h))
+                            .ok()
+                            .map(|c| orbit_of(&c));
+                        (self.send)(Reply::Loaded {
+                            files: vec![self.input.clone()],
+                            camera,
+                        });
+                        first = false;
+                    }
+                    let rgba = f.image.to_rgba8();
+                    let pixels = to_0rgb(&rgba);
+                    (self.send)(Reply::Frame {
+                        pixels,
+                        rgba,
+                        width: w,
+                        height: h,
+                        event: FrameEvent {
+                            reason: req.reason,
+                            final_: !req.draft,
+                            latency_ms: 0.0,
+                            frame_ms: 1e3 * t.elapsed().as_secs_f64(),
+                            evaluated_bricks: 0,
+                            reused_bricks: 0,
+                            bricks_loaded: 0,
+                            dense_fraction: 0.0,
+                            width: w,
+                            height: h,
+                            backend: self.renderer.backend(),
+                        },
+                        t0: req.t0,
+                        notes: Vec::new(),
+                    });
+                }
+                Err(e) => {
+                    self.error(&SceneError::new(&name, "", e.to_string()), req.reason);
+                    return None;
+                }
+            }
+            let next = self.newest(self.rx.recv().ok()?);
+            if next.reload {
+                return Some(next);
+            }
+            req = next;
+        }
+    }
+}
