@@ -9,11 +9,24 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # Mesa's software Vulkan (lavapipe) warns on every device when this is unset; harmless.
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+# The viewer's window tests need an X server: without one, a virtual one (Xvfb) when it is
+# installed (otherwise they skip with a note, or fail under ISOKIT_REQUIRE_DISPLAY=1).
+xvfb_pid=""
+if [ -z "${DISPLAY:-}" ] && command -v Xvfb >/dev/null; then
+  for n in $(seq 90 120); do
+    [ -e "/tmp/.X11-unix/X$n" ] || [ -e "/tmp/.X$n-lock" ] || break
+  done
+  Xvfb ":$n" -screen 0 1024x768x24 -nolisten tcp >/dev/null 2>&1 &
+  xvfb_pid=$!
+  trap 'kill "$xvfb_pid" 2>/dev/null || true' EXIT
+  export DISPLAY=":$n"
+  for _ in $(seq 50); do [ -e "/tmp/.X11-unix/X$n" ] && break; sleep 0.1; done
+fi
 cargo test --workspace
 cargo build --bin isokit
 # The modeling scripts in examples/ run too (they check their own results).
 examples_out=$(mktemp -d)
-trap 'rm -rf "$examples_out"' EXIT
+trap 'rm -rf "$examples_out"; [ -z "$xvfb_pid" ] || kill "$xvfb_pid" 2>/dev/null || true' EXIT
 cargo run --quiet --example model_in_code -- "$examples_out"
 cargo run --quiet --example csg_scene -- "$examples_out/part.obj"
 if [ ! -x .venv/bin/python ]; then

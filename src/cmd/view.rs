@@ -40,6 +40,10 @@ pub struct Args {
     /// Merge file events closer together than this (one save writes several times).
     #[arg(long, default_value_t = 40, value_name = "MS")]
     pub quiet_ms: u64,
+    /// Sample every edit in full instead of reusing the bricks it cannot have changed (the
+    /// baseline the reuse is measured against).
+    #[arg(long)]
+    pub no_reuse: bool,
 }
 
 /// Runs the command.
@@ -55,6 +59,7 @@ pub fn run(a: Args) -> Result<()> {
         exit_after_frames: a.exit_after_frames,
         exit_after_seconds: a.exit_after_seconds,
         quiet_ms: a.quiet_ms,
+        reuse: !a.no_reuse,
     })?;
     Ok(())
 }

@@ -83,9 +83,9 @@ pub use render::{
     Frame, FrameStats, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer,
     camera_for, scene_options, shading_for,
 };
-pub use reuse::{Sampled, changed_boxes};
+pub use reuse::{Changed, Sampled, changed_boxes};
 pub use sample::{Plan, SampleOptions, SampleStats, SourceStats, band_to_grid, clamp_to_band};
-pub use scene::{ColoredPart, MAX_DEPTH, MAX_NODES, NodeHash, Scene, SourceInfo};
+pub use scene::{ColoredPart, MAX_DEPTH, MAX_NODES, NodeHash, Pass, Scene, SourceInfo};
 
 use std::collections::HashMap;
 use std::path::PathBuf;

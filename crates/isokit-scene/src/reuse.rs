@@ -3,13 +3,17 @@
 //!
 //! Two compiled versions of a scene list every node's content hash in pre-order
 //! ([`Scene::hashes`]). Walking both from the root, a node with equal hashes computes the
-//! same field; a union, intersection or difference whose hash differs passes the comparison
-//! on to its children (it is the minimum or maximum of them, in the world frame); any other
-//! node that differs changed as a whole, and its distance boxes before and after the edit
-//! bound where it can matter. For a union, intersection or difference the value clamped to
-//! `±cap` does not depend on an operand whose value is at least `cap`, so a brick farther
-//! than `cap` (plus the box's slack) from every changed box samples the same values as
-//! before: it keeps its earlier decision and samples.
+//! same field; a union, intersection or difference, or one of their blends, whose hash
+//! differs but whose own parameters do not passes the comparison on to its operands (which
+//! share its frame and enter only through their values clamped to a cap: the node's own for
+//! the sharp operations, raised by the blend's reach and window for the blends, Quilez's
+//! polynomial smooth minimum and hg_sdf's chamfer and stairs); any other node that differs
+//! changed as a whole, and its distance boxes before and after the edit bound where it can
+//! matter. Where a changed operand's value lies at or above the cap it is evaluated with,
+//! before and after the edit, it is clamped to that cap both times and the node computes
+//! the same value bit for bit, so a brick farther than that cap (plus the box's slack) from
+//! every changed box samples the same values as before: it keeps its earlier decision and
+//! samples.
 
 use crate::sample::Clamped;
 use crate::{NodeHash, Plan, SampleOptions, SampleStats, Scene, SceneError};
@@ -29,11 +33,6 @@ pub struct Sampled {
     lipschitz: f32,
 }
 
-/// The last segment of a node path: its kind (`shape.union[1].sphere` → `sphere`).
-fn kind(path: &str) -> &str {
-    path.rsplit('.').next().unwrap_or(path)
-}
-
 /// The indices of the children of node `i` of a pre-order list.
 fn children(list: &[NodeHash], i: usize) -> Vec<usize> {
     let d = list[i].depth;
@@ -49,15 +48,26 @@ fn children(list: &[NodeHash], i: usize) -> Vec<usize> {
     out
 }
 
-/// The boxes outside of which the new scene's field, clamped to any cap, equals the old
-/// one's as far as unions, intersections and differences at the top of the tree tell;
-/// `None` when a changed node has no distance box (anything may have changed).
-pub fn changed_boxes(old: &[NodeHash], new: &[NodeHash]) -> Option<Vec<DistanceBox>> {
+/// A region an edit may have changed: a distance box, and how much more than the root's
+/// cap the changed subtree is evaluated with (the blends above it raise the cap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Changed {
+    /// The changed subtree's distance box (before or after the edit), in world coordinates.
+    pub dbox: DistanceBox,
+    /// The subtree's cap less the root's.
+    pub growth: f32,
+}
+
+/// Where the new scene's field, clamped to a cap, may differ from the old one's: the
+/// distance boxes of the subtrees that differ, found by walking both versions down through
+/// unions, intersections, differences and blends whose own parameters are unchanged; `None`
+/// when a changed subtree has no distance box (anything may have changed).
+pub fn changed_boxes(old: &[NodeHash], new: &[NodeHash]) -> Option<Vec<Changed>> {
     let mut out = Vec::new();
     if old.is_empty() || new.is_empty() {
         return None;
     }
-    diff(old, 0, new, 0, &mut out)?;
+    diff(old, 0, new, 0, 0.0, &mut out)?;
     Some(out)
 }
 
@@ -66,28 +76,45 @@ fn diff(
     i: usize,
     new: &[NodeHash],
     j: usize,
-    out: &mut Vec<DistanceBox>,
+    growth: f32,
+    out: &mut Vec<Changed>,
 ) -> Option<()> {
     let (a, b) = (&old[i], &new[j]);
     if a.hash == b.hash && a.node == b.node {
         return Some(());
     }
-    let csg = ["union", "intersection", "difference"];
-    if a.node == b.node && csg.contains(&kind(&a.node)) {
-        let (ca, cb) = (children(old, i), children(new, j));
-        for k in 0..ca.len().max(cb.len()) {
-            match (ca.get(k), cb.get(k)) {
-                (Some(&x), Some(&y)) => diff(old, x, new, y, out)?,
-                (Some(&x), None) => out.push(old[x].distance_box?),
-                (None, Some(&y)) => out.push(new[y].distance_box?),
-                (None, None) => {}
+    let whole = |h: &NodeHash, out: &mut Vec<Changed>| {
+        out.push(Changed {
+            dbox: h.distance_box?,
+            growth,
+        });
+        Some(())
+    };
+    match (a.pass, b.pass) {
+        (Some(pa), Some(pb)) if a.node == b.node && pa == pb => {
+            let g = growth + pa.growth;
+            let (ca, cb) = (children(old, i), children(new, j));
+            for k in 0..ca.len().max(cb.len()) {
+                match (ca.get(k), cb.get(k)) {
+                    (Some(&x), Some(&y)) => diff(old, x, new, y, g, out)?,
+                    (Some(&x), None) => out.push(Changed {
+                        dbox: old[x].distance_box?,
+                        growth: g,
+                    }),
+                    (None, Some(&y)) => out.push(Changed {
+                        dbox: new[y].distance_box?,
+                        growth: g,
+                    }),
+                    (None, None) => {}
+                }
             }
+            Some(())
         }
-        return Some(());
+        _ => {
+            whole(a, out)?;
+            whole(b, out)
+        }
     }
-    out.push(a.distance_box?);
-    out.push(b.distance_box?);
-    Some(())
 }
 
 /// The distance between two boxes (0 where they meet).
@@ -137,11 +164,14 @@ impl Scene {
         let cap = (plan.band + self.lipschitz() * reach) * 1.001 + plan.spacing;
         let prism_bands = self.prepare_prism_bands(&plan, cap)?;
         let field = Clamped { scene: self, cap };
+        // A brick is untouched when every changed subtree's value there lies above the cap
+        // it is evaluated with (so it is clamped to that cap before and after the edit).
         let test = |b: Aabb| {
-            changed.as_ref().is_none_or(|boxes| {
-                boxes
-                    .iter()
-                    .any(|d| box_gap(&b, &d.aabb) - d.slack <= cap * 1.001 + plan.spacing)
+            changed.as_ref().is_none_or(|list| {
+                list.iter().any(|c| {
+                    box_gap(&b, &c.dbox.aabb) - c.dbox.slack
+                        <= (cap + c.growth) * 1.001 + plan.spacing
+                })
             })
         };
         let reuse = match (usable, &changed) {

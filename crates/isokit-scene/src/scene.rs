@@ -77,6 +77,19 @@ pub struct NodeHash {
     /// The subtree's distance box ([`Field::distance_box`]): where its value can be below
     /// the distance to that box less a slack. In the coordinates of the node's frame.
     pub distance_box: Option<isokit_field::DistanceBox>,
+    /// For unions, intersections, differences and their blends (whose operands share the
+    /// node's frame and enter only through clamped values): how much the node raises the
+    /// cap its operands are evaluated with, and a hash of its own parameters.
+    pub pass: Option<Pass>,
+}
+
+/// How a combinator evaluates its operands ([`NodeHash::pass`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pass {
+    /// The operands' cap less the node's (0 for the sharp operations).
+    pub growth: f32,
+    /// A hash of the node's kind and parameters, operands excluded.
+    pub own: u64,
 }
 
 /// The frame of a node below transforms: world = translation + scale · rotation(local).
@@ -240,6 +253,7 @@ impl Scene {
             color_stack: Vec::new(),
             depth: 0,
             nodes: 0,
+            pass: None,
         };
         let root = b.compile(&file.shape, "shape")?;
         let (sources, prism_meshes, hashes) = (b.sources, b.prism_meshes, b.hashes);
@@ -530,6 +544,8 @@ pub(crate) struct Builder<'a> {
     pub(crate) color_stack: Vec<usize>,
     depth: usize,
     nodes: usize,
+    /// Set by a combinator as it finishes compiling, taken by [`Builder::compile`].
+    pass: Option<Pass>,
 }
 
 pub(crate) fn hash_of(parts: impl FnOnce(&mut DefaultHasher)) -> u64 {
@@ -625,6 +641,7 @@ impl Builder<'_> {
             bounds: Aabb::EMPTY,
             depth: self.depth - 1,
             distance_box: None,
+            pass: None,
         });
         // A coloured node: reserve its entry so that the entries stay in pre-order too.
         let entry = color.map(|c| {
@@ -670,6 +687,7 @@ impl Builder<'_> {
                 h.hash = c.hash;
                 h.bounds = c.field.bounds();
                 h.distance_box = c.field.distance_box();
+                h.pass = self.pass.take();
                 Ok(c)
             }
             Err(e) => Err(e),
@@ -745,6 +763,10 @@ impl Builder<'_> {
                 let kids = self.children(of, &path, 1)?;
                 let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("union", &[], &kids);
+                self.pass = Some(Pass {
+                    growth: 0.0,
+                    own: hash_of(|h| "union".hash(h)),
+                });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
                     field: Box::new(UnionN::new(fields).map_err(csg)?),
@@ -756,6 +778,10 @@ impl Builder<'_> {
                 let kids = self.children(of, &path, 1)?;
                 let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("intersection", &[], &kids);
+                self.pass = Some(Pass {
+                    growth: 0.0,
+                    own: hash_of(|h| "intersection".hash(h)),
+                });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
                     field: Box::new(IntersectionN::new(fields).map_err(csg)?),
@@ -767,6 +793,10 @@ impl Builder<'_> {
                 let kids = self.children(of, &path, 2)?;
                 let dim = self.same_dim(&kids, &path)?;
                 let hash = combine("difference", &[], &kids);
+                self.pass = Some(Pass {
+                    growth: 0.0,
+                    own: hash_of(|h| "difference".hash(h)),
+                });
                 let mut fields: Vec<Box<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
                 let base = fields.remove(0);
                 Compiled {
@@ -854,6 +884,13 @@ impl Builder<'_> {
         let fields = kids.into_iter().map(|k| k.field).collect();
         let field = SmoothN::with_blend(kind, blend, radius, fields)
             .map_err(|e| self.err(path, e.to_string()))?;
+        self.pass = Some(Pass {
+            growth: field.child_cap(0.0),
+            own: hash_of(|h| {
+                format!("{kind:?} {blend:?}").hash(h);
+                radius.to_bits().hash(h);
+            }),
+        });
         Ok(Compiled {
             field: Box::new(field),
             hash,

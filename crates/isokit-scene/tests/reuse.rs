@@ -70,9 +70,12 @@ fn moving_adding_and_removing_children_and_nested_blends_match_a_fresh_sampling(
     assert!(edit(&part(0.5, 1.0, ""), &part(0.5, 1.3, "")).0 > 0);
     assert!(edit(&part(0.5, 1.0, ""), &part(0.5, 1.0, extra)).0 > 0);
     assert!(edit(&part(0.5, 1.0, extra), &part(0.5, 1.0, "")).0 > 0);
-    // The blend inside the smooth union changes: the whole smooth union is re-evaluated.
+    // The blend's radius changes: the whole smooth union is re-evaluated.
     let k = part(0.5, 1.0, "").replace(r#""radius": 0.2, "of""#, r#""radius": 0.35, "of""#);
     assert!(edit(&part(0.5, 1.0, ""), &k).0 > 0);
+    // An operand inside the blend changes: the comparison goes through the blend.
+    let inner = part(0.5, 1.0, "").replace("[0, 0.8, 0.4]", "[0, 0.8, 0.5]");
+    assert!(edit(&part(0.5, 1.0, ""), &inner).0 > 0);
     // The root itself changes kind: nothing can be reused, and still equal.
     let root = format!(
         r#"{{"offset": {{"by": 0.05, "of": {}}}}}"#,
@@ -90,7 +93,7 @@ fn the_changed_boxes_are_those_of_the_edited_subtree() {
     let boxes = changed_boxes(a.hashes(), b.hashes()).unwrap();
     // The old and the new sphere only.
     assert_eq!(boxes.len(), 2);
-    assert!(boxes.iter().all(|d| d.aabb.max.x < -0.5), "{boxes:?}");
+    assert!(boxes.iter().all(|c| c.dbox.aabb.max.x < -0.5), "{boxes:?}");
     assert!(changed_boxes(a.hashes(), a.hashes()).unwrap().is_empty());
 }
 
@@ -111,4 +114,29 @@ fn without_explicit_bounds_the_lattice_is_kept_while_the_shape_fits() {
     let grown = s(1.1).sample_again(&opts, Some(&old), &job).unwrap();
     assert_eq!(grown.stats.bricks_reused, 0);
     assert_ne!(grown.stats.dims, old.stats.dims);
+}
+
+#[test]
+fn an_operand_of_a_smooth_union_at_the_root_is_edited_alone() {
+    // The demo scene's form: a blend at the root.
+    let blend = |r: f32| {
+        format!(
+            r#"{{"smooth_union": {{"radius": 0.15, "of": [
+                {{"sphere": {{"radius": {r}, "center": [-1.2, 0, 0]}}}},
+                {{"box": {{"half": [0.4, 0.4, 0.4], "center": [1.0, 0, 0]}}}},
+                {{"sphere": {{"radius": 0.4, "center": [0, 0.6, 0]}}}}]}}}}"#
+        )
+    };
+    let (reused, with, fresh) = edit(&blend(0.4), &blend(0.5));
+    assert!(reused > 0, "nothing reused under the blend");
+    assert!(with < fresh, "{with} against {fresh}");
+    let (a, b) = (scene(&blend(0.4)), scene(&blend(0.5)));
+    let boxes = changed_boxes(a.hashes(), b.hashes()).unwrap();
+    assert_eq!(boxes.len(), 2);
+    // The blend raises the operands' cap by its reach (2 folds of k/4) and window (k).
+    assert!(
+        boxes
+            .iter()
+            .all(|c| (c.growth - (2.0 * 0.0375 + 0.15)).abs() < 1e-6)
+    );
 }

@@ -155,10 +155,11 @@ impl App {
             self.opts.backend,
             self.slot.clone(),
         );
+        let reuse = self.opts.reuse;
         std::thread::Builder::new()
             .name("isokit-view-render".into())
             .spawn(move || {
-                worker::run(input, backend, rx, slot, |r| {
+                worker::run(input, backend, reuse, rx, slot, |r| {
                     let _ = proxy.send_event(UserEvent::Reply(r));
                 })
             })
@@ -249,7 +250,7 @@ impl App {
                 t,
             ),
             (
-                "drag: orbit  shift/right drag: pan  wheel: zoom  [R] reset  [Q] quit".into(),
+                "drag orbit, shift-drag pan, wheel zoom, [R]eset, [Q]uit".into(),
                 t,
             ),
         ]);

@@ -55,6 +55,9 @@ pub struct ViewOptions {
     /// How long file events must be quiet before an edit is rendered (merges the several
     /// writes of one save and saves in quick succession).
     pub quiet_ms: u64,
+    /// Take the bricks an edit cannot have changed from the previous sampling (the default);
+    /// `false` samples every edit in full (the baseline the reuse is measured against).
+    pub reuse: bool,
 }
 
 impl Default for ViewOptions {
@@ -70,6 +73,7 @@ impl Default for ViewOptions {
             exit_after_frames: None,
             exit_after_seconds: None,
             quiet_ms: 40,
+            reuse: true,
         }
     }
 }

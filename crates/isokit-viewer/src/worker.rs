@@ -135,6 +135,7 @@ struct Worker<F: Fn(Reply)> {
     cache: SourceCache,
     /// The last full sampling of the scene, for the next edit to reuse bricks from.
     previous: Option<isokit_scene::Sampled>,
+    reuse: bool,
     send: F,
     slot: CancelSlot,
     rx: Receiver<Request>,
@@ -144,6 +145,7 @@ struct Worker<F: Fn(Reply)> {
 pub(crate) fn run(
     input: PathBuf,
     backend: BackendChoice,
+    reuse: bool,
     rx: Receiver<Request>,
     slot: CancelSlot,
     send: impl Fn(Reply),
@@ -171,6 +173,7 @@ pub(crate) fn run(
         renderer,
         cache: SourceCache::default(),
         previous: None,
+        reuse,
         send,
         slot,
         rx,
@@ -420,7 +423,9 @@ impl<F: Fn(Reply)> Worker<F> {
             }
         };
         let reused = sampled.stats.bricks_reused;
-        self.previous = Some(sampled.clone());
+        if self.reuse {
+            self.previous = Some(sampled.clone());
+        }
         let mut p = match self
             .renderer
             .prepare(RenderTarget::Sampled(&scene, &sampled), &s, &job)

@@ -607,6 +607,12 @@ impl<F: Field> SmoothN<F> {
         self.blend.reach(self.k) * self.children.len().saturating_sub(1) as f32
     }
 
+    /// The cap [`Field::value_clamped`] evaluates the operands with for a result clamped to
+    /// `cap`: exact within it, an operand contributes nothing more (see `value_clamped`).
+    pub fn child_cap(&self, cap: f32) -> f32 {
+        cap + self.reach() + self.blend.window(self.k)
+    }
+
     fn fold(&self, mut vals: impl Iterator<Item = f32>) -> f32 {
         let first = vals.next().unwrap_or(f32::INFINITY);
         let (k, b) = (self.k, self.blend);
@@ -660,7 +666,7 @@ impl<F: Field> Field for SmoothN<F> {
         // clamped child either lies a window or more above the running value (and does not
         // enter the blend) or the running value already lies above `cap + reach`, which the
         // remaining folds cannot bring below `cap`.
-        let inner = cap + self.reach() + self.blend.window(self.k);
+        let inner = self.child_cap(cap);
         self.fold(self.children.iter().map(|c| value_clamped(c, p, inner)))
             .clamp(-cap, cap)
     }
