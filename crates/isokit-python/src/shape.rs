@@ -112,9 +112,17 @@ impl Shape {
                     .map(|(p, n)| (format!("{at}{p}"), n.clone())),
             );
         }
-        if base.is_some_and(|b| vocab::dim(b.node()) == 2)
-            || kids.iter().any(|k| vocab::dim(k.node()) == 2)
-        {
+        // With a 2D operand: mixed dimensions are refused, and the wrappers that constrain
+        // profiles (transforms about z only) are checked; CSG of profiles needs no check.
+        let dims: Vec<u8> = base
+            .iter()
+            .chain(kids)
+            .map(|s| vocab::dim(s.node()))
+            .collect();
+        let mixed = dims.windows(2).any(|w| w[0] != w[1]);
+        let wrapped_2d =
+            dims.contains(&2) && matches!(node.uncolored().0, Node::Transform(_) | Node::Octree(_));
+        if mixed || wrapped_2d {
             vocab::check(&node)?;
         }
         Ok(Shape::from_parts(node, params, refs))
@@ -164,6 +172,21 @@ impl Shape {
             &[self, other],
             0,
         )
+    }
+
+    /// The vocabulary's node `kind` of this shape with `args` (see [`vocab::build`]).
+    fn op(&self, kind: &str, args: &[(&str, Option<&Bound<'_, PyAny>>)]) -> PyResult<Shape> {
+        build(kind, args, Of::One(self), None)
+    }
+
+    /// The vocabulary's blend `kind` of this shape and `other` with `args`.
+    fn blend(
+        &self,
+        kind: &str,
+        other: &Shape,
+        args: &[(&str, Option<&Bound<'_, PyAny>>)],
+    ) -> PyResult<Shape> {
+        build(kind, args, Of::Many(vec![self, other]), None)
     }
 
     /// `f` of this shape's node, a one-child operation.
@@ -760,15 +783,13 @@ impl Shape {
             }
             r => r.cloned(),
         };
-        build(
+        self.op(
             "transform",
             &[
                 ("translate", translate),
                 ("rotate", rotate.as_ref()),
                 ("scale", scale),
             ],
-            Of::One(self),
-            None,
         )
     }
 
@@ -782,12 +803,7 @@ impl Shape {
         height: &Bound<'_, PyAny>,
         round: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
-            "extrude",
-            &[("height", Some(height)), ("round", round)],
-            Of::One(self),
-            None,
-        )
+        self.op("extrude", &[("height", Some(height)), ("round", round)])
     }
 
     /// The 2D profile revolved about the z axis: the profile's x is the distance from the
@@ -796,7 +812,7 @@ impl Shape {
     /// >>> isokit.circle(radius=0.2).revolve(offset=1.0)  # a torus
     #[pyo3(signature = (offset = None))]
     fn revolve(&self, offset: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
-        build("revolve", &[("offset", offset)], Of::One(self), None)
+        self.op("revolve", &[("offset", offset)])
     }
 
     /// The reflection in the plane `normal · p = offset` (exact).
@@ -808,19 +824,14 @@ impl Shape {
         normal: &Bound<'_, PyAny>,
         offset: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
-            "mirror",
-            &[("normal", Some(normal)), ("offset", offset)],
-            Of::One(self),
-            None,
-        )
+        self.op("mirror", &[("normal", Some(normal)), ("offset", offset)])
     }
 
     /// The solid turned so that its z axis points along `axis` (exact).
     ///
     /// >>> isokit.cylinder(a=(0, 0, -1), b=(0, 0, 1), radius=0.2).orient(axis=(1, 0, 0))
     fn orient(&self, axis: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("orient", &[("axis", Some(axis))], Of::One(self), None)
+        self.op("orient", &[("axis", Some(axis))])
     }
 
     /// A general invertible affine map, `matrix` its three rows `[a, b, c, t]`
@@ -829,7 +840,7 @@ impl Shape {
     ///
     /// >>> isokit.sphere(1.0).affine(matrix=[[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]])
     fn affine(&self, matrix: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("affine", &[("matrix", Some(matrix))], Of::One(self), None)
+        self.op("affine", &[("matrix", Some(matrix))])
     }
 
     /// Infinite repetition with `period` per axis (0: that axis is not repeated); exact for
@@ -837,7 +848,7 @@ impl Shape {
     ///
     /// >>> isokit.sphere(0.2).repeat(period=(1, 1, 0))
     fn repeat(&self, period: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("repeat", &[("period", Some(period))], Of::One(self), None)
+        self.op("repeat", &[("period", Some(period))])
     }
 
     /// A finite array of copies: `count` per axis (integers ≥ 1), copy `i` moved by
@@ -845,11 +856,9 @@ impl Shape {
     ///
     /// >>> isokit.sphere(0.2).array(count=(3, 2, 1), spacing=(0.5, 0.5, 0))
     fn array(&self, count: &Bound<'_, PyAny>, spacing: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build(
+        self.op(
             "array",
             &[("count", Some(count)), ("spacing", Some(spacing))],
-            Of::One(self),
-            None,
         )
     }
 
@@ -862,12 +871,7 @@ impl Shape {
         count: &Bound<'_, PyAny>,
         axis: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
-            "circular_array",
-            &[("count", Some(count)), ("axis", axis)],
-            Of::One(self),
-            None,
-        )
+        self.op("circular_array", &[("count", Some(count)), ("axis", axis)])
     }
 
     /// A twist about `axis` (default z): the cross-section at height `z` turned by
@@ -876,12 +880,7 @@ impl Shape {
     /// >>> isokit.box(half=(0.5, 0.2, 1)).twist(rate=45)
     #[pyo3(signature = (rate, axis = None))]
     fn twist(&self, rate: &Bound<'_, PyAny>, axis: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
-        build(
-            "twist",
-            &[("rate", Some(rate)), ("axis", axis)],
-            Of::One(self),
-            None,
-        )
+        self.op("twist", &[("rate", Some(rate)), ("axis", axis)])
     }
 
     /// A bend of the x axis into an arc, `rate` degrees per unit length (towards +y). A
@@ -889,7 +888,7 @@ impl Shape {
     ///
     /// >>> isokit.box(half=(1, 0.1, 0.1)).bend(rate=30)
     fn bend(&self, rate: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("bend", &[("rate", Some(rate))], Of::One(self), None)
+        self.op("bend", &[("rate", Some(rate))])
     }
 
     /// A taper along `axis` (default z): cross-sections scaled by `1 + rate · z`. A distance
@@ -898,12 +897,7 @@ impl Shape {
     /// >>> isokit.cylinder(a=(0, 0, -1), b=(0, 0, 1), radius=0.5).taper(rate=-0.3)
     #[pyo3(signature = (rate, axis = None))]
     fn taper(&self, rate: &Bound<'_, PyAny>, axis: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
-        build(
-            "taper",
-            &[("rate", Some(rate)), ("axis", axis)],
-            Of::One(self),
-            None,
-        )
+        self.op("taper", &[("rate", Some(rate)), ("axis", axis)])
     }
 
     /// The shape cut at the coordinate planes and its parts moved apart by `by` (three
@@ -911,7 +905,7 @@ impl Shape {
     ///
     /// >>> isokit.sphere(0.5).elongate(by=(1, 0, 0))  # a capsule along x
     fn elongate(&self, by: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("elongate", &[("by", Some(by))], Of::One(self), None)
+        self.op("elongate", &[("by", Some(by))])
     }
 
     /// Rounding by `radius`: the surface moved out by it, `f − radius` (the same as
@@ -919,7 +913,7 @@ impl Shape {
     ///
     /// >>> isokit.box(half=0.5).round(radius=0.1)
     fn round(&self, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build("round", &[("radius", Some(radius))], Of::One(self), None)
+        self.op("round", &[("radius", Some(radius))])
     }
 
     /// A shell of wall `thickness` around the surface, `|f| − thickness/2` (the same as
@@ -927,24 +921,14 @@ impl Shape {
     ///
     /// >>> isokit.sphere(1.0).onion(thickness=0.1)
     fn onion(&self, thickness: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build(
-            "onion",
-            &[("thickness", Some(thickness))],
-            Of::One(self),
-            None,
-        )
+        self.op("onion", &[("thickness", Some(thickness))])
     }
 
     /// The union with `other` with a 45° chamfer of size `radius` where they meet (hg_sdf).
     ///
     /// >>> isokit.box(0.5).chamfer_union(isokit.sphere(0.4, center=(0.5, 0, 0)), radius=0.1)
     fn chamfer_union(&self, other: PyRef<'_, Shape>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
-        build(
-            "chamfer_union",
-            &[("radius", Some(radius))],
-            Of::Many(vec![self, &other]),
-            None,
-        )
+        self.blend("chamfer_union", &other, &[("radius", Some(radius))])
     }
 
     /// The intersection with `other`, chamfered by `radius` (hg_sdf).
@@ -953,12 +937,7 @@ impl Shape {
         other: PyRef<'_, Shape>,
         radius: &Bound<'_, PyAny>,
     ) -> PyResult<Shape> {
-        build(
-            "chamfer_intersection",
-            &[("radius", Some(radius))],
-            Of::Many(vec![self, &other]),
-            None,
-        )
+        self.blend("chamfer_intersection", &other, &[("radius", Some(radius))])
     }
 
     /// This shape minus `other`, chamfered by `radius` (hg_sdf).
@@ -967,12 +946,7 @@ impl Shape {
         other: PyRef<'_, Shape>,
         radius: &Bound<'_, PyAny>,
     ) -> PyResult<Shape> {
-        build(
-            "chamfer_difference",
-            &[("radius", Some(radius))],
-            Of::Many(vec![self, &other]),
-            None,
-        )
+        self.blend("chamfer_difference", &other, &[("radius", Some(radius))])
     }
 
     /// The union with `other` with `steps` stairs (default 4) over `radius` where they meet
@@ -986,11 +960,10 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
+        self.blend(
             "stairs_union",
+            &other,
             &[("radius", Some(radius)), ("steps", steps)],
-            Of::Many(vec![self, &other]),
-            None,
         )
     }
 
@@ -1002,11 +975,10 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
+        self.blend(
             "stairs_intersection",
+            &other,
             &[("radius", Some(radius)), ("steps", steps)],
-            Of::Many(vec![self, &other]),
-            None,
         )
     }
 
@@ -1018,11 +990,10 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        build(
+        self.blend(
             "stairs_difference",
+            &other,
             &[("radius", Some(radius)), ("steps", steps)],
-            Of::Many(vec![self, &other]),
-            None,
         )
     }
 

@@ -68,11 +68,18 @@ impl Param {
 /// `2` for a 2D profile (and operations on profiles), `3` for a solid. Includes count as
 /// solids.
 pub fn dim(node: &Node) -> u8 {
-    match node {
-        Node::Colored(c) => dim(&c.of),
-        n if n.profile().is_some() => 2,
-        Node::Extrude(_) | Node::Revolve(_) => 3,
-        n => n.children().first().map_or(3, |c| dim(c)),
+    // Down the first children (a loop: trees may be deep).
+    let mut n = node;
+    loop {
+        match n {
+            Node::Colored(c) => n = &c.of,
+            n if n.profile().is_some() => return 2,
+            Node::Extrude(_) | Node::Revolve(_) => return 3,
+            _ => match n.children().first() {
+                Some(c) => n = c,
+                None => return 3,
+            },
+        }
     }
 }
 
@@ -125,6 +132,9 @@ pub fn merge_params(
     Ok(())
 }
 
+/// How deeply an argument's lists may nest (a matrix nests 2, polygon points 2).
+const MAX_ARG_DEPTH: usize = 8;
+
 /// Python `value` (numbers, params, sequences of them, dicts of them) as the JSON a scene
 /// file holds, with each parameter written as `"$name"`, its JSON pointer (`ptr`) recorded
 /// in `refs` and its value in `params`. `name` names the argument in errors.
@@ -135,6 +145,11 @@ fn to_json(
     refs: &mut Vec<(String, String)>,
     params: &mut BTreeMap<String, f64>,
 ) -> PyResult<Value> {
+    if ptr.matches('/').count() > MAX_ARG_DEPTH + 2 {
+        return Err(PyValueError::new_err(format!(
+            "{name}: nested more than {MAX_ARG_DEPTH} levels deep"
+        )));
+    }
     if let Ok(p) = value.cast::<Param>() {
         let p = p.get();
         merge_params(params, &BTreeMap::from([(p.name.clone(), p.value)]))?;
@@ -349,16 +364,19 @@ pub fn _profiles(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
         ("slot", serde_json::to_value(SlotNode::default())),
         ("hexagon", serde_json::to_value(HexagonNode::default())),
     ];
+    // The shortest decimal of each float32 (0.1, not 0.10000000149011612).
+    let short = |x: &Value| {
+        let x = x.as_f64().unwrap_or(f64::NAN) as f32;
+        x.to_string().parse::<f64>().unwrap_or(f64::from(x))
+    };
     let out = PyList::empty(py);
     for (key, v) in defaults {
         let v = v.map_err(crate::errors::value_err)?;
         let d = PyDict::new(py);
         for (name, x) in v.as_object().into_iter().flatten() {
             let x: Bound<'_, PyAny> = match x {
-                Value::Array(a) => {
-                    PyTuple::new(py, a.iter().map(|c| c.as_f64().unwrap_or(f64::NAN)))?.into_any()
-                }
-                x => x.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
+                Value::Array(a) => PyTuple::new(py, a.iter().map(short))?.into_any(),
+                x => short(x).into_pyobject(py)?.into_any(),
             };
             d.set_item(name, x)?;
         }

@@ -411,3 +411,37 @@ def test_sources_below_the_new_nodes_are_found(tmp_path, monkeypatch):
     back = isokit.load_scene(tmp_path / "scene" / "s.json")
     p = np.array([[0.0, 0, 0], [0.6, 0, 0], [2.0, 0, 0.2], [2.6, 0, 0]])
     assert np.allclose(back(p), s(p), atol=1e-6)
+
+
+def test_profile_signatures_and_stubs_are_the_scene_files():
+    import ast
+    import inspect
+    profiles = {k: dict(p) for k, p in isokit._isokit._profiles()}
+    assert set(profiles) == {"circle", "rectangle", "rounded_rectangle", "ellipse", "slot", "hexagon"}
+    stub = ast.parse((ROOT / "crates" / "isokit-python" / "python" / "isokit" / "__init__.pyi").read_text())
+    stubs = {f.name: f for f in stub.body if isinstance(f, ast.FunctionDef)}
+    for key, defaults in profiles.items():
+        sig = inspect.signature(getattr(isokit, key))
+        assert {n: p.default for n, p in sig.parameters.items() if n != "color"} == defaults
+        args = stubs[key].args
+        assert dict(zip([a.arg for a in args.args], [ast.literal_eval(d) for d in args.defaults])) == defaults
+    methods = {f.name for c in stub.body if isinstance(c, ast.ClassDef) and c.name == "Shape"
+               for f in c.body if isinstance(f, ast.FunctionDef)}
+    for name in ("extrude", "revolve", "transform", "mirror", "orient", "affine", "repeat", "array",
+                 "circular_array", "twist", "bend", "taper", "elongate", "round", "onion", "with_color",
+                 "chamfer_union", "stairs_difference"):
+        assert name in methods and getattr(isokit.Shape, name).__doc__, name
+
+
+def test_deep_arguments_and_long_chains_are_refused_or_built_without_a_crash():
+    deep = [0.5]
+    for _ in range(100000):
+        deep = [deep]
+    with pytest.raises(ValueError, match="nested more than"):
+        isokit.polygon(deep)
+    # A long chain of 2D unions (each checked without rebuilding the others' fields).
+    ring = isokit.union(*[isokit.circle(radius=0.05, center=(math.cos(t), math.sin(t)))
+                          for t in np.linspace(0, 2 * math.pi, 400, endpoint=False)])
+    for t in range(100):
+        ring = ring | isokit.circle(radius=0.01, center=(0, t * 0.001))
+    assert ring.dim == 2 and ring.extrude(height=0.1).dim == 3

@@ -134,18 +134,41 @@ _DOCS = {
 
 
 def _fmt(v):
-    return f"({v[0]:g}, {v[1]:g}, {v[2]:g})" if isinstance(v, tuple) else f"{v:g}"
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")" if isinstance(v, tuple) else f"{v:g}"
+
+
+def _signature(key, defaults, order, keyword_only=()):
+    """The signature of a vocabulary function: `order`'s parameters with the library's
+    defaults, then `keyword_only` ones defaulting to None."""
+    if set(order) != set(defaults):  # the vocabulary changed: keep Python in step
+        raise ImportError(f"isokit: parameters of {key} are {sorted(defaults)}, expected {sorted(order)}")
+    return _inspect.Signature(
+        [_inspect.Parameter(n, _inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[n])
+         for n in order]
+        + [_inspect.Parameter(n, _inspect.Parameter.KEYWORD_ONLY, default=None) for n in keyword_only])
+
+
+def _parameter_lines(order, defaults, pdoc):
+    lines = []
+    for n in order:
+        v = defaults[n]
+        kind = f"{len(v)} floats" if isinstance(v, tuple) else "float"
+        lines += [f"{n} : {kind}, default {_fmt(v)}", f"    {pdoc[n].capitalize()}."]
+    return lines
+
+
+def _named(fn, key, sig, lines):
+    fn.__name__ = fn.__qualname__ = key
+    fn.__module__ = "isokit"
+    fn.__signature__ = sig
+    fn.__doc__ = "\n".join(lines)
+    return fn
 
 
 def _make_primitive(key, params):
     defaults = dict(params)
     order = _ORDER[key]
-    if set(order) != set(defaults):  # the vocabulary changed: keep Python in step
-        raise ImportError(f"isokit: parameters of {key} are {sorted(defaults)}, expected {sorted(order)}")
-    sig = _inspect.Signature([
-        _inspect.Parameter(n, _inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[n])
-        for n in order
-    ])
+    sig = _signature(key, defaults, order)
 
     def primitive(*args, **kwargs):
         bound = sig.bind(*args, **kwargs)
@@ -159,21 +182,14 @@ def _make_primitive(key, params):
         return _isokit._primitive(key, dict(bound.arguments))
 
     summary, pdoc = _DOCS[key]
-    lines = [summary, "", "Parameters", "----------"]
-    for n in order:
-        kind = "3 floats" if isinstance(defaults[n], tuple) else "float"
-        lines += [f"{n} : {kind}, default {_fmt(defaults[n])}", f"    {pdoc[n].capitalize()}."]
+    lines = [summary, "", "Parameters", "----------"] + _parameter_lines(order, defaults, pdoc)
     example = ", ".join(f"{n}={_fmt(defaults[n])}" for n in order)
     lines += ["", "Any number may be an ``isokit.param``. Colour it with ``.with_color((r, g, b))``.",
               "", "Returns", "-------", "Shape",
               f"    The scene files' ``{{\"{key}\": {{...}}}}`` node (missing parameters take the",
               "    same defaults there). Exact signed distance, negative inside.",
               "", "Example", "-------", f">>> isokit.{key}({example})"]
-    primitive.__name__ = primitive.__qualname__ = key
-    primitive.__module__ = "isokit"
-    primitive.__signature__ = sig
-    primitive.__doc__ = "\n".join(lines)
-    return primitive
+    return _named(primitive, key, sig, lines)
 
 
 _VOCABULARY = {key: params for key, params, _note in _isokit._primitives()}
@@ -235,18 +251,9 @@ _PROFILE_DOCS = {
 }
 
 
-def _fmt2(v):
-    return f"({v[0]:g}, {v[1]:g})" if isinstance(v, tuple) else f"{v:g}"
-
-
 def _make_profile(key, defaults):
     order = _PROFILE_ORDER[key]
-    if set(order) != set(defaults):  # the vocabulary changed: keep Python in step
-        raise ImportError(f"isokit: parameters of {key} are {sorted(defaults)}, expected {sorted(order)}")
-    params = [_inspect.Parameter(n, _inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[n])
-              for n in order]
-    params.append(_inspect.Parameter("color", _inspect.Parameter.KEYWORD_ONLY, default=None))
-    sig = _inspect.Signature(params)
+    sig = _signature(key, defaults, order, keyword_only=("color",))
 
     def profile(*args, **kwargs):
         bound = sig.bind(*args, **kwargs)
@@ -259,21 +266,14 @@ def _make_profile(key, defaults):
     lines = [summary, "", "A 2D profile (``dim == 2``): an exact 2D signed distance in the xy-plane.",
              "Combine profiles with the same CSG, blends, offsets and transforms (about z) as",
              "solids; make a solid with ``.extrude(height)`` or ``.revolve(offset)``.",
-             "", "Parameters", "----------"]
-    for n in order:
-        kind = "2 floats" if isinstance(defaults[n], tuple) else "float"
-        lines += [f"{n} : {kind}, default {_fmt2(defaults[n])}", f"    {pdoc[n].capitalize()}."]
+             "", "Parameters", "----------"] + _parameter_lines(order, defaults, pdoc)
     lines += ["color : (r, g, b), optional", "    Linear RGB, each in [0, 1] (the node's ``\"color\"``)."]
-    example = ", ".join(f"{n}={_fmt2(defaults[n])}" for n in order)
+    example = ", ".join(f"{n}={_fmt(defaults[n])}" for n in order)
     lines += ["", "Any number may be an ``isokit.param``.", "", "Returns", "-------", "Shape",
               f"    The scene files' ``{{\"{key}\": {{...}}}}`` node (missing parameters take the",
               "    same defaults there).", "", "Example", "-------",
               f">>> isokit.{key}({example}).extrude(height=0.5)"]
-    profile.__name__ = profile.__qualname__ = key
-    profile.__module__ = "isokit"
-    profile.__signature__ = sig
-    profile.__doc__ = "\n".join(lines)
-    return profile
+    return _named(profile, key, sig, lines)
 
 
 _PROFILES = {key: dict(params) for key, params in _isokit._profiles()}
