@@ -532,14 +532,18 @@ impl Shape {
             // The parameters' numbers written as their references.
             let mut v: serde_json::Value = serde_json::from_str(&text).map_err(value_err)?;
             for (at, name) in &self.refs {
-                let slot = v.pointer_mut(&format!("/shape{at}")).ok_or_else(|| {
-                    pyo3::exceptions::PyRuntimeError::new_err(format!(
-                        "isokit: the parameter {name:?} lost its place {at} (a bug)"
-                    ))
-                })?;
-                *slot = serde_json::Value::String(format!("${name}"));
+                vocab::write_reference(&mut v, &format!("/shape{at}"), name)?;
             }
-            serde_json::to_string_pretty(&v).map_err(value_err)
+            let text = serde_json::to_string_pretty(&v).map_err(value_err)?;
+            // The file must read back as this tree.
+            let back = isokit_scene::parse(&text, isokit_scene::SceneFormat::Json, "to_json");
+            if back.map(|b| b.shape) != Ok(file.shape) {
+                return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                    "isokit: the scene file with parameter references does not read back as \
+                     the shape (a bug; please report)",
+                ));
+            }
+            Ok(text)
         })
     }
 
@@ -1399,8 +1403,21 @@ pub fn load_scene(path: std::path::PathBuf) -> PyResult<Shape> {
         let text =
             std::fs::read_to_string(&path).map_err(|e| io_err(isokit_io::IoError::io(&path, e)))?;
         let mut file = isokit_scene::parse(&text, format, &name).map_err(scene_err)?;
+        // The parameters' references, kept for `to_json` (JSON files; a TOML file's shape
+        // is written with the numbers).
+        let refs = match format {
+            isokit_scene::SceneFormat::Json => serde_json::from_str(&text)
+                .map(|doc| vocab::references(&doc))
+                .unwrap_or_default()
+                .into_iter()
+                .filter(|(_, n)| file.params.contains_key(n))
+                .collect(),
+            isokit_scene::SceneFormat::Toml => Vec::new(),
+        };
         let dir = path.parent().unwrap_or(Path::new("."));
         tree::absolutize(&mut file.shape, dir)?;
-        Ok(Shape::with_file(file))
+        let mut shape = Shape::with_file(file);
+        shape.refs = refs;
+        Ok(shape)
     })
 }

@@ -132,6 +132,75 @@ pub fn merge_params(
     Ok(())
 }
 
+/// Writes `"$name"` at the JSON pointer `at` of a scene document. A key the document left
+/// out (a value equal to its default, such as `"offset": 0`) is put back.
+pub fn write_reference(doc: &mut Value, at: &str, name: &str) -> PyResult<()> {
+    let reference = Value::String(format!("${name}"));
+    if let Some(slot) = doc.pointer_mut(at) {
+        *slot = reference;
+        return Ok(());
+    }
+    let lost = || {
+        pyo3::exceptions::PyRuntimeError::new_err(format!(
+            "isokit: the parameter {name:?} lost its place {at} (a bug)"
+        ))
+    };
+    let (parent, key) = at.rsplit_once('/').ok_or_else(lost)?;
+    match doc.pointer_mut(parent) {
+        Some(Value::Object(m)) => {
+            m.insert(key.to_owned(), reference);
+            Ok(())
+        }
+        None => {
+            // A component of a vector left out: the only vectors scene files leave out at
+            // their default are the axes (`[0, 0, 1]`). `to_json` checks the result reads
+            // back as the shape.
+            let (grand, vector) = parent.rsplit_once('/').ok_or_else(lost)?;
+            let i: usize = key.parse().map_err(|_| lost())?;
+            match doc.pointer_mut(grand) {
+                Some(Value::Object(m)) if vector == "axis" && i < 3 => {
+                    let mut axis = vec![json!(0.0), json!(0.0), json!(1.0)];
+                    axis[i] = reference;
+                    m.insert(vector.to_owned(), Value::Array(axis));
+                    Ok(())
+                }
+                _ => Err(lost()),
+            }
+        }
+        _ => Err(lost()),
+    }
+}
+
+/// The references of a scene document's shape (`"$name"` strings below `/shape`), as
+/// `(JSON pointer below the shape, name)`.
+pub fn references(doc: &Value) -> Vec<(String, String)> {
+    fn walk(v: &Value, at: String, out: &mut Vec<(String, String)>) {
+        match v {
+            Value::String(s) => {
+                if let Some(name) = s.strip_prefix('$') {
+                    out.push((at, name.to_owned()));
+                }
+            }
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    walk(x, format!("{at}/{i}"), out);
+                }
+            }
+            Value::Object(o) => {
+                for (k, x) in o {
+                    walk(x, format!("{at}/{k}"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    if let Some(shape) = doc.get("shape") {
+        walk(shape, String::new(), &mut out);
+    }
+    out
+}
+
 /// How deeply an argument's lists may nest (a matrix nests 2, polygon points 2).
 const MAX_ARG_DEPTH: usize = 8;
 

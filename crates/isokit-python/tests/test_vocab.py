@@ -71,8 +71,10 @@ def assert_same_scene(shape, doc, tmp_path, name="expected"):
     ours = json.loads(shape.to_json())
     assert references(ours) == references(doc)
     assert ours.get("params", {}) == doc.get("params", {})
-    theirs = json.loads(loaded.to_json())
-    assert close(resolved(ours["shape"], ours.get("params", {})), theirs["shape"]), (ours, theirs)
+    theirs = json.loads(loaded.to_json())  # load_scene keeps the references too
+    assert references(theirs) == references(doc)
+    assert close(resolved(ours["shape"], ours.get("params", {})),
+                 resolved(theirs["shape"], theirs.get("params", {}))), (ours, theirs)
     p = np.random.default_rng(5).uniform(-1.5, 1.5, size=(4000, 3))
     assert np.array_equal(shape(p), loaded(p))
     assert shape.dim == loaded.dim
@@ -445,3 +447,41 @@ def test_deep_arguments_and_long_chains_are_refused_or_built_without_a_crash():
     for t in range(100):
         ring = ring | isokit.circle(radius=0.01, center=(0, t * 0.001))
     assert ring.dim == 2 and ring.extrude(height=0.1).dim == 3
+
+
+def test_references_at_default_values_and_in_loaded_scenes_are_kept(tmp_path):
+    # A parameter whose value is the key's default (a scene file leaves such keys out).
+    rev = isokit.circle(radius=0.2, center=(0.5, 0)).revolve(offset=P("d", 0))
+    assert json.loads(rev.to_json())["shape"]["revolve"]["offset"] == "$d"
+    arr = isokit.sphere(0.1).circular_array(count=3, axis=(P("ax", 0), 0, 1))
+    assert json.loads(arr.to_json())["shape"]["circular_array"]["axis"] == ["$ax", 0, 1]
+    # A scene file read by load_scene keeps its references; to_json writes them back.
+    for name in ("flange", "vase", "gear"):
+        path = ROOT / "examples" / "scenes" / f"{name}.json"
+        doc = json.loads(path.read_text())
+        loaded = isokit.load_scene(path)
+        ours = json.loads(loaded.to_json())
+        assert references(ours) == references(doc) and ours["params"] == doc["params"]
+        # ... through operations too, and an edited parameter takes effect.
+        moved = loaded.translate(0, 0, 1)
+        edited = json.loads(moved.to_json())
+        assert sorted(references(edited).values()) == sorted(references(doc).values())
+    doc = json.loads((ROOT / "examples" / "scenes" / "flange.json").read_text())
+    doc["params"]["bolts"] = 8
+    (tmp_path / "f8.json").write_text(json.dumps(doc))
+    f8 = isokit.load_scene(tmp_path / "f8.json")
+    assert json.loads(f8.to_json())["shape"]["difference"][2]["circular_array"]["count"] == "$bolts"
+    # Strings that only look like references (a file named $ball.ply) stay what they are.
+    from conftest import icosphere
+    isokit.mesh(icosphere(1, 0.5)).save(tmp_path / "m" / "s.json")
+    m = json.loads((tmp_path / "m" / "s.json").read_text())
+    (tmp_path / "m" / m["shape"]["mesh"]["path"]).rename(tmp_path / "m" / "$ball.ply")
+    m["shape"] = {"union": [{"mesh": {"path": "$ball.ply"}}, {"sphere": {"radius": "$r"}}]}
+    m["params"] = {"r": 0.25, "ball": 1.0}
+    (tmp_path / "m" / "s.json").write_text(json.dumps(m))
+    back = json.loads(isokit.load_scene(tmp_path / "m" / "s.json").to_json())
+    assert back["shape"]["union"][0]["mesh"]["path"].endswith("/$ball.ply")
+    assert back["shape"]["union"][1]["sphere"]["radius"] == "$r"
+    # TOML scenes are written with their numbers.
+    (tmp_path / "t.toml").write_text('params = {r = 0.5}\n[shape.sphere]\nradius = "$r"\n')
+    assert json.loads(isokit.load_scene(tmp_path / "t.toml").to_json())["shape"]["sphere"]["radius"] == 0.5
