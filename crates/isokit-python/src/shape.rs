@@ -189,6 +189,17 @@ impl Shape {
         build(kind, args, Of::Many(vec![self, other]), None)
     }
 
+    /// The stairs blend `kind` of this shape and `other`.
+    fn stairs(
+        &self,
+        kind: &str,
+        other: &Shape,
+        radius: &Bound<'_, PyAny>,
+        steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.blend(kind, other, &[("radius", Some(radius)), ("steps", steps)])
+    }
+
     /// `f` of this shape's node, a one-child operation.
     fn wrap(&self, f: impl FnOnce(Node) -> Node) -> PyResult<Shape> {
         Shape::derived(f(self.node().clone()), None, &[self], 0)
@@ -964,11 +975,7 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        self.blend(
-            "stairs_union",
-            &other,
-            &[("radius", Some(radius)), ("steps", steps)],
-        )
+        self.stairs("stairs_union", &other, radius, steps)
     }
 
     /// The intersection with `other` with stairs (hg_sdf).
@@ -979,11 +986,7 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        self.blend(
-            "stairs_intersection",
-            &other,
-            &[("radius", Some(radius)), ("steps", steps)],
-        )
+        self.stairs("stairs_intersection", &other, radius, steps)
     }
 
     /// This shape minus `other` with stairs (hg_sdf).
@@ -994,11 +997,7 @@ impl Shape {
         radius: &Bound<'_, PyAny>,
         steps: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Shape> {
-        self.blend(
-            "stairs_difference",
-            &other,
-            &[("radius", Some(radius)), ("steps", steps)],
-        )
+        self.stairs("stairs_difference", &other, radius, steps)
     }
 
     /// A PNG of the shape (320×240, CPU), for Jupyter.
