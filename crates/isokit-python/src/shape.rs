@@ -284,6 +284,12 @@ pub fn bounds_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[[f32; 3]; 
     }
 }
 
+/// A plain number argument (a `TypeError` naming it otherwise).
+fn number(x: &Bound<'_, PyAny>, name: &str) -> PyResult<f64> {
+    x.extract()
+        .map_err(|_| PyTypeError::new_err(format!("{name} must be a number, got {}", x.get_type())))
+}
+
 fn finite(x: f64, name: &str) -> PyResult<f32> {
     let v = x as f32;
     if v.is_finite() {
@@ -404,32 +410,55 @@ impl Shape {
 
     /// The union with `other`, blended over `radius` (a polynomial smooth minimum;
     /// `radius = 0` is the plain union).
-    fn smooth_union(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
+    fn smooth_union(&self, other: PyRef<'_, Shape>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_union", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
         self.combine(&other, |a, b| Node::smooth_union(r, vec![a, b]))
     }
 
     /// The intersection with `other`, blended over `radius`.
-    fn smooth_intersection(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
+    fn smooth_intersection(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_intersection", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
         self.combine(&other, |a, b| Node::smooth_intersection(r, vec![a, b]))
     }
 
     /// This shape minus `other`, blended over `radius`.
-    fn smooth_difference(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
+    fn smooth_difference(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_difference", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
         self.combine(&other, |a, b| Node::smooth_difference(r, vec![a, b]))
     }
 
     /// The surface moved outwards by `r` (`r < 0` moves it inwards): `f - r`.
-    fn offset(&self, r: f64) -> PyResult<Shape> {
-        let r = finite(r, "r")?;
+    fn offset(&self, r: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(r) {
+            return self.op("offset", &[("by", Some(r))]);
+        }
+        let r = finite(number(r, "r")?, "r")?;
         self.wrap(|n| n.offset(r))
     }
 
     /// A hollow shell of wall thickness `t` around the surface: `|f| - t/2`.
-    fn shell(&self, t: f64) -> PyResult<Shape> {
-        let t = finite(t, "t")?;
+    fn shell(&self, t: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(t) {
+            return self.op("shell", &[("thickness", Some(t))]);
+        }
+        let t = finite(number(t, "t")?, "t")?;
         self.wrap(|n| n.shell(t))
     }
 
@@ -441,8 +470,27 @@ impl Shape {
 
     /// The shape moved by `offset` (three numbers), or by `(x, y, z)`.
     #[pyo3(signature = (x, y = None, z = None))]
-    fn translate(&self, x: &Bound<'_, PyAny>, y: Option<f64>, z: Option<f64>) -> PyResult<Shape> {
-        let t = match (y, z) {
+    fn translate(
+        &self,
+        x: &Bound<'_, PyAny>,
+        y: Option<&Bound<'_, PyAny>>,
+        z: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        if [Some(x), y, z]
+            .into_iter()
+            .flatten()
+            .any(vocab::holds_param)
+        {
+            let v = match (y, z) {
+                (Some(y), Some(z)) => PyTuple::new(x.py(), [x, y, z])?.into_any(),
+                _ => x.clone(),
+            };
+            return self.op("transform", &[("translate", Some(&v))]);
+        }
+        let t = match (
+            y.map(|y| number(y, "y")).transpose()?,
+            z.map(|z| number(z, "z")).transpose()?,
+        ) {
             (None, None) => {
                 if x.extract::<f64>().is_ok() {
                     return Err(PyTypeError::new_err(
@@ -451,7 +499,7 @@ impl Shape {
                 }
                 vec3_arg(x, "offset")?
             }
-            (Some(y), Some(z)) => [x.extract::<f64>()? as f32, y as f32, z as f32],
+            (Some(y), Some(z)) => [number(x, "x")? as f32, y as f32, z as f32],
             _ => {
                 return Err(PyTypeError::new_err(
                     "translate takes three numbers: translate(x, y, z) or translate((x, y, z))",
@@ -463,7 +511,13 @@ impl Shape {
 
     /// The shape rotated by `degrees` about `axis` through the origin (right-handed); `axis`
     /// is three numbers or `"x"`, `"y"`, `"z"`.
-    fn rotate(&self, axis: &Bound<'_, PyAny>, degrees: f64) -> PyResult<Shape> {
+    fn rotate(&self, axis: &Bound<'_, PyAny>, degrees: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(axis) || vocab::holds_param(degrees) {
+            let rotate = PyDict::new(axis.py());
+            rotate.set_item("axis", axis)?;
+            rotate.set_item("degrees", degrees)?;
+            return self.op("transform", &[("rotate", Some(rotate.as_any()))]);
+        }
         let a = match axis.extract::<String>() {
             Ok(s) => match s.to_ascii_lowercase().as_str() {
                 "x" => [1.0, 0.0, 0.0],
@@ -477,13 +531,16 @@ impl Shape {
             },
             Err(_) => vec3_arg(axis, "axis")?,
         };
-        let d = finite(degrees, "degrees")?;
+        let d = finite(number(degrees, "degrees")?, "degrees")?;
         self.wrap(|n| n.rotated(a, d))
     }
 
     /// The shape scaled by `s` about the origin (uniform scale only: distances stay exact;
     /// for one factor per axis, a distance bound, use `transform(scale=(sx, sy, sz))`).
     fn scale(&self, s: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if s.is_instance_of::<vocab::Param>() {
+            return self.op("transform", &[("scale", Some(s))]);
+        }
         let s: f64 = s.extract().map_err(|_| {
             PyTypeError::new_err(
                 "scale takes one number (a uniform scale keeps distances exact); for one \
@@ -1382,8 +1439,18 @@ pub fn difference(shapes: &Bound<'_, PyTuple>) -> PyResult<Shape> {
 /// `isokit.smooth_union(*shapes, radius)`: the union of all, blended over `radius`.
 #[pyfunction]
 #[pyo3(signature = (*shapes, radius))]
-pub fn smooth_union(shapes: &Bound<'_, PyTuple>, radius: f64) -> PyResult<Shape> {
-    let r = finite(radius, "radius")?;
+pub fn smooth_union(shapes: &Bound<'_, PyTuple>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+    if vocab::holds_param(radius) {
+        let shapes = collect_shapes(shapes, "smooth_union", 1)?;
+        let kids = shapes.iter().map(|s| s.get()).collect();
+        return build(
+            "smooth_union",
+            &[("radius", Some(radius))],
+            Of::Many(kids),
+            None,
+        );
+    }
+    let r = finite(number(radius, "radius")?, "radius")?;
     nary(shapes, "smooth_union", 1, |v| Node::smooth_union(r, v))
 }
 

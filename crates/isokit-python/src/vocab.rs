@@ -65,6 +65,20 @@ impl Param {
     }
 }
 
+/// Whether `value` is an `isokit.param` or a list or tuple holding one.
+pub fn holds_param(value: &Bound<'_, PyAny>) -> bool {
+    fn within(value: &Bound<'_, PyAny>, depth: usize) -> bool {
+        value.is_instance_of::<Param>()
+            || (depth < MAX_ARG_DEPTH
+                && (value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>())
+                && value
+                    .try_iter()
+                    .map(|it| it.flatten().any(|v| within(&v, depth + 1)))
+                    .unwrap_or(false))
+    }
+    within(value, 0)
+}
+
 /// `2` for a 2D profile (and operations on profiles), `3` for a solid. Includes count as
 /// solids.
 pub fn dim(node: &Node) -> u8 {

@@ -441,6 +441,8 @@ def test_deep_arguments_and_long_chains_are_refused_or_built_without_a_crash():
         deep = [deep]
     with pytest.raises(ValueError, match="nested more than"):
         isokit.polygon(deep)
+    with pytest.raises(TypeError, match="three numbers"):
+        isokit.sphere().translate(deep)  # not searched for parameters past the limit
     # A long chain of 2D unions (each checked without rebuilding the others' fields).
     ring = isokit.union(*[isokit.circle(radius=0.05, center=(math.cos(t), math.sin(t)))
                           for t in np.linspace(0, 2 * math.pi, 400, endpoint=False)])
@@ -485,3 +487,30 @@ def test_references_at_default_values_and_in_loaded_scenes_are_kept(tmp_path):
     # TOML scenes are written with their numbers.
     (tmp_path / "t.toml").write_text('params = {r = 0.5}\n[shape.sphere]\nradius = "$r"\n')
     assert json.loads(isokit.load_scene(tmp_path / "t.toml").to_json())["shape"]["sphere"]["radius"] == 0.5
+
+
+def test_the_older_methods_take_parameters_too(tmp_path):
+    r, d, t, k = P("r", 0.1), P("d", 30), P("t", 0.05), P("k", 1.5)
+    a, b = isokit.sphere(0.5), isokit.box(0.3, center=(0.5, 0, 0))
+    cases = [
+        (a.smooth_union(b, r), {"smooth_union": {"radius": "$r", "of": [{"sphere": {"radius": 0.5}},
+                                                                       {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}]}}),
+        (isokit.smooth_union(a, b, radius=r), {"smooth_union": {"radius": "$r", "of": [
+            {"sphere": {"radius": 0.5}}, {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}]}}),
+        (a.smooth_difference(b, r), {"smooth_difference": {"radius": "$r", "of": [
+            {"sphere": {"radius": 0.5}}, {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}]}}),
+        (a.offset(r), {"offset": {"by": "$r", "of": {"sphere": {"radius": 0.5}}}}),
+        (a.shell(t), {"shell": {"thickness": "$t", "of": {"sphere": {"radius": 0.5}}}}),
+        (a.translate(r, 0, 0), {"transform": {"translate": ["$r", 0, 0], "of": {"sphere": {"radius": 0.5}}}}),
+        (a.translate((0, r, 0)), {"transform": {"translate": [0, "$r", 0], "of": {"sphere": {"radius": 0.5}}}}),
+        (b.rotate((0, 0, 1), d), {"transform": {"rotate": {"axis": [0, 0, 1], "degrees": "$d"},
+                                                "of": {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}}}),
+        (b.scale(k), {"transform": {"scale": "$k", "of": {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}}}),
+    ]
+    for i, (shape, doc) in enumerate(cases):
+        params = {n[1:]: {"$r": 0.1, "$d": 30, "$t": 0.05, "$k": 1.5}[n] for n in references(doc).values()}
+        assert_same_scene(shape, {"params": params, "shape": doc}, tmp_path, f"old{i}")
+    # Plain numbers still build the same trees as before.
+    assert a.offset(0.1)(np.zeros((1, 3)))[0] == pytest.approx(-0.6)
+    with pytest.raises(TypeError, match="radius must be a number"):
+        a.smooth_union(b, "wide")
