@@ -256,6 +256,23 @@ pub fn vec3_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[f32; 3]> {
     }
 }
 
+/// A rotation's axis: three numbers or `"x"`, `"y"`, `"z"`.
+fn axis_arg(axis: &Bound<'_, PyAny>) -> PyResult<[f32; 3]> {
+    Ok(match axis.extract::<String>() {
+        Ok(s) => match s.to_ascii_lowercase().as_str() {
+            "x" => [1.0, 0.0, 0.0],
+            "y" => [0.0, 1.0, 0.0],
+            "z" => [0.0, 0.0, 1.0],
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "axis {s:?} is not one of \"x\", \"y\", \"z\" (or give three numbers)"
+                )));
+            }
+        },
+        Err(_) => vec3_arg(axis, "axis")?,
+    })
+}
+
 /// Bounds `((xmin, ymin, zmin), (xmax, ymax, zmax))`.
 pub fn bounds_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[[f32; 3]; 2]>> {
     let Some(obj) = obj else { return Ok(None) };
@@ -512,25 +529,17 @@ impl Shape {
     /// The shape rotated by `degrees` about `axis` through the origin (right-handed); `axis`
     /// is three numbers or `"x"`, `"y"`, `"z"`.
     fn rotate(&self, axis: &Bound<'_, PyAny>, degrees: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        let named = axis.extract::<String>().ok();
         if vocab::holds_param(axis) || vocab::holds_param(degrees) {
             let rotate = PyDict::new(axis.py());
-            rotate.set_item("axis", axis)?;
+            match named {
+                Some(_) => rotate.set_item("axis", axis_arg(axis)?)?,
+                None => rotate.set_item("axis", axis)?,
+            }
             rotate.set_item("degrees", degrees)?;
             return self.op("transform", &[("rotate", Some(rotate.as_any()))]);
         }
-        let a = match axis.extract::<String>() {
-            Ok(s) => match s.to_ascii_lowercase().as_str() {
-                "x" => [1.0, 0.0, 0.0],
-                "y" => [0.0, 1.0, 0.0],
-                "z" => [0.0, 0.0, 1.0],
-                _ => {
-                    return Err(PyValueError::new_err(format!(
-                        "axis {s:?} is not one of \"x\", \"y\", \"z\" (or give three numbers)"
-                    )));
-                }
-            },
-            Err(_) => vec3_arg(axis, "axis")?,
-        };
+        let a = axis_arg(axis)?;
         let d = finite(number(degrees, "degrees")?, "degrees")?;
         self.wrap(|n| n.rotated(a, d))
     }

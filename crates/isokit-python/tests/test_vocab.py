@@ -505,6 +505,8 @@ def test_the_older_methods_take_parameters_too(tmp_path):
         (a.translate((0, r, 0)), {"transform": {"translate": [0, "$r", 0], "of": {"sphere": {"radius": 0.5}}}}),
         (b.rotate((0, 0, 1), d), {"transform": {"rotate": {"axis": [0, 0, 1], "degrees": "$d"},
                                                 "of": {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}}}),
+        (b.rotate("x", d), {"transform": {"rotate": {"axis": [1, 0, 0], "degrees": "$d"},
+                                          "of": {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}}}),
         (b.scale(k), {"transform": {"scale": "$k", "of": {"box": {"half": [0.3] * 3, "center": [0.5, 0, 0]}}}}),
     ]
     for i, (shape, doc) in enumerate(cases):
