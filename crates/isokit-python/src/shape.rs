@@ -1013,6 +1013,8 @@ impl Shape {
     }
 
     /// The intersection with `other`, chamfered by `radius` (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).chamfer_intersection(isokit.sphere(0.65), radius=0.05)
     fn chamfer_intersection(
         &self,
         other: PyRef<'_, Shape>,
@@ -1022,6 +1024,8 @@ impl Shape {
     }
 
     /// This shape minus `other`, chamfered by `radius` (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).chamfer_difference(isokit.cylinder(radius=0.2, a=(0, 0, -1), b=(0, 0, 1)), radius=0.05)
     fn chamfer_difference(
         &self,
         other: PyRef<'_, Shape>,
@@ -1045,6 +1049,8 @@ impl Shape {
     }
 
     /// The intersection with `other` with stairs (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).stairs_intersection(isokit.sphere(0.65), radius=0.1, steps=3)
     #[pyo3(signature = (other, radius, steps = None))]
     fn stairs_intersection(
         &self,
@@ -1056,6 +1062,8 @@ impl Shape {
     }
 
     /// This shape minus `other` with stairs (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).stairs_difference(isokit.sphere(0.3, center=(0.5, 0.5, 0.5)), radius=0.1)
     #[pyo3(signature = (other, radius, steps = None))]
     fn stairs_difference(
         &self,

@@ -215,7 +215,7 @@ def param(name: str, value: float) -> Param:
     >>> r = isokit.param("r", 0.3)
     >>> s = isokit.sphere(radius=r)
     >>> json.loads(s.to_json())["shape"]
-    {'sphere': {'radius': '$r', 'center': [0.0, 0.0, 0.0]}}
+    {'sphere': {'center': [0.0, 0.0, 0.0], 'radius': '$r'}}
     """
     return Param(name, value)
 
