@@ -41,3 +41,4 @@ ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m p
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./crates/isokit-python
 ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q crates/isokit-python/tests
 .venv/bin/python examples/python/part.py "$examples_out/python"
+.venv/bin/python examples/python/flange.py "$examples_out/python"

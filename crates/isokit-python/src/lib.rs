@@ -11,6 +11,8 @@
 //! - [`sdf`], `isokit.signed_distance`;
 //! - [`run`], how work runs without the GIL, with Ctrl-C, progress and caught panics;
 //! - [`errors`], the mapping of library errors to Python exceptions;
+//! - [`vocab`], the modeling vocabulary (profiles, extrude, revolve, repetition,
+//!   deformations, blends), `isokit.param` and colours;
 //! - [`arrays`], NumPy views in, NumPy arrays out.
 //!
 //! It is not a library for Rust code: use `isokit-scene` there.
@@ -24,6 +26,7 @@ pub mod run;
 pub mod sdf;
 pub mod shape;
 pub mod tree;
+pub mod vocab;
 
 use pyo3::prelude::*;
 
@@ -40,6 +43,7 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<field::Field>()?;
     m.add_class::<render::Frame>()?;
     m.add_class::<render::Molecule>()?;
+    m.add_class::<vocab::Param>()?;
     m.add("Cancelled", py.get_type::<errors::Cancelled>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add(
@@ -63,6 +67,8 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(shape::difference, m)?)?;
     m.add_function(wrap_pyfunction!(shape::smooth_union, m)?)?;
     m.add_function(wrap_pyfunction!(shape::load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(vocab::_node, m)?)?;
+    m.add_function(wrap_pyfunction!(vocab::_profiles, m)?)?;
     m.add_function(wrap_pyfunction!(sdf::signed_distance, m)?)?;
     m.add_function(wrap_pyfunction!(field::morph_level_set, m)?)?;
     m.add_function(wrap_pyfunction!(render::molecule, m)?)?;

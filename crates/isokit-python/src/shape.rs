@@ -7,6 +7,7 @@ use crate::field::Field;
 use crate::render::{self, Frame, RenderArgs};
 use crate::run::{guarded, run};
 use crate::tree;
+use crate::vocab::{self, Of, build};
 use glam::Vec3;
 use isokit_field::{Aabb, Grid, Job, PointCloud, TriMesh};
 use isokit_scene::node::VolumeNode;
@@ -21,6 +22,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, LazyLock, Mutex};
 
@@ -44,6 +46,9 @@ const CHUNK: usize = 1 << 16;
 #[pyclass(frozen, module = "isokit", name = "Shape")]
 pub struct Shape {
     pub(crate) file: SceneFile,
+    /// Where the tree's numbers are `isokit.param`s: `(JSON pointer below the node, name)`,
+    /// e.g. `("/sphere/radius", "r")`; `to_json` writes `"$r"` there.
+    pub(crate) refs: Vec<(String, String)>,
     compiled: Mutex<Option<Arc<Scene>>>,
 }
 
@@ -57,8 +62,82 @@ impl Shape {
     pub fn with_file(file: SceneFile) -> Self {
         Self {
             file,
+            refs: Vec::new(),
             compiled: Mutex::new(None),
         }
+    }
+
+    /// A shape of `node` with its parameter table and references.
+    pub fn from_parts(
+        node: Node,
+        params: BTreeMap<String, f64>,
+        refs: Vec<(String, String)>,
+    ) -> Self {
+        let mut file = SceneFile::new(node);
+        file.params = params;
+        Self {
+            file,
+            refs,
+            compiled: Mutex::new(None),
+        }
+    }
+
+    /// The shape of `node`, an operation whose children from index `first` on are `kids`
+    /// (and whose earlier children, if any, are those of `base`, the same kind of node): the
+    /// parameters and references of both carried over. Checked (see [`vocab::check`]) when
+    /// a 2D profile takes part, so that one where a solid is needed is refused now.
+    pub fn derived(
+        mut node: Node,
+        base: Option<&Shape>,
+        kids: &[&Shape],
+        first: usize,
+    ) -> PyResult<Shape> {
+        let kind = node.kind();
+        let mut params = BTreeMap::new();
+        let mut refs = Vec::new();
+        if let Some(b) = base {
+            params = b.file.params.clone();
+            refs = b.refs.clone();
+        }
+        let slots: Vec<tree::Slot> = tree::children_mut(&mut node)
+            .into_iter()
+            .map(|(s, _)| s)
+            .collect();
+        for (kid, slot) in kids.iter().zip(&slots[first.min(slots.len())..]) {
+            vocab::merge_params(&mut params, &kid.file.params)?;
+            let at = slot.pointer(kind);
+            refs.extend(
+                kid.refs
+                    .iter()
+                    .map(|(p, n)| (format!("{at}{p}"), n.clone())),
+            );
+        }
+        // With a 2D operand: mixed dimensions are refused, and the wrappers that constrain
+        // profiles (transforms about z only) are checked; CSG of profiles needs no check.
+        let dims: Vec<u8> = base
+            .iter()
+            .chain(kids)
+            .map(|s| vocab::dim(s.node()))
+            .collect();
+        let mixed = dims.windows(2).any(|w| w[0] != w[1]);
+        let wrapped_2d =
+            dims.contains(&2) && matches!(node.uncolored().0, Node::Transform(_) | Node::Octree(_));
+        if mixed || wrapped_2d {
+            vocab::check(&node)?;
+        }
+        Ok(Shape::from_parts(node, params, refs))
+    }
+
+    /// Refuses a 2D profile for `what` (meshing, sampling, rendering need a solid).
+    fn solid(&self, what: &str) -> PyResult<()> {
+        if vocab::dim(self.node()) == 2 {
+            return Err(PyValueError::new_err(format!(
+                "cannot {what} a 2D profile ({}): it is unbounded in z; extrude or revolve it \
+                 first (profile.extrude(height), profile.revolve())",
+                self.node().kind()
+            )));
+        }
+        Ok(())
     }
 
     /// The tree.
@@ -86,8 +165,56 @@ impl Shape {
         Ok(scene)
     }
 
-    fn combine(&self, other: &Shape, f: impl FnOnce(Node, Node) -> Node) -> Shape {
-        Shape::new(f(self.node().clone(), other.node().clone()))
+    fn combine(&self, other: &Shape, f: impl FnOnce(Node, Node) -> Node) -> PyResult<Shape> {
+        Shape::derived(
+            f(self.node().clone(), other.node().clone()),
+            None,
+            &[self, other],
+            0,
+        )
+    }
+
+    /// The vocabulary's node `kind` of this shape with `args` (see [`vocab::build`]).
+    fn op(&self, kind: &str, args: &[(&str, Option<&Bound<'_, PyAny>>)]) -> PyResult<Shape> {
+        build(kind, args, Of::One(self), None)
+    }
+
+    /// The vocabulary's blend `kind` of this shape and `other` with `args`.
+    fn blend(
+        &self,
+        kind: &str,
+        other: &Shape,
+        args: &[(&str, Option<&Bound<'_, PyAny>>)],
+    ) -> PyResult<Shape> {
+        build(kind, args, Of::Many(vec![self, other]), None)
+    }
+
+    /// The stairs blend `kind` of this shape and `other`.
+    fn stairs(
+        &self,
+        kind: &str,
+        other: &Shape,
+        radius: &Bound<'_, PyAny>,
+        steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.blend(kind, other, &[("radius", Some(radius)), ("steps", steps)])
+    }
+
+    /// `f` of this shape's node, a one-child operation.
+    fn wrap(&self, f: impl FnOnce(Node) -> Node) -> PyResult<Shape> {
+        Shape::derived(f(self.node().clone()), None, &[self], 0)
+    }
+
+    /// The n-ary node `self`'s kind with `other` appended (`a | b | c` is one union).
+    fn appended(
+        &self,
+        mut v: Vec<Node>,
+        other: &Shape,
+        f: fn(Vec<Node>) -> Node,
+    ) -> PyResult<Shape> {
+        v.push(other.node().clone());
+        let last = v.len() - 1;
+        Shape::derived(f(v), Some(self), &[other], last)
     }
 
     /// The options of a sampling from Python's arguments, over the scene's `sampling` table
@@ -129,6 +256,23 @@ pub fn vec3_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[f32; 3]> {
     }
 }
 
+/// A rotation's axis: three numbers or `"x"`, `"y"`, `"z"`.
+fn axis_arg(axis: &Bound<'_, PyAny>) -> PyResult<[f32; 3]> {
+    Ok(match axis.extract::<String>() {
+        Ok(s) => match s.to_ascii_lowercase().as_str() {
+            "x" => [1.0, 0.0, 0.0],
+            "y" => [0.0, 1.0, 0.0],
+            "z" => [0.0, 0.0, 1.0],
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "axis {s:?} is not one of \"x\", \"y\", \"z\" (or give three numbers)"
+                )));
+            }
+        },
+        Err(_) => vec3_arg(axis, "axis")?,
+    })
+}
+
 /// Bounds `((xmin, ymin, zmin), (xmax, ymax, zmax))`.
 pub fn bounds_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[[f32; 3]; 2]>> {
     let Some(obj) = obj else { return Ok(None) };
@@ -155,6 +299,12 @@ pub fn bounds_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<[[f32; 3]; 
             "bounds must be ((xmin, ymin, zmin), (xmax, ymax, zmax))",
         )),
     }
+}
+
+/// A plain number argument (a `TypeError` naming it otherwise).
+fn number(x: &Bound<'_, PyAny>, name: &str) -> PyResult<f64> {
+    x.extract()
+        .map_err(|_| PyTypeError::new_err(format!("{name} must be a number, got {}", x.get_type())))
 }
 
 fn finite(x: f64, name: &str) -> PyResult<f32> {
@@ -245,85 +395,119 @@ impl Shape {
     }
 
     /// `a | b`: the union (`min`; exact outside).
-    fn __or__(&self, other: PyRef<'_, Shape>) -> Shape {
+    fn __or__(&self, other: PyRef<'_, Shape>) -> PyResult<Shape> {
         match self.node() {
             Node::Union(v) if self.file.camera.is_none() => {
-                let mut v = v.clone();
-                v.push(other.node().clone());
-                Shape::new(Node::Union(v))
+                self.appended(v.clone(), &other, Node::Union)
             }
             _ => self.combine(&other, |a, b| Node::union(vec![a, b])),
         }
     }
 
     /// `a & b`: the intersection (`max`; exact inside).
-    fn __and__(&self, other: PyRef<'_, Shape>) -> Shape {
+    fn __and__(&self, other: PyRef<'_, Shape>) -> PyResult<Shape> {
         match self.node() {
-            Node::Intersection(v) => {
-                let mut v = v.clone();
-                v.push(other.node().clone());
-                Shape::new(Node::Intersection(v))
-            }
+            Node::Intersection(v) => self.appended(v.clone(), &other, Node::Intersection),
             _ => self.combine(&other, |a, b| Node::intersection(vec![a, b])),
         }
     }
 
     /// `a - b`: the difference `max(a, -b)` (Sigg 2006, Table 2.1 corrected).
-    fn __sub__(&self, other: PyRef<'_, Shape>) -> Shape {
+    fn __sub__(&self, other: PyRef<'_, Shape>) -> PyResult<Shape> {
         match self.node() {
-            Node::Difference(v) => {
-                let mut v = v.clone();
-                v.push(other.node().clone());
-                Shape::new(Node::Difference(v))
-            }
+            Node::Difference(v) => self.appended(v.clone(), &other, Node::Difference),
             _ => self.combine(&other, |a, b| Node::difference(vec![a, b])),
         }
     }
 
     /// `~a`: the complement `-a` (inside and outside swapped).
-    fn __invert__(&self) -> Shape {
-        Shape::new(self.node().clone().complement())
+    fn __invert__(&self) -> PyResult<Shape> {
+        self.wrap(Node::complement)
     }
 
     /// The union with `other`, blended over `radius` (a polynomial smooth minimum;
     /// `radius = 0` is the plain union).
-    fn smooth_union(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
-        Ok(self.combine(&other, |a, b| Node::smooth_union(r, vec![a, b])))
+    fn smooth_union(&self, other: PyRef<'_, Shape>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_union", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
+        self.combine(&other, |a, b| Node::smooth_union(r, vec![a, b]))
     }
 
     /// The intersection with `other`, blended over `radius`.
-    fn smooth_intersection(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
-        Ok(self.combine(&other, |a, b| Node::smooth_intersection(r, vec![a, b])))
+    fn smooth_intersection(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_intersection", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
+        self.combine(&other, |a, b| Node::smooth_intersection(r, vec![a, b]))
     }
 
     /// This shape minus `other`, blended over `radius`.
-    fn smooth_difference(&self, other: PyRef<'_, Shape>, radius: f64) -> PyResult<Shape> {
-        let r = finite(radius, "radius")?;
-        Ok(self.combine(&other, |a, b| Node::smooth_difference(r, vec![a, b])))
+    fn smooth_difference(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        if vocab::holds_param(radius) {
+            return self.blend("smooth_difference", &other, &[("radius", Some(radius))]);
+        }
+        let r = finite(number(radius, "radius")?, "radius")?;
+        self.combine(&other, |a, b| Node::smooth_difference(r, vec![a, b]))
     }
 
     /// The surface moved outwards by `r` (`r < 0` moves it inwards): `f - r`.
-    fn offset(&self, r: f64) -> PyResult<Shape> {
-        Ok(Shape::new(self.node().clone().offset(finite(r, "r")?)))
+    fn offset(&self, r: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(r) {
+            return self.op("offset", &[("by", Some(r))]);
+        }
+        let r = finite(number(r, "r")?, "r")?;
+        self.wrap(|n| n.offset(r))
     }
 
     /// A hollow shell of wall thickness `t` around the surface: `|f| - t/2`.
-    fn shell(&self, t: f64) -> PyResult<Shape> {
-        Ok(Shape::new(self.node().clone().shell(finite(t, "t")?)))
+    fn shell(&self, t: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if vocab::holds_param(t) {
+            return self.op("shell", &[("thickness", Some(t))]);
+        }
+        let t = finite(number(t, "t")?, "t")?;
+        self.wrap(|n| n.shell(t))
     }
 
     /// The linear morph `(1 - t)·self + t·other` (`t = 0` gives this shape, 1 the other).
     fn morph(&self, other: PyRef<'_, Shape>, t: f64) -> PyResult<Shape> {
         let t = finite(t, "t")?;
-        Ok(self.combine(&other, |a, b| a.morph(b, t)))
+        self.combine(&other, |a, b| a.morph(b, t))
     }
 
     /// The shape moved by `offset` (three numbers), or by `(x, y, z)`.
     #[pyo3(signature = (x, y = None, z = None))]
-    fn translate(&self, x: &Bound<'_, PyAny>, y: Option<f64>, z: Option<f64>) -> PyResult<Shape> {
-        let t = match (y, z) {
+    fn translate(
+        &self,
+        x: &Bound<'_, PyAny>,
+        y: Option<&Bound<'_, PyAny>>,
+        z: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        if [Some(x), y, z]
+            .into_iter()
+            .flatten()
+            .any(vocab::holds_param)
+        {
+            let v = match (y, z) {
+                (Some(y), Some(z)) => PyTuple::new(x.py(), [x, y, z])?.into_any(),
+                _ => x.clone(),
+            };
+            return self.op("transform", &[("translate", Some(&v))]);
+        }
+        let t = match (
+            y.map(|y| number(y, "y")).transpose()?,
+            z.map(|z| number(z, "z")).transpose()?,
+        ) {
             (None, None) => {
                 if x.extract::<f64>().is_ok() {
                     return Err(PyTypeError::new_err(
@@ -332,58 +516,62 @@ impl Shape {
                 }
                 vec3_arg(x, "offset")?
             }
-            (Some(y), Some(z)) => [x.extract::<f64>()? as f32, y as f32, z as f32],
+            (Some(y), Some(z)) => [number(x, "x")? as f32, y as f32, z as f32],
             _ => {
                 return Err(PyTypeError::new_err(
                     "translate takes three numbers: translate(x, y, z) or translate((x, y, z))",
                 ));
             }
         };
-        Ok(Shape::new(self.node().clone().translated(t)))
+        self.wrap(|n| n.translated(t))
     }
 
     /// The shape rotated by `degrees` about `axis` through the origin (right-handed); `axis`
     /// is three numbers or `"x"`, `"y"`, `"z"`.
-    fn rotate(&self, axis: &Bound<'_, PyAny>, degrees: f64) -> PyResult<Shape> {
-        let a = match axis.extract::<String>() {
-            Ok(s) => match s.to_ascii_lowercase().as_str() {
-                "x" => [1.0, 0.0, 0.0],
-                "y" => [0.0, 1.0, 0.0],
-                "z" => [0.0, 0.0, 1.0],
-                _ => {
-                    return Err(PyValueError::new_err(format!(
-                        "axis {s:?} is not one of \"x\", \"y\", \"z\" (or give three numbers)"
-                    )));
-                }
-            },
-            Err(_) => vec3_arg(axis, "axis")?,
-        };
-        Ok(Shape::new(
-            self.node().clone().rotated(a, finite(degrees, "degrees")?),
-        ))
+    fn rotate(&self, axis: &Bound<'_, PyAny>, degrees: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        let named = axis.extract::<String>().ok();
+        if vocab::holds_param(axis) || vocab::holds_param(degrees) {
+            let rotate = PyDict::new(axis.py());
+            match named {
+                Some(_) => rotate.set_item("axis", axis_arg(axis)?)?,
+                None => rotate.set_item("axis", axis)?,
+            }
+            rotate.set_item("degrees", degrees)?;
+            return self.op("transform", &[("rotate", Some(rotate.as_any()))]);
+        }
+        let a = axis_arg(axis)?;
+        let d = finite(number(degrees, "degrees")?, "degrees")?;
+        self.wrap(|n| n.rotated(a, d))
     }
 
-    /// The shape scaled by `s` about the origin (uniform scale only: distances stay exact).
+    /// The shape scaled by `s` about the origin (uniform scale only: distances stay exact;
+    /// for one factor per axis, a distance bound, use `transform(scale=(sx, sy, sz))`).
     fn scale(&self, s: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        if s.is_instance_of::<vocab::Param>() {
+            return self.op("transform", &[("scale", Some(s))]);
+        }
         let s: f64 = s.extract().map_err(|_| {
             PyTypeError::new_err(
-                "scale takes one number (uniform scale keeps distances exact; non-uniform \
-                 scaling is not offered)",
+                "scale takes one number (a uniform scale keeps distances exact); for one \
+                 factor per axis use transform(scale=(sx, sy, sz))",
             )
         })?;
-        Ok(Shape::new(self.node().clone().scaled(finite(s, "s")?)))
+        let s = finite(s, "s")?;
+        self.wrap(|n| n.scaled(s))
     }
 
     /// The shape stored in a hashed octree (Sigg 2006, Ch. 3) of finest level `max_level`
     /// (1 to 12), read back by trilinear interpolation.
     #[pyo3(signature = (max_level = 8, error = None, min_level = None))]
-    fn octree(&self, max_level: u8, error: Option<f32>, min_level: Option<u8>) -> Shape {
-        let mut n = self.node().clone().octree(max_level);
-        if let Node::Octree(o) = &mut n {
-            o.error = error;
-            o.min_level = min_level;
-        }
-        Shape::new(n)
+    fn octree(&self, max_level: u8, error: Option<f32>, min_level: Option<u8>) -> PyResult<Shape> {
+        self.wrap(|n| {
+            let mut n = n.octree(max_level);
+            if let Node::Octree(o) = &mut n {
+                o.error = error;
+                o.min_level = min_level;
+            }
+            n
+        })
     }
 
     /// The scene file (JSON) of this shape.
@@ -407,14 +595,32 @@ impl Shape {
             if let Some(dir) = &relative_to {
                 tree::relativize(&mut file.shape, dir)?;
             }
-            file.to_json().map_err(|e| {
+            let text = file.to_json().map_err(|e| {
                 PyValueError::new_err(format!(
                     "{}: {}{}",
                     e.node,
                     e.message,
                     " (or call to_json(save_sources_to=DIR) to write the arrays to files)"
                 ))
-            })
+            })?;
+            if self.refs.is_empty() {
+                return Ok(text);
+            }
+            // The parameters' numbers written as their references.
+            let mut v: serde_json::Value = serde_json::from_str(&text).map_err(value_err)?;
+            for (at, name) in &self.refs {
+                vocab::write_reference(&mut v, &format!("/shape{at}"), name)?;
+            }
+            let text = serde_json::to_string_pretty(&v).map_err(value_err)?;
+            // The file must read back as this tree.
+            let back = isokit_scene::parse(&text, isokit_scene::SceneFormat::Json, "to_json");
+            if back.map(|b| b.shape) != Ok(file.shape) {
+                return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                    "isokit: the scene file with parameter references does not read back as \
+                     the shape (a bug; please report)",
+                ));
+            }
+            Ok(text)
         })
     }
 
@@ -511,6 +717,7 @@ impl Shape {
                 )));
             }
         };
+        self.solid("sample")?;
         let opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
         let (grid, stats, band) = run(py, progress, "sample", |job| {
             let scene = self.scene()?;
@@ -547,6 +754,7 @@ impl Shape {
         dense: bool,
         progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        self.solid("mesh")?;
         let opts = MeshOptions {
             sampling: self.sample_options(res, band, bounds_arg(bounds)?, None),
             dense,
@@ -590,18 +798,295 @@ impl Shape {
         background: Option<&Bound<'_, PyAny>>,
         progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Frame> {
+        self.solid("render")?;
         let args = RenderArgs::parse(
             width, height, shading, camera, backend, res, iso, projection, background,
         )?;
         render::render_shape(py, self, &args, progress)
     }
 
+    /// 2 for a 2D profile (`isokit.circle`, `rectangle`, `polygon`, … and their CSG,
+    /// offsets and transforms in the xy-plane), 3 for a solid. Profiles become solids by
+    /// `extrude` and `revolve`; meshing, sampling and rendering need a solid.
+    #[getter]
+    fn dim(&self) -> u8 {
+        vocab::dim(self.node())
+    }
+
+    /// The node's colour `(r, g, b)` (linear RGB in `[0, 1]`), or `None`.
+    #[getter]
+    fn color(&self) -> Option<(f32, f32, f32)> {
+        self.node().uncolored().1.map(|[r, g, b]| (r, g, b))
+    }
+
+    /// The shape with the colour `color` = `(r, g, b)`, linear RGB each in `[0, 1]` (the
+    /// scene files' `"color"` beside the node's kind): the renderer draws the surface it
+    /// owns in it, and `isokit scene … -o part.ply` writes it per vertex. The field does
+    /// not change. `isokit.sphere(0.5).with_color((0.8, 0.1, 0.1))`.
+    fn with_color(&self, color: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        let c = vec3_arg(color, "color")?;
+        if !c.iter().all(|x| x.is_finite() && (0.0..=1.0).contains(x)) {
+            return Err(PyValueError::new_err(format!(
+                "color {c:?}: each component must be in [0, 1] (linear RGB)"
+            )));
+        }
+        let (node, _) = self.node().uncolored();
+        Shape::derived(node.clone().with_color(c), Some(self), &[], 0)
+    }
+
+    /// A scale per axis and/or a rotation and a translation: the scene files' `transform`
+    /// node, applied as scale, then rotate, then translate. `scale`: one number (exact) or
+    /// `(sx, sy, sz)` (a distance bound, `min(s)·f(p/s)`); `rotate`: `(axis, degrees)` or
+    /// `{"axis": …, "degrees": …}`; `translate`: three numbers. Numbers may be
+    /// `isokit.param`s.
+    ///
+    /// >>> isokit.sphere(1.0).transform(scale=(1, 2, 1))  # an ellipsoid-like bound
+    #[pyo3(signature = (translate = None, rotate = None, scale = None))]
+    fn transform(
+        &self,
+        py: Python<'_>,
+        translate: Option<&Bound<'_, PyAny>>,
+        rotate: Option<&Bound<'_, PyAny>>,
+        scale: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        let rotate = match rotate {
+            Some(r) if !r.is_none() && !r.is_instance_of::<PyDict>() => {
+                let (axis, degrees): (Bound<'_, PyAny>, Bound<'_, PyAny>) =
+                    r.extract().map_err(|_| {
+                        PyTypeError::new_err(
+                            "rotate must be (axis, degrees) or {\"axis\": …, \"degrees\": …}",
+                        )
+                    })?;
+                let d = PyDict::new(py);
+                d.set_item("axis", axis)?;
+                d.set_item("degrees", degrees)?;
+                Some(d.into_any())
+            }
+            r => r.cloned(),
+        };
+        self.op(
+            "transform",
+            &[
+                ("translate", translate),
+                ("rotate", rotate.as_ref()),
+                ("scale", scale),
+            ],
+        )
+    }
+
+    /// The 2D profile extruded along z from `-height/2` to `height/2`, its cap edges rounded
+    /// by `round` (default 0). Exact where the profile is.
+    ///
+    /// >>> isokit.circle(radius=1.0).extrude(height=0.5)
+    #[pyo3(signature = (height, round = None))]
+    fn extrude(
+        &self,
+        height: &Bound<'_, PyAny>,
+        round: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.op("extrude", &[("height", Some(height)), ("round", round)])
+    }
+
+    /// The 2D profile revolved about the z axis: the profile's x is the distance from the
+    /// axis less `offset` (default 0), its y is z. Exact where the profile is.
+    ///
+    /// >>> isokit.circle(radius=0.2).revolve(offset=1.0)  # a torus
+    #[pyo3(signature = (offset = None))]
+    fn revolve(&self, offset: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
+        self.op("revolve", &[("offset", offset)])
+    }
+
+    /// The reflection in the plane `normal · p = offset` (exact).
+    ///
+    /// >>> isokit.sphere(0.3, center=(1, 0, 0)).mirror(normal=(1, 0, 0))
+    #[pyo3(signature = (normal, offset = None))]
+    fn mirror(
+        &self,
+        normal: &Bound<'_, PyAny>,
+        offset: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.op("mirror", &[("normal", Some(normal)), ("offset", offset)])
+    }
+
+    /// The solid turned so that its z axis points along `axis` (exact).
+    ///
+    /// >>> isokit.cylinder(a=(0, 0, -1), b=(0, 0, 1), radius=0.2).orient(axis=(1, 0, 0))
+    fn orient(&self, axis: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("orient", &[("axis", Some(axis))])
+    }
+
+    /// A general invertible affine map, `matrix` its three rows `[a, b, c, t]`
+    /// (`world_i = a·x + b·y + c·z + t`): `f(A⁻¹p)` times the smallest singular value of
+    /// `A`, a distance bound.
+    ///
+    /// >>> isokit.sphere(1.0).affine(matrix=[[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]])
+    fn affine(&self, matrix: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("affine", &[("matrix", Some(matrix))])
+    }
+
+    /// Infinite repetition with `period` per axis (0: that axis is not repeated); exact for
+    /// a shape smaller than its cell.
+    ///
+    /// >>> isokit.sphere(0.2).repeat(period=(1, 1, 0))
+    fn repeat(&self, period: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("repeat", &[("period", Some(period))])
+    }
+
+    /// A finite array of copies: `count` per axis (integers ≥ 1), copy `i` moved by
+    /// `i · spacing`.
+    ///
+    /// >>> isokit.sphere(0.2).array(count=(3, 2, 1), spacing=(0.5, 0.5, 0))
+    fn array(&self, count: &Bound<'_, PyAny>, spacing: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op(
+            "array",
+            &[("count", Some(count)), ("spacing", Some(spacing))],
+        )
+    }
+
+    /// `count` copies turned by `360°/count` about `axis` through the origin (default z).
+    ///
+    /// >>> isokit.cylinder(a=(1, 0, -1), b=(1, 0, 1), radius=0.1).circular_array(count=6)
+    #[pyo3(signature = (count, axis = None))]
+    fn circular_array(
+        &self,
+        count: &Bound<'_, PyAny>,
+        axis: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.op("circular_array", &[("count", Some(count)), ("axis", axis)])
+    }
+
+    /// A twist about `axis` (default z): the cross-section at height `z` turned by
+    /// `rate · z` degrees. A distance bound (the map's stretch divided out).
+    ///
+    /// >>> isokit.box(half=(0.5, 0.2, 1)).twist(rate=45)
+    #[pyo3(signature = (rate, axis = None))]
+    fn twist(&self, rate: &Bound<'_, PyAny>, axis: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
+        self.op("twist", &[("rate", Some(rate)), ("axis", axis)])
+    }
+
+    /// A bend of the x axis into an arc, `rate` degrees per unit length (towards +y). A
+    /// distance bound.
+    ///
+    /// >>> isokit.box(half=(1, 0.1, 0.1)).bend(rate=30)
+    fn bend(&self, rate: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("bend", &[("rate", Some(rate))])
+    }
+
+    /// A taper along `axis` (default z): cross-sections scaled by `1 + rate · z`. A distance
+    /// bound.
+    ///
+    /// >>> isokit.cylinder(a=(0, 0, -1), b=(0, 0, 1), radius=0.5).taper(rate=-0.3)
+    #[pyo3(signature = (rate, axis = None))]
+    fn taper(&self, rate: &Bound<'_, PyAny>, axis: Option<&Bound<'_, PyAny>>) -> PyResult<Shape> {
+        self.op("taper", &[("rate", Some(rate)), ("axis", axis)])
+    }
+
+    /// The shape cut at the coordinate planes and its parts moved apart by `by` (three
+    /// numbers ≥ 0): longer by `by` along each axis. Exact outside.
+    ///
+    /// >>> isokit.sphere(0.5).elongate(by=(1, 0, 0))  # a capsule along x
+    fn elongate(&self, by: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("elongate", &[("by", Some(by))])
+    }
+
+    /// Rounding by `radius`: the surface moved out by it, `f − radius` (the same as
+    /// `offset`, under the name fogleman's `sdf` and Quilez use).
+    ///
+    /// >>> isokit.box(half=0.5).round(radius=0.1)
+    fn round(&self, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("round", &[("radius", Some(radius))])
+    }
+
+    /// A shell of wall `thickness` around the surface, `|f| − thickness/2` (the same as
+    /// `shell`, under Quilez's name).
+    ///
+    /// >>> isokit.sphere(1.0).onion(thickness=0.1)
+    fn onion(&self, thickness: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.op("onion", &[("thickness", Some(thickness))])
+    }
+
+    /// The union with `other` with a 45° chamfer of size `radius` where they meet (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).chamfer_union(isokit.sphere(0.4, center=(0.5, 0, 0)), radius=0.1)
+    fn chamfer_union(&self, other: PyRef<'_, Shape>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+        self.blend("chamfer_union", &other, &[("radius", Some(radius))])
+    }
+
+    /// The intersection with `other`, chamfered by `radius` (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).chamfer_intersection(isokit.sphere(0.65), radius=0.05)
+    fn chamfer_intersection(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        self.blend("chamfer_intersection", &other, &[("radius", Some(radius))])
+    }
+
+    /// This shape minus `other`, chamfered by `radius` (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).chamfer_difference(isokit.cylinder(radius=0.2, a=(0, 0, -1), b=(0, 0, 1)), radius=0.05)
+    fn chamfer_difference(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+    ) -> PyResult<Shape> {
+        self.blend("chamfer_difference", &other, &[("radius", Some(radius))])
+    }
+
+    /// The union with `other` with `steps` stairs (default 4) over `radius` where they meet
+    /// (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).stairs_union(isokit.sphere(0.4, center=(0.5, 0, 0)), radius=0.2, steps=3)
+    #[pyo3(signature = (other, radius, steps = None))]
+    fn stairs_union(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+        steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.stairs("stairs_union", &other, radius, steps)
+    }
+
+    /// The intersection with `other` with stairs (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).stairs_intersection(isokit.sphere(0.65), radius=0.1, steps=3)
+    #[pyo3(signature = (other, radius, steps = None))]
+    fn stairs_intersection(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+        steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.stairs("stairs_intersection", &other, radius, steps)
+    }
+
+    /// This shape minus `other` with stairs (hg_sdf).
+    ///
+    /// >>> isokit.box(0.5).stairs_difference(isokit.sphere(0.3, center=(0.5, 0.5, 0.5)), radius=0.1)
+    #[pyo3(signature = (other, radius, steps = None))]
+    fn stairs_difference(
+        &self,
+        other: PyRef<'_, Shape>,
+        radius: &Bound<'_, PyAny>,
+        steps: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Shape> {
+        self.stairs("stairs_difference", &other, radius, steps)
+    }
+
     /// A PNG of the shape (320×240, CPU), for Jupyter.
-    fn _repr_png_<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
+    /// (None for a 2D profile, which has no picture of its own.)
+    fn _repr_png_<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, pyo3::types::PyBytes>>> {
+        if vocab::dim(self.node()) == 2 {
+            return Ok(None);
+        }
         let args = RenderArgs::parse(320, 240, None, None, "cpu", None, None, "perspective", None)?;
         let frame =
             render::render_shape(py, self, &args, Some(&pyo3::types::PyBool::new(py, false)))?;
-        frame.png(py)
+        frame.png(py).map(Some)
     }
 }
 
@@ -910,14 +1395,20 @@ pub fn _volume_array(
     })))
 }
 
-fn collect_shapes(items: &Bound<'_, PyTuple>, what: &str, min: usize) -> PyResult<Vec<Node>> {
-    let mut out = Vec::new();
-    for it in items.iter() {
-        let s = it.cast::<Shape>().map_err(|_| {
-            PyTypeError::new_err(format!("{what} takes shapes, got {}", it.get_type()))
-        })?;
-        out.push(s.get().node().clone());
-    }
+/// The shapes of a call's `*shapes`, at least `min`.
+fn collect_shapes<'py>(
+    items: &Bound<'py, PyTuple>,
+    what: &str,
+    min: usize,
+) -> PyResult<Vec<Bound<'py, Shape>>> {
+    let out = items
+        .iter()
+        .map(|it| {
+            it.cast::<Shape>().cloned().map_err(|_| {
+                PyTypeError::new_err(format!("{what} takes shapes, got {}", it.get_type()))
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
     if out.len() < min {
         return Err(PyValueError::new_err(format!(
             "{what} needs at least {min} shapes, got {}",
@@ -927,45 +1418,57 @@ fn collect_shapes(items: &Bound<'_, PyTuple>, what: &str, min: usize) -> PyResul
     Ok(out)
 }
 
+/// The n-ary node `f(children)` of the shapes of a call.
+fn nary(
+    shapes: &Bound<'_, PyTuple>,
+    what: &str,
+    min: usize,
+    f: impl FnOnce(Vec<Node>) -> Node,
+) -> PyResult<Shape> {
+    let shapes = collect_shapes(shapes, what, min)?;
+    let kids: Vec<&Shape> = shapes.iter().map(|s| s.get()).collect();
+    let node = f(kids.iter().map(|s| s.node().clone()).collect());
+    Shape::derived(node, None, &kids, 0)
+}
+
 /// `isokit.union(*shapes)`: the union of all (one n-ary node: with many operands a
 /// bounding-volume hierarchy prunes the evaluation).
 #[pyfunction]
 #[pyo3(signature = (*shapes))]
 pub fn union(shapes: &Bound<'_, PyTuple>) -> PyResult<Shape> {
-    Ok(Shape::new(Node::union(collect_shapes(shapes, "union", 1)?)))
+    nary(shapes, "union", 1, Node::union)
 }
 
 /// `isokit.intersection(*shapes)`: the intersection of all.
 #[pyfunction]
 #[pyo3(signature = (*shapes))]
 pub fn intersection(shapes: &Bound<'_, PyTuple>) -> PyResult<Shape> {
-    Ok(Shape::new(Node::intersection(collect_shapes(
-        shapes,
-        "intersection",
-        1,
-    )?)))
+    nary(shapes, "intersection", 1, Node::intersection)
 }
 
 /// `isokit.difference(a, *others)`: `a` minus all the others.
 #[pyfunction]
 #[pyo3(signature = (*shapes))]
 pub fn difference(shapes: &Bound<'_, PyTuple>) -> PyResult<Shape> {
-    Ok(Shape::new(Node::difference(collect_shapes(
-        shapes,
-        "difference",
-        2,
-    )?)))
+    nary(shapes, "difference", 2, Node::difference)
 }
 
 /// `isokit.smooth_union(*shapes, radius)`: the union of all, blended over `radius`.
 #[pyfunction]
 #[pyo3(signature = (*shapes, radius))]
-pub fn smooth_union(shapes: &Bound<'_, PyTuple>, radius: f64) -> PyResult<Shape> {
-    let r = finite(radius, "radius")?;
-    Ok(Shape::new(Node::smooth_union(
-        r,
-        collect_shapes(shapes, "smooth_union", 1)?,
-    )))
+pub fn smooth_union(shapes: &Bound<'_, PyTuple>, radius: &Bound<'_, PyAny>) -> PyResult<Shape> {
+    if vocab::holds_param(radius) {
+        let shapes = collect_shapes(shapes, "smooth_union", 1)?;
+        let kids = shapes.iter().map(|s| s.get()).collect();
+        return build(
+            "smooth_union",
+            &[("radius", Some(radius))],
+            Of::Many(kids),
+            None,
+        );
+    }
+    let r = finite(number(radius, "radius")?, "radius")?;
+    nary(shapes, "smooth_union", 1, |v| Node::smooth_union(r, v))
 }
 
 /// `isokit.load_scene(path)`: a scene file (JSON or TOML) as a shape, with its camera,
@@ -983,8 +1486,21 @@ pub fn load_scene(path: std::path::PathBuf) -> PyResult<Shape> {
         let text =
             std::fs::read_to_string(&path).map_err(|e| io_err(isokit_io::IoError::io(&path, e)))?;
         let mut file = isokit_scene::parse(&text, format, &name).map_err(scene_err)?;
+        // The parameters' references, kept for `to_json` (JSON files; a TOML file's shape
+        // is written with the numbers).
+        let refs = match format {
+            isokit_scene::SceneFormat::Json => serde_json::from_str(&text)
+                .map(|doc| vocab::references(&doc))
+                .unwrap_or_default()
+                .into_iter()
+                .filter(|(_, n)| file.params.contains_key(n))
+                .collect(),
+            isokit_scene::SceneFormat::Toml => Vec::new(),
+        };
         let dir = path.parent().unwrap_or(Path::new("."));
         tree::absolutize(&mut file.shape, dir)?;
-        Ok(Shape::with_file(file))
+        let mut shape = Shape::with_file(file);
+        shape.refs = refs;
+        Ok(shape)
     })
 }

@@ -8,35 +8,110 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::{Path, PathBuf};
 
+/// Where a child sits in its parent's scene-file form: `[i]` of a list node (`union`),
+/// `of[i]` of a blend, `of` of a one-child operation, `from`/`to` of a morph, or the node's
+/// own value (`complement`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    /// The `i`-th element of the node's list (`{"union": [a, b]}`).
+    Index(usize),
+    /// The `i`-th element of the node's `of` list (`{"smooth_union": {"of": [a, b]}}`).
+    OfIndex(usize),
+    /// A named key of the node's table (`of`, `from`, `to`).
+    Key(&'static str),
+    /// The node's value itself (`{"complement": a}`).
+    Value,
+}
+
+impl Slot {
+    /// The suffix of the child's path in errors (`[1]`, `.of[1]`, `.of`, ``).
+    pub fn dotted(self) -> String {
+        match self {
+            Slot::Index(i) => format!("[{i}]"),
+            Slot::OfIndex(i) => format!(".of[{i}]"),
+            Slot::Key(k) => format!(".{k}"),
+            Slot::Value => String::new(),
+        }
+    }
+
+    /// The JSON pointer of the child below its parent's (`/union/1`, `/twist/of`), for the
+    /// parent's `kind`.
+    pub fn pointer(self, kind: &str) -> String {
+        match self {
+            Slot::Index(i) => format!("/{kind}/{i}"),
+            Slot::OfIndex(i) => format!("/{kind}/of/{i}"),
+            Slot::Key(k) => format!("/{kind}/{k}"),
+            Slot::Value => format!("/{kind}"),
+        }
+    }
+}
+
+/// The direct children of a node, mutable, in [`Node::children`]'s order, with their slots.
+pub fn children_mut(node: &mut Node) -> Vec<(Slot, &mut Node)> {
+    fn list(v: &mut [Node], of: bool) -> Vec<(Slot, &mut Node)> {
+        v.iter_mut()
+            .enumerate()
+            .map(|(i, c)| (if of { Slot::OfIndex(i) } else { Slot::Index(i) }, c))
+            .collect()
+    }
+    fn of(c: &mut Node) -> Vec<(Slot, &mut Node)> {
+        vec![(Slot::Key("of"), c)]
+    }
+    match node {
+        Node::Union(v) | Node::Intersection(v) | Node::Difference(v) => list(v, false),
+        Node::SmoothUnion(s)
+        | Node::SmoothIntersection(s)
+        | Node::SmoothDifference(s)
+        | Node::ChamferUnion(s)
+        | Node::ChamferIntersection(s)
+        | Node::ChamferDifference(s) => list(&mut s.of, true),
+        Node::StairsUnion(s) | Node::StairsIntersection(s) | Node::StairsDifference(s) => {
+            list(&mut s.of, true)
+        }
+        Node::Complement(c) => vec![(Slot::Value, &mut **c)],
+        Node::Morph { from, to, .. } => {
+            vec![
+                (Slot::Key("from"), &mut **from),
+                (Slot::Key("to"), &mut **to),
+            ]
+        }
+        Node::Offset { of: c, .. } | Node::Shell { of: c, .. } => of(c),
+        Node::Transform(t) => of(&mut t.of),
+        Node::Octree(o) => of(&mut o.of),
+        Node::Extrude(n) => of(&mut n.of),
+        Node::Revolve(n) => of(&mut n.of),
+        Node::Mirror(n) => of(&mut n.of),
+        Node::Orient(n) => of(&mut n.of),
+        Node::Affine(n) => of(&mut n.of),
+        Node::Repeat(n) => of(&mut n.of),
+        Node::Array(n) => of(&mut n.of),
+        Node::CircularArray(n) => of(&mut n.of),
+        Node::Twist(n) => of(&mut n.of),
+        Node::Bend(n) => of(&mut n.of),
+        Node::Taper(n) => of(&mut n.of),
+        Node::Elongate(n) => of(&mut n.of),
+        Node::Round(n) => of(&mut n.of),
+        Node::Onion(n) => of(&mut n.of),
+        Node::Colored(c) => children_mut(&mut c.of),
+        _ => Vec::new(),
+    }
+}
+
 /// Calls `f` on every node of the tree, parents before children, with the node's path as
-/// errors name it (`shape.union[1].mesh`).
+/// errors name it (`shape.union[1].mesh`); a coloured node is visited as the node under
+/// its colour.
 pub fn walk_mut(
     node: &mut Node,
     parent: &str,
     f: &mut dyn FnMut(&mut Node, &str) -> PyResult<()>,
 ) -> PyResult<()> {
+    if let Node::Colored(c) = node {
+        return walk_mut(&mut c.of, parent, f);
+    }
     let path = format!("{parent}.{}", node.kind());
     f(node, &path)?;
-    match node {
-        Node::Union(v) | Node::Intersection(v) | Node::Difference(v) => {
-            for (i, c) in v.iter_mut().enumerate() {
-                walk_mut(c, &format!("{path}[{i}]"), f)?;
-            }
-        }
-        Node::SmoothUnion(s) | Node::SmoothIntersection(s) | Node::SmoothDifference(s) => {
-            for (i, c) in s.of.iter_mut().enumerate() {
-                walk_mut(c, &format!("{path}.of[{i}]"), f)?;
-            }
-        }
-        Node::Complement(c) => walk_mut(c, &path, f)?,
-        Node::Offset { of, .. } | Node::Shell { of, .. } => walk_mut(of, &format!("{path}.of"), f)?,
-        Node::Morph { from, to, .. } => {
-            walk_mut(from, &format!("{path}.from"), f)?;
-            walk_mut(to, &format!("{path}.to"), f)?;
-        }
-        Node::Transform(t) => walk_mut(&mut t.of, &format!("{path}.of"), f)?,
-        Node::Octree(o) => walk_mut(&mut o.of, &format!("{path}.of"), f)?,
-        _ => {}
+    for (slot, c) in children_mut(node) {
+        walk_mut(c, &format!("{path}{}", slot.dotted()), f)?;
     }
     Ok(())
 }

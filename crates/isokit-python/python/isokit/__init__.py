@@ -7,6 +7,19 @@ methods ``smooth_union``, ``offset``, ``shell``, ``morph``, ``translate``, ``rot
 call runs the same pipeline as the ``isokit`` command, and ``shape.to_json()`` writes the
 scene file that describes the same shape.
 
+The modeling vocabulary of the scene files is here too, with the scene files' keys as
+argument names: 2D profiles (``circle``, ``rectangle``, ``rounded_rectangle``,
+``polygon``, ``ellipse``, ``slot``, ``hexagon``; ``shape.dim == 2``) made solids by
+``profile.extrude(height)`` and ``profile.revolve(offset)``; ``transform(scale=(sx, sy,
+sz))``, ``mirror``, ``orient``, ``affine``; ``repeat``, ``array``, ``circular_array``;
+``twist``, ``bend``, ``taper``, ``elongate``, ``round``, ``onion``; the chamfer and stairs
+blends; ``with_color((r, g, b))``; and named numbers, ``isokit.param("r", 0.3)``, that
+``to_json`` writes as ``"$r"`` with a ``params`` table.
+
+>>> r = isokit.param("r", 0.1)
+>>> hole = isokit.circle(radius=r, center=(0.6, 0)).extrude(height=1).circular_array(count=6)
+>>> flange = isokit.circle(radius=1).extrude(height=0.2) - hole
+
 Conventions: signed distances are **negative inside** (as libigl; trimesh and pysdf are
 positive inside: negate to compare); lengths in world units; field arrays have shape
 ``(nz, ny, nx)`` with x fastest in memory; images have row 0 at the top.
@@ -36,6 +49,7 @@ from ._isokit import (
     Field,
     Frame,
     Molecule,
+    Param,
     Shape,
     difference,
     intersection,
@@ -52,10 +66,12 @@ __version__ = _isokit.__version__
 
 __all__ = [
     "Camera", "Cancelled", "Field", "Frame", "GBUFFER_CHANNELS", "Mesh", "Molecule",
-    "SHADING_MODES", "Shape", "box", "capsule", "cone", "cylinder", "difference",
-    "ellipsoid", "intersection", "load_scene", "mesh", "molecule", "morph",
-    "morph_level_set", "plane", "points", "rounded_box", "signed_distance",
-    "smooth_union", "sphere", "torus", "union", "volume",
+    "Param", "SHADING_MODES", "Shape", "box", "capsule", "chamfer_difference",
+    "chamfer_intersection", "chamfer_union", "circle", "cone", "cylinder", "difference",
+    "ellipse", "ellipsoid", "hexagon", "intersection", "load_scene", "mesh", "molecule",
+    "morph", "morph_level_set", "param", "plane", "points", "polygon", "rectangle",
+    "rounded_box", "rounded_rectangle", "signed_distance", "slot", "smooth_union", "sphere",
+    "stairs_difference", "stairs_intersection", "stairs_union", "torus", "union", "volume",
 ]
 
 
@@ -118,39 +134,62 @@ _DOCS = {
 
 
 def _fmt(v):
-    return f"({v[0]:g}, {v[1]:g}, {v[2]:g})" if isinstance(v, tuple) else f"{v:g}"
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")" if isinstance(v, tuple) else f"{v:g}"
+
+
+def _signature(key, defaults, order, keyword_only=()):
+    """The signature of a vocabulary function: `order`'s parameters with the library's
+    defaults, then `keyword_only` ones defaulting to None."""
+    if set(order) != set(defaults):  # the vocabulary changed: keep Python in step
+        raise ImportError(f"isokit: parameters of {key} are {sorted(defaults)}, expected {sorted(order)}")
+    return _inspect.Signature(
+        [_inspect.Parameter(n, _inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[n])
+         for n in order]
+        + [_inspect.Parameter(n, _inspect.Parameter.KEYWORD_ONLY, default=None) for n in keyword_only])
+
+
+def _parameter_lines(order, defaults, pdoc):
+    lines = []
+    for n in order:
+        v = defaults[n]
+        kind = f"{len(v)} floats" if isinstance(v, tuple) else "float"
+        lines += [f"{n} : {kind}, default {_fmt(v)}", f"    {pdoc[n].capitalize()}."]
+    return lines
+
+
+def _named(fn, key, sig, lines):
+    fn.__name__ = fn.__qualname__ = key
+    fn.__module__ = "isokit"
+    fn.__signature__ = sig
+    fn.__doc__ = "\n".join(lines)
+    return fn
 
 
 def _make_primitive(key, params):
     defaults = dict(params)
     order = _ORDER[key]
-    if set(order) != set(defaults):  # the vocabulary changed: keep Python in step
-        raise ImportError(f"isokit: parameters of {key} are {sorted(defaults)}, expected {sorted(order)}")
-    sig = _inspect.Signature([
-        _inspect.Parameter(n, _inspect.Parameter.POSITIONAL_OR_KEYWORD, default=defaults[n])
-        for n in order
-    ])
+    sig = _signature(key, defaults, order)
 
     def primitive(*args, **kwargs):
         bound = sig.bind(*args, **kwargs)
         bound.apply_defaults()
+        if _holds_param(bound.arguments.values()):
+            # A named number: the node is read from its scene-file form, references kept.
+            return _isokit._node(key, {
+                n: (v,) * 3 if isinstance(defaults[n], tuple) and isinstance(v, (int, float, Param))
+                else v
+                for n, v in bound.arguments.items()})
         return _isokit._primitive(key, dict(bound.arguments))
 
     summary, pdoc = _DOCS[key]
-    lines = [summary, "", "Parameters", "----------"]
-    for n in order:
-        kind = "3 floats" if isinstance(defaults[n], tuple) else "float"
-        lines += [f"{n} : {kind}, default {_fmt(defaults[n])}", f"    {pdoc[n].capitalize()}."]
+    lines = [summary, "", "Parameters", "----------"] + _parameter_lines(order, defaults, pdoc)
     example = ", ".join(f"{n}={_fmt(defaults[n])}" for n in order)
-    lines += ["", "Returns", "-------", "Shape",
+    lines += ["", "Any number may be an ``isokit.param``. Colour it with ``.with_color((r, g, b))``.",
+              "", "Returns", "-------", "Shape",
               f"    The scene files' ``{{\"{key}\": {{...}}}}`` node (missing parameters take the",
               "    same defaults there). Exact signed distance, negative inside.",
               "", "Example", "-------", f">>> isokit.{key}({example})"]
-    primitive.__name__ = primitive.__qualname__ = key
-    primitive.__module__ = "isokit"
-    primitive.__signature__ = sig
-    primitive.__doc__ = "\n".join(lines)
-    return primitive
+    return _named(primitive, key, sig, lines)
 
 
 _VOCABULARY = {key: params for key, params, _note in _isokit._primitives()}
@@ -163,6 +202,134 @@ cylinder = _make_primitive("cylinder", _VOCABULARY["cylinder"])
 cone = _make_primitive("cone", _VOCABULARY["cone"])
 plane = _make_primitive("plane", _VOCABULARY["plane"])
 ellipsoid = _make_primitive("ellipsoid", _VOCABULARY["ellipsoid"])
+
+
+# --- named numbers, 2D profiles, blends (the modeling vocabulary) ----------------------
+
+def param(name: str, value: float) -> Param:
+    """A named number: pass it wherever a shape takes a number (a radius, a count, one
+    component of a vector) and ``to_json()`` writes ``"$name"`` there, with the scene's
+    ``params`` table ``{name: value}`` (a scene file's parameters, which a viewer can offer
+    as sliders). The shape uses ``value``. One name stands for one value in a shape.
+
+    >>> r = isokit.param("r", 0.3)
+    >>> s = isokit.sphere(radius=r)
+    >>> json.loads(s.to_json())["shape"]
+    {'sphere': {'center': [0.0, 0.0, 0.0], 'radius': '$r'}}
+    """
+    return Param(name, value)
+
+
+def _holds_param(values) -> bool:
+    return any(isinstance(v, Param) or (isinstance(v, (tuple, list)) and _holds_param(v))
+               for v in values)
+
+
+_PROFILE_ORDER = {
+    "circle": ("radius", "center"),
+    "rectangle": ("half", "center"),
+    "rounded_rectangle": ("half", "radius", "center"),
+    "ellipse": ("radii", "center"),
+    "slot": ("a", "b", "radius"),
+    "hexagon": ("radius", "center"),
+}
+
+_PROFILE_DOCS = {
+    "circle": ("A disk in the xy-plane.", {"radius": "radius, > 0", "center": "centre (x, y)"}),
+    "rectangle": ("An axis-aligned rectangle.", {"half": "half extents (a, b), each > 0",
+                                                 "center": "centre (x, y)"}),
+    "rounded_rectangle": ("A rectangle with corners rounded by `radius`.",
+                          {"half": "outer half extents (a, b), each > 0",
+                           "radius": "corner radius, from 0 to the smaller half extent",
+                           "center": "centre (x, y)"}),
+    "ellipse": ("An axis-aligned ellipse (exact distance).",
+                {"radii": "semi-axes (a, b), each > 0", "center": "centre (x, y)"}),
+    "slot": ("The points within `radius` of the segment `a`-`b` (a stadium).",
+             {"a": "one end (x, y)", "b": "the other end (x, y)", "radius": "radius, > 0"}),
+    "hexagon": ("A regular hexagon with a vertex on +x.",
+                {"radius": "circumradius (centre to vertex), > 0", "center": "centre (x, y)"}),
+}
+
+
+def _make_profile(key, defaults):
+    order = _PROFILE_ORDER[key]
+    sig = _signature(key, defaults, order, keyword_only=("color",))
+
+    def profile(*args, **kwargs):
+        bound = sig.bind(*args, **kwargs)
+        bound.apply_defaults()
+        args = dict(bound.arguments)
+        color = args.pop("color")
+        return _isokit._node(key, args, None, color)
+
+    summary, pdoc = _PROFILE_DOCS[key]
+    lines = [summary, "", "A 2D profile (``dim == 2``): an exact 2D signed distance in the xy-plane.",
+             "Combine profiles with the same CSG, blends, offsets and transforms (about z) as",
+             "solids; make a solid with ``.extrude(height)`` or ``.revolve(offset)``.",
+             "", "Parameters", "----------"] + _parameter_lines(order, defaults, pdoc)
+    lines += ["color : (r, g, b), optional", "    Linear RGB, each in [0, 1] (the node's ``\"color\"``)."]
+    example = ", ".join(f"{n}={_fmt(defaults[n])}" for n in order)
+    lines += ["", "Any number may be an ``isokit.param``.", "", "Returns", "-------", "Shape",
+              f"    The scene files' ``{{\"{key}\": {{...}}}}`` node (missing parameters take the",
+              "    same defaults there).", "", "Example", "-------",
+              f">>> isokit.{key}({example}).extrude(height=0.5)"]
+    return _named(profile, key, sig, lines)
+
+
+_PROFILES = {key: dict(params) for key, params in _isokit._profiles()}
+circle = _make_profile("circle", _PROFILES["circle"])
+rectangle = _make_profile("rectangle", _PROFILES["rectangle"])
+rounded_rectangle = _make_profile("rounded_rectangle", _PROFILES["rounded_rectangle"])
+ellipse = _make_profile("ellipse", _PROFILES["ellipse"])
+slot = _make_profile("slot", _PROFILES["slot"])
+hexagon = _make_profile("hexagon", _PROFILES["hexagon"])
+
+
+def polygon(points, *, color=None) -> Shape:
+    """A polygon from its vertices ``points`` ((n, 2): a list of (x, y) or an array), any
+    simple polygon in either orientation: an exact 2D signed distance (``dim == 2``).
+
+    >>> tri = isokit.polygon([(0, 0), (1, 0), (0, 1)])
+    >>> prism = tri.extrude(height=0.2)
+    """
+    return _isokit._node("polygon", {"points": points}, None, color)
+
+
+def _blend(kind, shapes, radius, steps=None, color=None):
+    args = {"radius": radius} if steps is None else {"radius": radius, "steps": steps}
+    return _isokit._node(kind, args, list(shapes), color)
+
+
+def chamfer_union(*shapes, radius, color=None) -> Shape:
+    """The union of all with a 45° chamfer of size `radius` where they meet (hg_sdf's
+    ``fOpUnionChamfer``). ``{"chamfer_union": {"radius": r, "of": [...]}}``."""
+    return _blend("chamfer_union", shapes, radius, color=color)
+
+
+def chamfer_intersection(*shapes, radius, color=None) -> Shape:
+    """The intersection of all, chamfered by `radius` (hg_sdf)."""
+    return _blend("chamfer_intersection", shapes, radius, color=color)
+
+
+def chamfer_difference(*shapes, radius, color=None) -> Shape:
+    """The first shape minus the others, chamfered by `radius` (hg_sdf)."""
+    return _blend("chamfer_difference", shapes, radius, color=color)
+
+
+def stairs_union(*shapes, radius, steps=4, color=None) -> Shape:
+    """The union of all with `steps` stairs over `radius` where they meet (hg_sdf's
+    ``fOpUnionStairs``). ``{"stairs_union": {"radius": r, "steps": n, "of": [...]}}``."""
+    return _blend("stairs_union", shapes, radius, steps, color)
+
+
+def stairs_intersection(*shapes, radius, steps=4, color=None) -> Shape:
+    """The intersection of all with stairs (hg_sdf)."""
+    return _blend("stairs_intersection", shapes, radius, steps, color)
+
+
+def stairs_difference(*shapes, radius, steps=4, color=None) -> Shape:
+    """The first shape minus the others with stairs (hg_sdf)."""
+    return _blend("stairs_difference", shapes, radius, steps, color)
 
 
 # --- sources ----------------------------------------------------------------------------
