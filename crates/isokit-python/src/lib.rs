@@ -13,6 +13,7 @@
 //! - [`errors`], the mapping of library errors to Python exceptions;
 //! - [`vocab`], the modeling vocabulary (profiles, extrude, revolve, repetition,
 //!   deformations, blends), `isokit.param` and colours;
+//! - [`view`], the live viewer window behind `isokit.view`;
 //! - [`arrays`], NumPy views in, NumPy arrays out.
 //!
 //! It is not a library for Rust code: use `isokit-scene` there.
@@ -26,6 +27,7 @@ pub mod run;
 pub mod sdf;
 pub mod shape;
 pub mod tree;
+pub mod view;
 pub mod vocab;
 
 use pyo3::prelude::*;
@@ -72,5 +74,6 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sdf::signed_distance, m)?)?;
     m.add_function(wrap_pyfunction!(field::morph_level_set, m)?)?;
     m.add_function(wrap_pyfunction!(render::molecule, m)?)?;
+    m.add_function(wrap_pyfunction!(view::_view_main, m)?)?;
     Ok(())
 }

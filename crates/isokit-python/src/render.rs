@@ -91,7 +91,8 @@ pub fn camera_arg(obj: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
     })
 }
 
-fn backend_arg(s: &str) -> PyResult<BackendChoice> {
+/// A backend name as the renderer's choice, or a `ValueError`.
+pub(crate) fn backend_arg(s: &str) -> PyResult<BackendChoice> {
     BackendChoice::parse(s).map_err(|_| {
         PyValueError::new_err(format!(
             "backend = {s:?} is not one of \"auto\", \"cpu\", \"gpu\""

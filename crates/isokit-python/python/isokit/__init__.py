@@ -71,7 +71,8 @@ __all__ = [
     "ellipse", "ellipsoid", "hexagon", "intersection", "load_scene", "mesh", "molecule",
     "morph", "morph_level_set", "param", "plane", "points", "polygon", "rectangle",
     "rounded_box", "rounded_rectangle", "signed_distance", "slot", "smooth_union", "sphere",
-    "stairs_difference", "stairs_intersection", "stairs_union", "torus", "union", "volume",
+    "stairs_difference", "stairs_intersection", "stairs_union", "torus", "union", "view",
+    "Viewer", "volume",
 ]
 
 
@@ -460,3 +461,102 @@ def morph(a, b, t):
     if isinstance(a, Field) and isinstance(b, Field):
         return a.morph(b, t)
     raise TypeError("morph takes two shapes or two fields")
+
+
+class Viewer:
+    """A live viewer window following a shape (what ``isokit.view`` opens).
+
+    The shape is written as a scene file (in-memory sources beside it) that the window, the
+    same one as ``isokit view``, watches: :meth:`update` rewrites the file and the window
+    renders only what changed. The window runs in a child process (it needs a main thread of
+    its own) and stays open when the script ends, until it is closed.
+
+    >>> v = isokit.view(isokit.sphere(0.5))            # doctest: +SKIP
+    >>> v.update(isokit.sphere(0.6) - isokit.box())    # doctest: +SKIP
+    """
+
+    def __init__(self, shape, *, width=512, height=512, backend="auto", events=None,
+                 screenshot=None, exit_after_frames=None, exit_after_seconds=None):
+        import json
+        import subprocess
+        import sys
+        import tempfile
+
+        if not isinstance(shape, Shape):
+            raise TypeError(f"view shows a Shape, not {type(shape).__name__}")
+        self._dir = tempfile.mkdtemp(prefix="isokit-view-")
+        #: The scene file the window watches.
+        self.path = _os.path.join(self._dir, "scene.json")
+        self._write(shape)
+        args = {
+            "path": self.path, "width": int(width), "height": int(height), "backend": backend,
+            "events": None if events is None else _os.fspath(events),
+            "screenshot": None if screenshot is None else _os.fspath(screenshot),
+            "exit_after_frames": exit_after_frames, "exit_after_seconds": exit_after_seconds,
+        }
+        code = ("import json, sys\n"
+                "from isokit import _isokit\n"
+                "try:\n"
+                "    _isokit._view_main(**json.loads(sys.argv[1]))\n"
+                "except ValueError as e:\n"
+                "    sys.exit(f'isokit.view: {e}')\n")
+        #: The child process that shows the window.
+        self.process = subprocess.Popen([sys.executable, "-c", code, json.dumps(args)])
+
+    def _write(self, shape):
+        if not isinstance(shape, Shape):
+            raise TypeError(f"view shows a Shape, not {type(shape).__name__}")
+        text = shape.to_json(save_sources_to=self._dir, relative_to=self._dir)
+        tmp = self.path + ".tmp"
+        with open(tmp, "w") as f:
+            f.write(text)
+        _os.replace(tmp, self.path)
+
+    @property
+    def running(self) -> bool:
+        """Whether the window is still open."""
+        return self.process.poll() is None
+
+    def update(self, shape) -> "Viewer":
+        """Shows ``shape`` instead (the window renders again what changed)."""
+        self._write(shape)
+        return self
+
+    def wait(self, timeout=None) -> int:
+        """Waits for the window to close; returns the child's exit status."""
+        return self.process.wait(timeout)
+
+    def close(self):
+        """Closes the window and removes the scene file."""
+        import shutil
+
+        if self.running:
+            self.process.terminate()
+            self.process.wait()
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+
+_viewer = None
+
+
+def view(shape, *, width=512, height=512, backend="auto", events=None, screenshot=None,
+         exit_after_frames=None, exit_after_seconds=None) -> Viewer:
+    """Shows ``shape`` in a live window, or, when this process already opened one that is
+    still open, shows it there instead (so calling ``view`` again after an edit updates the
+    picture, recomputing only what the edit changed).
+
+    ``backend`` is ``"auto"``, ``"cpu"`` or ``"gpu"``; ``events`` (a ``.jsonl`` file),
+    ``screenshot`` (a ``.png`` written on exit), ``exit_after_frames`` and
+    ``exit_after_seconds`` are the flags of ``isokit view``, for scripts and tests. Needs a
+    display (on Linux an X server; under CI ``xvfb-run``).
+
+    >>> v = isokit.view(isokit.sphere(0.5))   # doctest: +SKIP
+    >>> isokit.view(isokit.sphere(0.6))       # doctest: +SKIP  (the same window)
+    """
+    global _viewer
+    if _viewer is not None and _viewer.running:
+        return _viewer.update(shape)
+    _viewer = Viewer(shape, width=width, height=height, backend=backend, events=events,
+                     screenshot=screenshot, exit_after_frames=exit_after_frames,
+                     exit_after_seconds=exit_after_seconds)
+    return _viewer

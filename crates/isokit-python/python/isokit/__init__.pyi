@@ -6,6 +6,7 @@ against the library's vocabulary). Wherever a shape takes a number it also takes
 from __future__ import annotations
 
 import os
+import subprocess
 from typing import Any, Callable, Literal, Mapping, Sequence, Union
 
 import numpy as np
@@ -340,3 +341,24 @@ def signed_distance(
     progress: Progress = None,
 ) -> tuple[np.ndarray, npt.NDArray[np.int64], np.ndarray]: ...
 def molecule(path: PathLike) -> Molecule: ...
+
+
+class Viewer:
+    path: str
+    process: "subprocess.Popen[bytes]"
+    def __init__(self, shape: Shape, *, width: int = 512, height: int = 512,
+                 backend: str = "auto", events: str | os.PathLike[str] | None = None,
+                 screenshot: str | os.PathLike[str] | None = None,
+                 exit_after_frames: int | None = None,
+                 exit_after_seconds: float | None = None) -> None: ...
+    @property
+    def running(self) -> bool: ...
+    def update(self, shape: Shape) -> Viewer: ...
+    def wait(self, timeout: float | None = None) -> int: ...
+    def close(self) -> None: ...
+
+def view(shape: Shape, *, width: int = 512, height: int = 512, backend: str = "auto",
+         events: str | os.PathLike[str] | None = None,
+         screenshot: str | os.PathLike[str] | None = None,
+         exit_after_frames: int | None = None,
+         exit_after_seconds: float | None = None) -> Viewer: ...
