@@ -140,3 +140,14 @@ fn an_operand_of_a_smooth_union_at_the_root_is_edited_alone() {
             .all(|c| (c.growth - (2.0 * 0.0375 + 0.15)).abs() < 1e-6)
     );
 }
+
+#[test]
+fn a_subtrahend_edit_matches_a_fresh_sampling() {
+    let bore = |r: f32| {
+        format!(
+            r#"{{"difference": [{{"box": {{"half": [0.8, 0.4, 0.4]}}}},
+                {{"sphere": {{"radius": {r}, "center": [0.8, 0.4, 0]}}}}]}}"#
+        )
+    };
+    assert!(edit(&bore(0.3), &bore(0.45)).0 > 0);
+}

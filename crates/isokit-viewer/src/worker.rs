@@ -401,7 +401,8 @@ impl<F: Fn(Reply)> Worker<F> {
                 .prepare(RenderTarget::Scene(&scene), &cs, &job)
             {
                 Ok(mut p) => {
-                    self.loaded(&scene, &p);
+                    // Files only: the scene's camera frames the full lattice (below).
+                    self.loaded(&scene, &p, false);
                     self.render(&mut p, &coarse, false, Some(0));
                 }
                 Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
@@ -437,7 +438,7 @@ impl<F: Fn(Reply)> Worker<F> {
                 return None;
             }
         };
-        self.loaded(&scene, &p);
+        self.loaded(&scene, &p, true);
         if self.stale(&mut pending) {
             return pending;
         }
@@ -454,8 +455,10 @@ impl<F: Fn(Reply)> Worker<F> {
         self.serve(&mut p)
     }
 
-    fn loaded(&self, scene: &Scene, p: &Prepared<'_>) {
-        // The scene's own camera (what [R] resets to), whatever the window looks from now.
+    /// Reports the files `scene` depends on and, with `camera`, its own camera (what [R]
+    /// resets to; it frames `p`'s lattice when the scene has none), whatever the window
+    /// looks from now.
+    fn loaded(&self, scene: &Scene, p: &Prepared<'_>, camera: bool) {
         let c = p.camera();
         let camera = camera_for(
             scene.settings().camera.as_ref(),
@@ -465,6 +468,7 @@ impl<F: Fn(Reply)> Worker<F> {
             c.height(),
         )
         .ok()
+        .filter(|_| camera)
         .map(|c| orbit_of(&c));
         let mut files = scene.dependencies().to_vec();
         if files.is_empty() {
