@@ -7,7 +7,7 @@ mod common;
 
 use common::{isokit_ok, json, scratch};
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -102,6 +102,17 @@ fn finish(mut child: Child) {
     assert!(status.success(), "isokit view failed: {err}");
 }
 
+/// The scene, the events file and the screenshot in a scratch folder.
+fn files(d: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    (d.join("s.json"), d.join("ev.jsonl"), d.join("v.png"))
+}
+
+/// The screenshot shows what `reference` shows (1/255 mean per channel at most).
+fn assert_shows(shot: &Path, reference: &Path, what: &str) {
+    let diff = mean_diff(shot, reference);
+    assert!(diff <= 1.0, "{what}: mean difference {diff}/255");
+}
+
 /// Mean absolute difference of two PNGs, in 1/255 units per channel.
 fn mean_diff(a: &Path, b: &Path) -> f64 {
     let (wa, ha, pa) = isokit_io::read_png(a).unwrap();
@@ -136,7 +147,7 @@ fn the_first_frame_equals_render_and_an_edit_evaluates_fewer_bricks() {
         return;
     }
     let d = scratch("view-edit");
-    let (scene, events, shot) = (d.join("s.json"), d.join("ev.jsonl"), d.join("v.png"));
+    let (scene, events, shot) = files(&d);
     save(&scene, &scene_text(0.4));
     let reference = d.join("r.png");
     render(&scene, &reference);
@@ -149,11 +160,7 @@ fn the_first_frame_equals_render_and_an_edit_evaluates_fewer_bricks() {
     ]));
     let child = spawn_view(&scene, &events, &shot, &["--exit-after-frames", "1"]);
     finish(child);
-    let diff = mean_diff(&shot, &reference);
-    assert!(
-        diff <= 1.0,
-        "first frame against isokit render: mean {diff}/255"
-    );
+    assert_shows(&shot, &reference, "first frame against isokit render");
     let ev = read_events(&events);
     let first = finals(&ev)[0];
     assert_eq!(first["reason"], "start");
@@ -185,11 +192,7 @@ fn the_first_frame_equals_render_and_an_edit_evaluates_fewer_bricks() {
     assert!(b["reused_bricks"].as_u64().unwrap() > 0);
     // Same lattice, so the edited frame equals a fresh rendering of the edited scene.
     render(&scene, &reference);
-    let diff = mean_diff(&shot, &reference);
-    assert!(
-        diff <= 1.0,
-        "edited frame against isokit render: mean {diff}/255"
-    );
+    assert_shows(&shot, &reference, "edited frame against isokit render");
 }
 
 #[test]
@@ -198,7 +201,7 @@ fn a_broken_save_keeps_the_last_good_frame_and_the_next_good_save_recovers() {
         return;
     }
     let d = scratch("view-broken");
-    let (scene, events, shot) = (d.join("s.json"), d.join("ev.jsonl"), d.join("v.png"));
+    let (scene, events, shot) = files(&d);
     let good = d.join("good.png");
     save(&scene, &scene_text(0.4));
     render(&scene, &good);
@@ -219,10 +222,7 @@ fn a_broken_save_keeps_the_last_good_frame_and_the_next_good_save_recovers() {
         1,
         "no frame from the broken save"
     );
-    assert!(
-        mean_diff(&shot, &good) <= 1.0,
-        "the last good frame is kept"
-    );
+    assert_shows(&shot, &good, "the last good frame is kept");
 
     // Broken, then a missing node kind, then good again: the good save recovers.
     std::fs::remove_file(&events).unwrap();
@@ -240,8 +240,7 @@ fn a_broken_save_keeps_the_last_good_frame_and_the_next_good_save_recovers() {
         "{ev:?}"
     );
     render(&scene, &good);
-    let diff = mean_diff(&shot, &good);
-    assert!(diff <= 1.0, "recovered: mean {diff}/255");
+    assert_shows(&shot, &good, "recovered");
 }
 
 #[test]
@@ -250,7 +249,7 @@ fn rapid_saves_end_on_the_last_and_a_recreated_file_is_followed() {
         return;
     }
     let d = scratch("view-rapid");
-    let (scene, events, shot) = (d.join("s.json"), d.join("ev.jsonl"), d.join("v.png"));
+    let (scene, events, shot) = files(&d);
     save(&scene, &scene_text(0.3));
     let child = spawn_view(&scene, &events, &shot, &["--exit-after-seconds", "10"]);
     wait_for(&events, "the first frame", |e| !finals(e).is_empty());
@@ -267,7 +266,7 @@ fn rapid_saves_end_on_the_last_and_a_recreated_file_is_followed() {
     assert!(f.len() >= 2, "{ev:?}");
     assert_eq!(f.last().unwrap()["reason"], "edit");
     assert!(f.len() <= 11, "more frames than saves: {}", f.len());
-    assert!(mean_diff(&shot, &last) <= 1.0, "the last save is shown");
+    assert_shows(&shot, &last, "the last save is shown");
 
     // Deleted, then re-created (how vim and emacs save).
     std::fs::remove_file(&events).unwrap();
@@ -278,10 +277,7 @@ fn rapid_saves_end_on_the_last_and_a_recreated_file_is_followed() {
     std::fs::write(&scene, scene_text(0.6)).unwrap();
     finish(child);
     render(&scene, &last);
-    assert!(
-        mean_diff(&shot, &last) <= 1.0,
-        "the re-created file is shown"
-    );
+    assert_shows(&shot, &last, "the re-created file is shown");
 }
 
 #[test]
@@ -290,7 +286,7 @@ fn a_mesh_replaced_under_the_scene_is_rendered_again() {
         return;
     }
     let d = scratch("view-mesh");
-    let (scene, events, shot) = (d.join("s.json"), d.join("ev.jsonl"), d.join("v.png"));
+    let (scene, events, shot) = files(&d);
     std::fs::copy(common::data("sphere.obj"), d.join("m.obj")).unwrap();
     save(
         &scene,
@@ -310,8 +306,7 @@ fn a_mesh_replaced_under_the_scene_is_rendered_again() {
     assert_eq!(finals(&ev)[1]["reason"], "edit", "{ev:?}");
     let reference = d.join("r.png");
     render(&scene, &reference);
-    let diff = mean_diff(&shot, &reference);
-    assert!(diff <= 1.0, "the new mesh is shown: mean {diff}/255");
+    assert_shows(&shot, &reference, "the new mesh is shown");
 }
 
 #[test]
