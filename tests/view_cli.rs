@@ -319,3 +319,31 @@ fn bad_options_are_refused_with_one_line() {
     let out = common::isokit(&["view", &scene.to_string_lossy(), "--exit-after-frames", "0"]);
     common::assert_clear_error(&out, "--exit-after-frames");
 }
+
+#[test]
+fn the_resolution_flag_sets_the_sampling() {
+    if !have_display() {
+        return;
+    }
+    let d = scratch("view-res");
+    let (scene, events, shot) = files(&d);
+    save(&scene, &scene_text(0.4));
+    let stats = json(&isokit_ok(&[
+        "scene",
+        &scene.to_string_lossy(),
+        "-o",
+        &d.join("s.nrrd").to_string_lossy(),
+        "--res",
+        "32",
+        "--stats",
+    ]));
+    let child = spawn_view(
+        &scene,
+        &events,
+        &shot,
+        &["--exit-after-frames", "1", "--res", "32"],
+    );
+    finish(child);
+    let ev = read_events(&events);
+    assert_eq!(finals(&ev)[0]["evaluated_bricks"], stats["bricks_kept"]);
+}

@@ -42,6 +42,8 @@ struct Live {
     dense_fraction: f64,
     bricks_loaded: u64,
     fps: f64,
+    /// The resolution and band of the sampling shown.
+    sampling: Option<(usize, f32)>,
     last_present: Option<Instant>,
 }
 
@@ -83,6 +85,7 @@ pub(crate) fn run(opts: ViewOptions) -> Result<(), ViewError> {
         .map_err(|e| ViewError::Window(format!("{e} (is DISPLAY set? under CI use xvfb-run)")))?;
     let log = EventLog::open(opts.events.as_deref()).map_err(ViewError::Output)?;
     let proxy = event_loop.create_proxy();
+    let resolution = opts.resolution;
     let mut app = App {
         kind: InputKind::of(&opts.input),
         size: (opts.width, opts.height),
@@ -94,7 +97,10 @@ pub(crate) fn run(opts: ViewOptions) -> Result<(), ViewError> {
         watch: None,
         orbit: None,
         home: None,
-        knobs: Knobs::default(),
+        knobs: Knobs {
+            resolution,
+            ..Knobs::default()
+        },
         shown: None,
         last_final: None,
         error: None,
@@ -219,15 +225,12 @@ impl App {
             ),
         ];
         if self.kind == InputKind::Scene {
-            lines.push((
-                format!(
-                    "sampling {}  [+]/[-] resolution",
-                    self.knobs
-                        .resolution
-                        .map_or("scene's".into(), |r| r.to_string())
-                ),
-                t,
-            ));
+            let (res, band) = match self.live.sampling {
+                Some((r, b)) => (r.to_string(), format!("{b:.4}")),
+                None => ("-".into(), "-".into()),
+            };
+            lines.push((format!("sampling {res}  [+]/[-] resolution"), t));
+            lines.push((format!("band     {band}  [B]/[V] wider/narrower"), t));
         }
         let l = &self.live;
         lines.extend([
@@ -312,7 +315,11 @@ impl App {
                 mut event,
                 t0,
                 notes,
+                sampling,
             } => {
+                if event.final_ && sampling.is_some() {
+                    self.live.sampling = sampling;
+                }
                 self.shown = Some(Shown {
                     pixels,
                     width,
@@ -423,8 +430,23 @@ impl App {
                     self.knobs.iso = Some(self.knobs.iso.unwrap_or(0.0) + d * iso_step);
                     self.request(Reason::Panel, Instant::now(), false, false, false);
                 }
+                "b" | "B" | "v" | "V" if self.kind == InputKind::Scene => {
+                    if let Some((_, band)) = self.live.sampling {
+                        let f = if matches!(c.as_str(), "b" | "B") {
+                            2.0
+                        } else {
+                            0.5
+                        };
+                        self.knobs.band = Some(band * f);
+                        self.request(Reason::Panel, Instant::now(), false, true, false);
+                    }
+                }
                 "+" | "=" | "-" if self.kind == InputKind::Scene => {
-                    let r = self.knobs.resolution.unwrap_or(128);
+                    let r = self
+                        .knobs
+                        .resolution
+                        .or(self.live.sampling.map(|s| s.0))
+                        .unwrap_or(128);
                     let r = if c.as_str() == "-" {
                         (r / 2).max(16)
                     } else {

@@ -51,6 +51,8 @@ pub(crate) struct Knobs {
     pub mode: Option<ShadingMode>,
     pub iso: Option<f32>,
     pub resolution: Option<usize>,
+    /// The band half-width (world units) a scene is sampled with.
+    pub band: Option<f32>,
 }
 
 /// A frame the window asks for.
@@ -107,6 +109,8 @@ pub(crate) enum Reply {
         event: FrameEvent,
         t0: Instant,
         notes: Vec<String>,
+        /// The sampling resolution and band of the volume shown, for scenes.
+        sampling: Option<(usize, f32)>,
     },
     /// A load or render failed; the window keeps its last good frame.
     Error {
@@ -136,6 +140,8 @@ struct Worker<F: Fn(Reply)> {
     /// The last full sampling of the scene, for the next edit to reuse bricks from.
     previous: Option<isokit_scene::Sampled>,
     reuse: bool,
+    /// The resolution and band of the sampling being shown.
+    sampling: Option<(usize, f32)>,
     send: F,
     slot: CancelSlot,
     rx: Receiver<Request>,
@@ -174,6 +180,7 @@ pub(crate) fn run(
         cache: SourceCache::default(),
         previous: None,
         reuse,
+        sampling: None,
         send,
         slot,
         rx,
@@ -314,6 +321,7 @@ impl<F: Fn(Reply)> Worker<F> {
             },
             t0: req.t0,
             notes: frame.notes.clone(),
+            sampling: self.sampling,
         });
     }
 
@@ -388,7 +396,10 @@ impl<F: Fn(Reply)> Worker<F> {
             .or(scene.settings().sampling.resolution);
         let base = full.unwrap_or(isokit_scene::SampleOptions::default().resolution);
         let s = self.settings(&req, full);
-        let opts = isokit_scene::scene_options(&scene, &s);
+        let mut opts = isokit_scene::scene_options(&scene, &s);
+        if req.knobs.band.is_some() {
+            opts.band = req.knobs.band;
+        }
         let reusable = self.previous.as_ref().is_some_and(|p| *p.options() == opts);
         let mut pending = None;
         // A coarse frame first (a quarter of the resolution, half the image) when nothing
@@ -403,7 +414,9 @@ impl<F: Fn(Reply)> Worker<F> {
                 Ok(mut p) => {
                     // Files only: the scene's camera frames the full lattice (below).
                     self.loaded(&scene, &p, false);
+                    let full_sampling = self.sampling.take();
                     self.render(&mut p, &coarse, false, Some(0));
+                    self.sampling = full_sampling;
                 }
                 Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
                 Err(e) => {
@@ -424,6 +437,7 @@ impl<F: Fn(Reply)> Worker<F> {
             }
         };
         let reused = sampled.stats.bricks_reused;
+        self.sampling = Some((opts.resolution, sampled.stats.band));
         if self.reuse {
             self.previous = Some(sampled.clone());
         }
@@ -604,6 +618,7 @@ impl<F: Fn(Reply)> Worker<F> {
                         },
                         t0: req.t0,
                         notes: Vec::new(),
+                        sampling: None,
                     });
                 }
                 Err(e) => {
