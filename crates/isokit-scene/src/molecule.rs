@@ -89,6 +89,8 @@ pub struct MoleculeFrame {
     pub frame: SplatFrame,
     /// Counters and timing.
     pub stats: MoleculeStats,
+    /// The camera.
+    pub camera: Camera,
 }
 
 impl Renderer {
@@ -157,6 +159,7 @@ impl Renderer {
             image,
             frame,
             stats,
+            camera,
         })
     }
 }
