@@ -202,6 +202,16 @@ fn the_software_adapter_note_is_printed_once_and_only_where_a_gpu_could_run() {
     args.extend_from_slice(&size);
     let err = stderr(&isokit_ok(&args));
     assert!(err.matches("note: ").count() <= 1, "{err}");
+    // Not before an error in the input either.
+    let bad = write(
+        &dir,
+        "bad.json",
+        r#"{"shape": {"sphere": {}}, "lights": [{"direction": [0, 0, 0]}]}"#,
+    );
+    let out = isokit(&["render", &bad, "-o", s(&png), "--backend", "auto"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(!err.contains("note: "), "{err}");
     // --backend cpu asks for no adapter and says nothing about them.
     let mut args = vec!["render", &scene, "-o", s(&png), "--backend", "cpu"];
     args.extend_from_slice(&size);
@@ -664,4 +674,60 @@ fn a_wall_too_thin_for_the_curvature_filter_is_warned_about_with_the_remedy() {
             }
         }
     }
+}
+
+/// The GPU twin traces the supersampled frame as the CPU twin does: the same coverage, the
+/// same picture to rounding (skipped without an adapter, failed when `ISOKIT_REQUIRE_GPU=1`).
+#[test]
+fn samples_on_the_gpu_match_the_cpu() {
+    if isokit::render::gpu::testing::run_or_skip(
+        "samples_on_the_gpu_match_the_cpu",
+        isokit::render::gpu::GpuRenderer::open().map(|g| g.describe()),
+        |name| name.clone(),
+    )
+    .is_none()
+    {
+        return;
+    }
+    let dir = scratch("antialias-gpu");
+    let scene = write(&dir, "s.json", SCENE);
+    let run = |backend: &str| {
+        let png = dir.join(format!("{backend}.png"));
+        let exr = dir.join(format!("{backend}.exr"));
+        isokit_ok(&[
+            "render",
+            &scene,
+            "-o",
+            s(&png),
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--samples",
+            "9",
+            "--gbuffer",
+            s(&exr),
+            "--backend",
+            backend,
+            "--eye",
+            "1.6,1.1,2.3",
+        ]);
+        let a = isokit::io::read_exr(&exr)
+            .unwrap()
+            .channel("A")
+            .unwrap()
+            .to_vec();
+        (isokit::io::read_png(&png).unwrap().2, a)
+    };
+    let (cpu, ca) = run("cpu");
+    let (gpu, ga) = run("gpu");
+    let differ = ca.iter().zip(&ga).filter(|(a, b)| a != b).count();
+    assert!(differ <= 2, "{differ} pixels of other coverage");
+    let mean: f64 = cpu
+        .chunks(4)
+        .zip(gpu.chunks(4))
+        .map(|(p, q)| (0..3).map(|c| f64::from(p[c].abs_diff(q[c]))).sum::<f64>())
+        .sum::<f64>()
+        / (3 * cpu.len() / 4) as f64;
+    assert!(mean < 0.1, "mean |Δ| {mean} of 255");
 }

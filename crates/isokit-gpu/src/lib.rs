@@ -138,7 +138,7 @@ pub fn choose_backend(choice: BackendChoice, opts: &GpuOptions) -> Result<Chosen
             };
             if !hardware_gpu_possible(std::path::Path::new("/dev")) {
                 return Ok(cpu(
-                    "this machine has no GPU device (no /dev/dri render node, /dev/nvidia* or /dev/dxg), so any adapter is a software one, slower than the CPU twin (--backend gpu uses it)"
+                    "no usable GPU: this machine has no GPU device (no /dev/dri render node, /dev/nvidia* or /dev/dxg), so any adapter is a software one, slower than the CPU twin (--backend gpu uses it)"
                         .to_string(),
                 ));
             }
