@@ -50,22 +50,26 @@ fn linear(path: &Path) -> (u32, u32, Vec<[f32; 3]>) {
 
 // ---- Errors and help ----
 
-#[test]
-fn a_zero_light_direction_is_named_not_dumped() {
-    let dir = scratch("zero-light");
-    let scene = write(
-        &dir,
-        "s.json",
-        r#"{"shape": {"sphere": {}}, "lights": [{"direction": [1, 0, 0]}, {"direction": [0, 0, 0]}]}"#,
-    );
-    let out = isokit(&[
+/// `isokit render` of a scene file holding `text`, on the CPU.
+fn render_scene_text(name: &str, text: &str) -> std::process::Output {
+    let dir = scratch(name);
+    let scene = write(&dir, "s.json", text);
+    isokit(&[
         "render",
         &scene,
         "-o",
         s(&dir.join("o.png")),
         "--backend",
         "cpu",
-    ]);
+    ])
+}
+
+#[test]
+fn a_zero_light_direction_is_named_not_dumped() {
+    let out = render_scene_text(
+        "zero-light",
+        r#"{"shape": {"sphere": {}}, "lights": [{"direction": [1, 0, 0]}, {"direction": [0, 0, 0]}]}"#,
+    );
     assert_clear_error(&out, "light direction = [0, 0, 0] (lights[1])");
     let err = stderr(&out);
     assert!(err.contains("nonzero"), "{err}");
@@ -77,20 +81,10 @@ fn a_zero_light_direction_is_named_not_dumped() {
 
 #[test]
 fn a_misspelt_shading_mode_lists_every_mode_of_the_library() {
-    let dir = scratch("bad-mode");
-    let scene = write(
-        &dir,
-        "s.json",
+    let out = render_scene_text(
+        "bad-mode",
         r#"{"shape": {"sphere": {}}, "shading": {"mode": "curvture"}}"#,
     );
-    let out = isokit(&[
-        "render",
-        &scene,
-        "-o",
-        s(&dir.join("o.png")),
-        "--backend",
-        "cpu",
-    ]);
     assert_clear_error(&out, "curvture");
     let err = stderr(&out);
     for (name, _) in ShadingMode::ALL {
@@ -343,44 +337,51 @@ fn check_exr_camera(exr: &Path) {
     assert!(hits > 100, "{hits} hits");
 }
 
+/// `isokit COMMAND INPUT` to a 48×32 image and its G-buffer `NAME.exr` in `dir` on the
+/// CPU, with `extra` flags; the G-buffer's path.
+fn small_gbuffer(
+    command: &str,
+    input: &str,
+    dir: &Path,
+    name: &str,
+    extra: &[&str],
+) -> std::path::PathBuf {
+    let (png, exr) = (
+        dir.join(format!("{name}.png")),
+        dir.join(format!("{name}.exr")),
+    );
+    let mut args = vec![
+        command,
+        input,
+        "-o",
+        s(&png),
+        "--width",
+        "48",
+        "--height",
+        "32",
+        "--gbuffer",
+        s(&exr),
+        "--backend",
+        "cpu",
+    ];
+    args.extend_from_slice(extra);
+    isokit_ok(&args);
+    exr
+}
+
 #[test]
 fn the_gbuffer_exr_holds_the_camera() {
     let dir = scratch("exr-camera");
     let scene = write(&dir, "s.json", SCENE);
-    let exr = dir.join("g.exr");
-    isokit_ok(&[
+    check_exr_camera(&small_gbuffer(
         "render",
         &scene,
-        "-o",
-        s(&dir.join("o.png")),
-        "--width",
-        "48",
-        "--height",
-        "32",
-        "--gbuffer",
-        s(&exr),
-        "--backend",
-        "cpu",
-        "--eye",
-        "1.5,1,2.5",
-    ]);
-    check_exr_camera(&exr);
-    let exr = dir.join("m.exr");
-    isokit_ok(&[
-        "molecule",
-        &common::data("molecules/1a8o.pdb.gz"),
-        "-o",
-        s(&dir.join("m.png")),
-        "--width",
-        "48",
-        "--height",
-        "32",
-        "--gbuffer",
-        s(&exr),
-        "--backend",
-        "cpu",
-    ]);
-    check_exr_camera(&exr);
+        &dir,
+        "g",
+        &["--eye", "1.5,1,2.5"],
+    ));
+    let mol = common::data("molecules/1a8o.pdb.gz");
+    check_exr_camera(&small_gbuffer("molecule", &mol, &dir, "m", &[]));
 }
 
 // ---- The camera on the command line ----
@@ -524,29 +525,22 @@ fn a_volume_is_framed_from_the_command_line() {
 fn molecule_takes_the_camera_from_the_command_line() {
     let dir = scratch("camera-molecule");
     let mol = common::data("molecules/1a8o.pdb.gz");
-    let exr = dir.join("m.exr");
-    isokit_ok(&[
+    let exr = small_gbuffer(
         "molecule",
         &mol,
-        "-o",
-        s(&dir.join("m.png")),
-        "--width",
-        "48",
-        "--height",
-        "32",
-        "--gbuffer",
-        s(&exr),
-        "--backend",
-        "cpu",
-        "--eye",
-        "0,0,90",
-        "--target",
-        "0,0,0",
-        "--projection",
-        "orthographic",
-        "--ortho-height",
-        "60",
-    ]);
+        &dir,
+        "m",
+        &[
+            "--eye",
+            "0,0,90",
+            "--target",
+            "0,0,0",
+            "--projection",
+            "orthographic",
+            "--ortho-height",
+            "60",
+        ],
+    );
     let img = isokit::io::read_exr(&exr).unwrap();
     let cam = img.camera.unwrap();
     // Orthographic: worldToNDC scales y by 2 / height.

@@ -56,36 +56,48 @@ pub fn resolve_image(image: &Image, k: u32) -> Image {
     }
 }
 
+/// The index in the supersampled G-buffer `g` of the hit subpixel of output pixel `(x, y)`
+/// nearest the pixel's centre (the first of equals in row order), `None` when none hit;
+/// also the number of its subpixels that hit.
+pub fn nearest_hit(g: &GBuffer, k: u32, x: u32, y: u32) -> (Option<usize>, u32) {
+    let centre = 0.5 * (k as f32 - 1.0);
+    let mut best: Option<(f32, usize)> = None;
+    let mut hits = 0;
+    for sy in 0..k {
+        for sx in 0..k {
+            let j = ((y * k + sy) * g.width() + x * k + sx) as usize;
+            if g.pixels()[j].is_hit() {
+                hits += 1;
+                let d = (sx as f32 - centre).powi(2) + (sy as f32 - centre).powi(2);
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, j));
+                }
+            }
+        }
+    }
+    (best.map(|(_, j)| j), hits)
+}
+
 /// The G-buffer of the output size from the supersampled one: per pixel the hit subpixel
-/// nearest the pixel's centre (a miss when none hit), the field evaluations of all its
-/// rays, and the coverage ([`GBuffer::coverage`]) of its rays that hit.
+/// nearest the pixel's centre ([`nearest_hit`]; a miss when none hit), the field
+/// evaluations of all its rays, and the coverage ([`GBuffer::coverage`]) of its rays that
+/// hit.
 pub fn resolve_gbuffer(g: &GBuffer, k: u32) -> GBuffer {
     let (w, h) = (g.width() / k, g.height() / k);
     let n = (k * k) as f32;
-    let centre = 0.5 * (k as f32 - 1.0);
     let resolved: Vec<_> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let mut best = None;
-            let mut hits = 0u32;
+            let (best, hits) = nearest_hit(g, k, x, y);
             let mut evaluations = 0u32;
             for sy in 0..k {
-                for sx in 0..k {
-                    let (gx, gy) = (x * k + sx, y * k + sy);
-                    let s = g.get(gx, gy);
-                    evaluations =
-                        evaluations.saturating_add(g.samples()[(gx + gy * g.width()) as usize]);
-                    if s.is_hit() {
-                        hits += 1;
-                        let d = (sx as f32 - centre).powi(2) + (sy as f32 - centre).powi(2);
-                        if best.is_none_or(|(bd, _)| d < bd) {
-                            best = Some((d, *s));
-                        }
-                    }
+                let row = ((y * k + sy) * g.width() + x * k) as usize;
+                for &e in &g.samples()[row..row + k as usize] {
+                    evaluations = evaluations.saturating_add(e);
                 }
             }
-            let sample = best.map_or(*g.get(x * k, y * k), |(_, s)| s);
+            let sample = g.pixels()[best.unwrap_or(((y * k) * g.width() + x * k) as usize)];
             (sample, evaluations, hits as f32 / n)
         })
         .collect();

@@ -784,30 +784,17 @@ fn thin_feature_note(
 }
 
 /// The object map of a supersampled frame at the output size: per pixel the part of the hit
-/// ray nearest its centre (as [`supersample::resolve_gbuffer`] picks its sample).
+/// ray nearest its centre (the sample [`supersample::resolve_gbuffer`] keeps).
 fn resolve_parts(parts: &[Option<u32>], g: &GBuffer, k: u32) -> Vec<Option<u32>> {
     if parts.is_empty() {
         return Vec::new();
     }
     let (w, h) = (g.width() / k, g.height() / k);
-    let centre = 0.5 * (k as f32 - 1.0);
     (0..w * h)
         .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let mut best: Option<(f32, Option<u32>)> = None;
-            for sy in 0..k {
-                for sx in 0..k {
-                    let j = ((y * k + sy) * g.width() + x * k + sx) as usize;
-                    if !g.pixels()[j].is_hit() {
-                        continue;
-                    }
-                    let d = (sx as f32 - centre).powi(2) + (sy as f32 - centre).powi(2);
-                    if best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, parts[j]));
-                    }
-                }
-            }
-            best.and_then(|(_, p)| p)
+            supersample::nearest_hit(g, k, i % w, i / w)
+                .0
+                .and_then(|j| parts[j])
         })
         .collect()
 }
