@@ -125,7 +125,7 @@ pub fn run(a: Args) -> Result<()> {
         ball_scale: a.ball_scale,
         bond_radius: a.bond_radius,
     };
-    let camera = molecule_camera(&mol, &model, camera.as_ref(), kind, width, height)?;
+    let camera = isokit_scene::molecule_camera(&mol, &model, camera.as_ref(), kind, width, height)?;
     let settings = MoleculeSettings {
         width,
         height,
@@ -193,41 +193,4 @@ pub fn run(a: Args) -> Result<()> {
         println!("{j}");
     }
     Ok(())
-}
-
-/// The camera given on the command line; for an orthographic view without `--eye`, the
-/// default framing's eye and target seen orthographically; else `None` (the default
-/// framing).
-fn molecule_camera(
-    mol: &isokit_molecule::Molecule,
-    model: &MoleculeOptions,
-    spec: Option<&isokit_scene::CameraSpec>,
-    kind: isokit_scene::ProjectionKind,
-    width: u32,
-    height: u32,
-) -> Result<Option<isokit_field::Camera>> {
-    let spec = match (spec, kind) {
-        (Some(s), _) => s.clone(),
-        (None, isokit_scene::ProjectionKind::Perspective) => return Ok(None),
-        (None, isokit_scene::ProjectionKind::Orthographic) => {
-            let scene = isokit_molecule::molecule_scene(mol, model)?;
-            let c = isokit_molecule::framing_camera(&scene, width, height)?;
-            isokit_scene::CameraSpec {
-                eye: c.eye().to_array(),
-                target: c.target().to_array(),
-                up: c.up().to_array(),
-                fov: 30.0,
-                ortho_height: None,
-            }
-        }
-    };
-    // The bounds only matter for a camera framing them, which `Some(spec)` is not.
-    let bounds = isokit_field::Aabb::from_center_half(glam::Vec3::ZERO, glam::Vec3::ONE);
-    Ok(Some(isokit_scene::camera_for(
-        Some(&spec),
-        bounds,
-        kind,
-        width,
-        height,
-    )?))
 }
