@@ -608,8 +608,8 @@ impl Renderer {
             None => cache.capacity(),
         };
         let stats = FrameStats {
-            width: gbuffer.width(),
-            height: gbuffer.height(),
+            width: st.width / k,
+            height: st.height / k,
             iso: p.options.iso,
             mode: p.shading.mode.name(),
             hits: st.hits,

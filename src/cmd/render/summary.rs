@@ -12,7 +12,11 @@ pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<
     eprintln!(
         "{what}; {}: {}x{}{} {} image{}: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
         st.device,
-        frame.gbuffer.width(),
+        if s.samples > 1 {
+            st.width
+        } else {
+            frame.uniforms.width
+        },
         st.height,
         s.multiview
             .map_or(String::new(), |m| format!(" {}-view", m.views)),
