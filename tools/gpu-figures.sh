@@ -113,7 +113,7 @@ for n in "${atoms[@]}"; do
     for backend in gpu cpu; do
         [[ $backend == gpu && $gpu_device == none ]] && continue
         echo "splat $backend $n atoms" >&2
-        j=$(measure "$ISOKIT" molecule "$pdb" -o "$work/m.png" --style spacefill --backend "$backend" --stats)
+        j=$(measure "$ISOKIT" molecule "$pdb" -o "$work/m.png" --width 1024 --height 768 --style spacefill --backend "$backend" --stats)
         splat+="${splat:+,}{\"backend\":\"$backend\",\"atoms\":$n,\"stats\":$j}"
     done
 done

@@ -7,6 +7,11 @@ use anyhow::Result;
 use isokit_gpu::BackendChoice;
 use isokit_render::ShadingMode;
 
+/// The default image width of `render`, `demo` and `molecule`, in pixels.
+pub const DEFAULT_WIDTH: u64 = 640;
+/// The default image height of `render`, `demo` and `molecule`, in pixels.
+pub const DEFAULT_HEIGHT: u64 = 480;
+
 /// Which implementation runs.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
@@ -31,6 +36,8 @@ impl Backend {
 }
 
 /// The renderer a backend request opens, printing the note when `auto` chose the CPU.
+/// Callers open it where they render, after the input was read (so that a missing file is
+/// reported alone), and once per command.
 pub fn open_renderer(backend: Backend) -> Result<isokit_scene::Renderer> {
     let r = isokit_scene::Renderer::new(backend.choice())?;
     if let Some(note) = r.note() {

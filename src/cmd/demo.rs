@@ -17,10 +17,10 @@ pub struct Args {
     #[arg(short, long, default_value = "demo.png")]
     pub output: PathBuf,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 640)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 480)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_HEIGHT)]
     pub height: u64,
     /// Scene to render [default: examples/scenes/demo.json of the checkout].
     #[arg(long)]

@@ -3,6 +3,7 @@
 //! request.
 
 use super::args::{Backend, open_renderer, shading_names};
+use super::camera_args::CameraArgs;
 use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_molecule::{MoleculeOptions, MoleculeStyle, read_molecule};
@@ -40,17 +41,18 @@ pub struct Args {
     #[arg(long)]
     pub outlines: bool,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_HEIGHT)]
     pub height: u64,
     /// Backend: auto (`ISOKIT_BACKEND=cpu|gpu` when set, else a hardware GPU when one
     /// exists and the CPU otherwise), cpu, gpu (any adapter, software ones included; an
     /// error without one).
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
-    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
+    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A; the
+    /// camera as the header attributes worldToCamera and worldToNDC).
     #[arg(long)]
     pub gbuffer: Option<PathBuf>,
     /// Shading mode of the ray caster's deferred shading.
@@ -71,6 +73,14 @@ pub struct Args {
     /// Print what it did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,
+    /// Leave out water (residues HOH, WAT, H2O, DOD, TIP, TIP3, SOL, D2O).
+    #[arg(long)]
+    pub no_water: bool,
+    /// Only these chains, "A,B" (chain identifiers as in the file).
+    #[arg(long, value_delimiter = ',')]
+    pub chains: Vec<String>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
 }
 
 /// Runs `isokit molecule`.
@@ -90,20 +100,36 @@ pub fn run(a: Args) -> Result<()> {
             bail!("--softness {}: must be 0 to 64 texels", a.softness);
         }
     }
+    let kind = a.camera.projection()?;
+    let camera = a.camera.spec()?;
     let t0 = Instant::now();
-    let mol = read_molecule(&a.input)?;
+    let mut mol = read_molecule(&a.input)?;
+    if a.no_water || !a.chains.is_empty() {
+        mol = mol
+            .select(a.no_water, &a.chains)
+            .map_err(anyhow::Error::msg)
+            .with_context(|| a.input.display().to_string())?;
+        if mol.is_empty() {
+            bail!(
+                "{}: no atom is left after --no-water and --chains",
+                a.input.display()
+            );
+        }
+    }
     let read_seconds = t0.elapsed().as_secs_f64();
+    let model = MoleculeOptions {
+        style: match a.style {
+            Style::Balls => MoleculeStyle::Balls,
+            Style::Spacefill => MoleculeStyle::Spacefill,
+        },
+        ball_scale: a.ball_scale,
+        bond_radius: a.bond_radius,
+    };
+    let camera = isokit_scene::molecule_camera(&mol, &model, camera.as_ref(), kind, width, height)?;
     let settings = MoleculeSettings {
         width,
         height,
-        model: MoleculeOptions {
-            style: match a.style {
-                Style::Balls => MoleculeStyle::Balls,
-                Style::Spacefill => MoleculeStyle::Spacefill,
-            },
-            ball_scale: a.ball_scale,
-            bond_radius: a.bond_radius,
-        },
+        model,
         mode,
         shadows: a.shadows.then_some(ShadowOptions {
             resolution: a.shadow_map,
@@ -111,7 +137,7 @@ pub fn run(a: Args) -> Result<()> {
             light: None,
         }),
         outlines: a.outlines,
-        camera: None,
+        camera,
     };
     let mut renderer = open_renderer(a.backend)?;
     let mf = renderer
@@ -120,7 +146,7 @@ pub fn run(a: Args) -> Result<()> {
     let (frame, image, st) = (&mf.frame, &mf.image, &mf.stats);
     // The G-buffer first: a failure there leaves the previous image in place.
     if let Some(g) = &a.gbuffer {
-        frame.gbuffer.write_exr(g)?;
+        frame.gbuffer.write_exr_with_camera(g, &mf.camera)?;
     }
     image.write_png(&a.output)?;
     eprintln!(

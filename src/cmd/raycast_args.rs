@@ -1,10 +1,10 @@
 //! The ray caster's knobs (`isokit render`): filter, sampling rates, refinement, empty-space
-//! skipping, the brick cache and its policy, projection and curvature scale.
+//! skipping, the brick cache and its policy, curvature scale (the camera and projection are
+//! in `camera_args`).
 
 use super::args::InsideArg;
 use anyhow::Result;
 use isokit_render::{CachePolicy, Filter, RefineMethod, RenderOptions};
-use isokit_scene::ProjectionKind;
 
 /// Refinement method.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,9 +59,6 @@ pub struct RaycastArgs {
     /// pass; passes when even that does not fit).
     #[arg(long, value_enum, default_value_t = CachePolicyArg::Passes)]
     pub cache_policy: CachePolicyArg,
-    /// Projection: perspective or orthographic (same eye, target and field of view).
-    #[arg(long, default_value = "perspective")]
-    pub projection: String,
     /// Curvature that saturates the curvature maps, 1/world units [default: 20 / the
     /// volume's diagonal].
     #[arg(long)]
@@ -104,11 +101,6 @@ impl RaycastArgs {
         };
         o.check()?;
         Ok(o)
-    }
-
-    /// The projection.
-    pub fn projection(&self) -> Result<ProjectionKind> {
-        self.projection.parse().map_err(anyhow::Error::msg)
     }
 
     /// The cache size in bytes, if given.

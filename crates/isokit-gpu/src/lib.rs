@@ -115,9 +115,12 @@ pub struct Chosen {
 ///
 /// `Auto` passes over software adapters (lavapipe, llvmpipe: [`wgpu::DeviceType::Cpu`])
 /// because they run the kernels on the same CPU cores, several times slower than the rayon
-/// twins (the demo scene at 640×480 on 2 cores: 7.1 s against 1.5–1.9 s). It looks at the
-/// adapter before creating a device, so a machine whose only adapter is a software one pays
-/// for the adapter query only.
+/// twins (the demo scene at 640×480 on 2 cores: 7.1 s against 1.5–1.9 s). It decides
+/// without creating a device where the answer is known: on Linux, a machine without any GPU
+/// device node ([`hardware_gpu_possible`]) has only software adapters, and the CPU twin is
+/// chosen without loading a driver (the Vulkan loader and EGL take 0.2–0.6 s to start even
+/// for lavapipe alone); elsewhere it looks at the adapter before creating a device, so a
+/// machine whose only adapter is a software one pays for the adapter query only.
 pub fn choose_backend(choice: BackendChoice, opts: &GpuOptions) -> Result<Chosen, GpuError> {
     match choice.or_env()? {
         BackendChoice::Cpu => Ok(Chosen {
@@ -133,6 +136,12 @@ pub fn choose_backend(choice: BackendChoice, opts: &GpuOptions) -> Result<Chosen
                 gpu: None,
                 reason: Some(why),
             };
+            if !hardware_gpu_possible(std::path::Path::new("/dev")) {
+                return Ok(cpu(
+                    "no usable GPU: this machine has no GPU device (no /dev/dri render node, /dev/nvidia* or /dev/dxg), so any adapter is a software one, slower than the CPU twin (--backend gpu uses it)"
+                        .to_string(),
+                ));
+            }
             match Gpu::adapter(opts) {
                 Ok(info) if info.device_type == wgpu::DeviceType::Cpu => Ok(cpu(format!(
                     "the only GPU adapter, {}, is a software one, slower than the CPU twin (--backend gpu uses it)",
@@ -149,6 +158,36 @@ pub fn choose_backend(choice: BackendChoice, opts: &GpuOptions) -> Result<Chosen
             }
         }
     }
+}
+
+/// False when `dev` (the device folder, `/dev`) shows that no hardware GPU can be reached:
+/// on Linux, every hardware Vulkan or GL driver opens a DRM node (`dri/renderD*`,
+/// `dri/card*`), the NVIDIA driver `nvidia*`, WSL's `dxg`; without any of them only
+/// software adapters (lavapipe, llvmpipe) exist. True on other systems and whenever `dev`
+/// cannot be read (then the adapters are asked).
+pub fn hardware_gpu_possible(dev: &std::path::Path) -> bool {
+    if !cfg!(target_os = "linux") {
+        return true;
+    }
+    let names = |dir: &std::path::Path| -> Option<Vec<String>> {
+        let entries = std::fs::read_dir(dir).ok()?;
+        Some(
+            entries
+                .filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect(),
+        )
+    };
+    let Some(top) = names(dev) else {
+        return true;
+    };
+    if top.iter().any(|n| n.starts_with("nvidia") || n == "dxg") {
+        return true;
+    }
+    names(&dev.join("dri")).is_some_and(|d| {
+        d.iter()
+            .any(|n| n.starts_with("renderD") || n.starts_with("card"))
+    })
 }
 
 /// Options of [`Gpu::new`].
@@ -539,6 +578,24 @@ pub fn adapter_available() -> Result<(), GpuError> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn a_device_folder_without_gpu_nodes_rules_hardware_out() {
+        let root = std::env::temp_dir().join(format!("isokit-gpu-dev-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(root.join("dri")).unwrap();
+        std::fs::write(root.join("null"), b"").unwrap();
+        assert!(!super::hardware_gpu_possible(&root));
+        std::fs::write(root.join("dri/renderD128"), b"").unwrap();
+        assert!(super::hardware_gpu_possible(&root));
+        std::fs::remove_file(root.join("dri/renderD128")).unwrap();
+        std::fs::write(root.join("nvidia0"), b"").unwrap();
+        assert!(super::hardware_gpu_possible(&root));
+        // An unreadable folder leaves the decision to the adapters.
+        assert!(super::hardware_gpu_possible(&root.join("missing")));
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
     use super::*;
 
     #[test]

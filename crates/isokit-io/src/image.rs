@@ -145,6 +145,32 @@ pub fn write_exr(
     height: usize,
     channels: &[(&str, &[f32])],
 ) -> Result<(), IoError> {
+    write_exr_with_camera(path, width, height, channels, None)
+}
+
+/// The camera of an image, as the OpenEXR standard attributes `worldToCamera` and
+/// `worldToNDC` (OpenEXR, "Standard Attributes": 4×4 float matrices, `m44f`).
+///
+/// Imath's convention: points are row vectors multiplied on the left, `p' = p · M`, and
+/// the 16 floats are row after row, so the translation is in floats 12, 13, 14. That is
+/// the column-major storage of the column-vector matrix `M` with `p' = M · p`
+/// (`glam::Mat4::to_cols_array`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExrCamera {
+    /// World to camera space (the view matrix: camera at the origin looking down −z, +y up).
+    pub world_to_camera: [f32; 16],
+    /// World to normalized device coordinates (the projection times the view matrix).
+    pub world_to_ndc: [f32; 16],
+}
+
+/// [`write_exr`] with the camera's matrices in the header ([`ExrCamera`]) when given.
+pub fn write_exr_with_camera(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: &[(&str, &[f32])],
+    camera: Option<&ExrCamera>,
+) -> Result<(), IoError> {
     use exr::prelude::*;
     if width == 0 || height == 0 {
         return Err(IoError::invalid_input(
@@ -188,9 +214,23 @@ pub fn write_exr(
             })?;
         list.push(AnyChannel::new(text, FlatSamples::F32(data.to_vec())));
     }
+    if camera.is_some_and(|c| {
+        !(c.world_to_camera.iter().all(|v| v.is_finite())
+            && c.world_to_ndc.iter().all(|v| v.is_finite()))
+    }) {
+        return Err(IoError::invalid_input(
+            path,
+            "the camera matrices must be finite",
+        ));
+    }
+    let attributes = LayerAttributes {
+        world_to_camera: camera.map(|c| c.world_to_camera),
+        world_to_normalized_device: camera.map(|c| c.world_to_ndc),
+        ..LayerAttributes::default()
+    };
     let layer = Layer::new(
         (width, height),
-        LayerAttributes::default(),
+        attributes,
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(list.into()),
     );
@@ -227,6 +267,9 @@ pub struct ExrImage {
     /// The channels in file order (EXR sorts them by name), each `width * height` values
     /// with row 0 at the top; half-float and integer channels are converted to f32.
     pub channels: Vec<(String, Vec<f32>)>,
+    /// The camera, when the header has both `worldToCamera` and `worldToNDC`
+    /// ([`write_exr_with_camera`] writes them).
+    pub camera: Option<ExrCamera>,
 }
 
 impl ExrImage {
@@ -282,6 +325,14 @@ pub fn read_exr_bytes(bytes: &[u8], name: &str) -> Result<ExrImage, IoError> {
         .map_err(|e| IoError::malformed(path, format!("EXR: {e}")))?;
     let layer = image.layer_data;
     let (width, height) = (layer.size.0, layer.size.1);
+    let a = &layer.attributes;
+    let camera = match (a.world_to_camera, a.world_to_normalized_device) {
+        (Some(world_to_camera), Some(world_to_ndc)) => Some(ExrCamera {
+            world_to_camera,
+            world_to_ndc,
+        }),
+        _ => None,
+    };
     let channels = layer
         .channel_data
         .list
@@ -292,6 +343,7 @@ pub fn read_exr_bytes(bytes: &[u8], name: &str) -> Result<ExrImage, IoError> {
         width,
         height,
         channels,
+        camera,
     })
 }
 

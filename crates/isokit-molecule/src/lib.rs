@@ -192,6 +192,71 @@ impl Molecule {
     pub fn inferred_bonds(&self, tolerance: f32) -> Vec<[u32; 2]> {
         bonds::infer(&self.atoms, tolerance, |_, _| false)
     }
+
+    /// The chain identifiers of the atoms, sorted, each once (an empty identifier
+    /// included when some atom has none).
+    pub fn chains(&self) -> Vec<&str> {
+        let mut c: Vec<&str> = self.atoms.iter().map(|a| a.chain.as_str()).collect();
+        c.sort_unstable();
+        c.dedup();
+        c
+    }
+
+    /// The molecule with only the atoms `keep` accepts and the bonds between them (indices
+    /// renumbered, still sorted).
+    pub fn filtered(&self, keep: impl Fn(&Atom) -> bool) -> Molecule {
+        let mut index = vec![u32::MAX; self.atoms.len()];
+        let mut atoms = Vec::new();
+        for (i, a) in self.atoms.iter().enumerate() {
+            if keep(a) {
+                index[i] = atoms.len() as u32;
+                atoms.push(a.clone());
+            }
+        }
+        let bonds = self
+            .bonds
+            .iter()
+            .filter_map(|&[i, j]| {
+                let (a, b) = (index[i as usize], index[j as usize]);
+                (a != u32::MAX && b != u32::MAX).then_some([a, b])
+            })
+            .collect();
+        Molecule {
+            name: self.name.clone(),
+            atoms,
+            bonds,
+        }
+    }
+
+    /// [`Molecule::filtered`] by the usual selections: without water ([`Atom::is_water`])
+    /// when `no_water`, and only the chains named in `chains` when it is not empty. A chain
+    /// that no atom has is an error that lists the chains there are.
+    pub fn select(&self, no_water: bool, chains: &[String]) -> Result<Molecule, String> {
+        let present = self.chains();
+        if let Some(c) = chains.iter().find(|c| !present.contains(&c.as_str())) {
+            let names: Vec<String> = present.iter().map(|c| format!("{c:?}")).collect();
+            return Err(format!(
+                "{}: no chain {c:?} (the chains are {})",
+                self.name,
+                names.join(", ")
+            ));
+        }
+        Ok(self.filtered(|a| {
+            !(no_water && a.is_water()) && (chains.is_empty() || chains.contains(&a.chain))
+        }))
+    }
+}
+
+/// Residue names of water in PDB and mmCIF files (and those of common simulation tools).
+pub const WATER_RESIDUES: [&str; 8] = ["HOH", "WAT", "H2O", "DOD", "TIP", "TIP3", "SOL", "D2O"];
+
+impl Atom {
+    /// True for an atom of a water residue ([`WATER_RESIDUES`], case-insensitive).
+    pub fn is_water(&self) -> bool {
+        WATER_RESIDUES
+            .iter()
+            .any(|w| self.residue.eq_ignore_ascii_case(w))
+    }
 }
 
 /// The molecule file formats, chosen by extension.

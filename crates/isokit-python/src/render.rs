@@ -88,6 +88,7 @@ pub fn camera_arg(obj: &Bound<'_, PyAny>) -> PyResult<CameraSpec> {
         target: vec("target", [0.0; 3])?,
         up: vec("up", [0.0, 1.0, 0.0])?,
         fov,
+        ortho_height: None,
     })
 }
 

@@ -3,6 +3,7 @@
 
 use crate::RenderError;
 use crate::kernel::GSample;
+use isokit_field::Camera;
 use std::path::Path;
 
 /// EXR channel names of the G-buffer, in the order [`GBuffer::channels`] returns them:
@@ -21,6 +22,9 @@ pub struct GBuffer {
     height: u32,
     pixels: Vec<GSample>,
     samples: Vec<u32>,
+    /// Per pixel the fraction of its rays that hit ([`crate::supersample`]); `None`: one
+    /// ray per pixel, 1 on hits and 0 on misses.
+    coverage: Option<Vec<f32>>,
 }
 
 impl GBuffer {
@@ -36,6 +40,31 @@ impl GBuffer {
             height,
             pixels,
             samples,
+            coverage: None,
+        }
+    }
+
+    /// The G-buffer with per-pixel coverage, the fraction of each pixel's rays that hit
+    /// (the `A` channel), from [`crate::supersample::resolve_gbuffer`].
+    ///
+    /// # Panics
+    /// When the length does not match `width · height` (a programming error, not input).
+    pub fn with_coverage(mut self, coverage: Vec<f32>) -> Self {
+        assert!(coverage.len() == self.pixels.len(), "coverage size");
+        self.coverage = Some(coverage);
+        self
+    }
+
+    /// The `A` channel: per pixel the fraction of its rays that hit (1 or 0 with one ray
+    /// per pixel).
+    pub fn coverage(&self) -> Vec<f32> {
+        match &self.coverage {
+            Some(c) => c.clone(),
+            None => self
+                .pixels
+                .iter()
+                .map(|p| if p.is_hit() { 1.0 } else { 0.0 })
+                .collect(),
         }
     }
     /// Width in pixels.
@@ -64,7 +93,8 @@ impl GBuffer {
     }
 
     /// The channels [`GBUFFER_CHANNELS`] names, as linear f32 planes. Pixels that hit
-    /// nothing hold 0 in every channel (`A = 0`).
+    /// nothing hold 0 in every channel (`A = 0`); `A` is the coverage
+    /// ([`GBuffer::coverage`]).
     pub fn channels(&self) -> [Vec<f32>; 10] {
         let plane = |f: &dyn Fn(&GSample) -> f32| -> Vec<f32> {
             self.pixels
@@ -82,15 +112,15 @@ impl GBuffer {
             plane(&|p| p.depth),
             plane(&|p| p.k1),
             plane(&|p| p.k2),
-            plane(&|_| 1.0),
+            self.coverage(),
         ]
     }
 
     /// Checks that an OpenEXR image (e.g. [`isokit_io::read_exr`] of a file
     /// [`GBuffer::write_exr`] wrote) holds exactly this G-buffer: the same size and, for every
     /// channel of [`GBUFFER_CHANNELS`], every pixel's value bit for bit (the sample's field
-    /// where the pixel hits, 0 where it misses; `A` is 1 on hits). The error names the first
-    /// difference.
+    /// where the pixel hits, 0 where it misses; `A` is the coverage). The error names the
+    /// first difference.
     pub fn matches_exr(&self, image: &isokit_io::ExrImage) -> Result<(), String> {
         if (image.width, image.height) != (self.width as usize, self.height as usize) {
             return Err(format!(
@@ -98,24 +128,11 @@ impl GBuffer {
                 image.width, image.height, self.width, self.height
             ));
         }
-        let fields: [fn(&GSample) -> f32; 10] = [
-            |p| p.position.x,
-            |p| p.position.y,
-            |p| p.position.z,
-            |p| p.normal.x,
-            |p| p.normal.y,
-            |p| p.normal.z,
-            |p| p.depth,
-            |p| p.k1,
-            |p| p.k2,
-            |_| 1.0,
-        ];
-        for (name, field) in GBUFFER_CHANNELS.iter().zip(fields) {
+        for (name, plane) in GBUFFER_CHANNELS.iter().zip(self.channels()) {
             let data = image
                 .channel(name)
                 .ok_or_else(|| format!("channel {name} is missing"))?;
-            for (i, (p, &v)) in self.pixels.iter().zip(data).enumerate() {
-                let want = if p.is_hit() { field(p) } else { 0.0 };
+            for (i, (&want, &v)) in plane.iter().zip(data).enumerate() {
                 if v.to_bits() != want.to_bits() {
                     let (x, y) = (i % self.width as usize, i / self.width as usize);
                     return Err(format!(
@@ -129,13 +146,53 @@ impl GBuffer {
 
     /// Writes the G-buffer as OpenEXR with the channels [`GBUFFER_CHANNELS`] (atomically).
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
+        self.write_exr_camera(path, None)
+    }
+
+    /// [`GBuffer::write_exr`] with `camera`'s view and projection matrices in the header
+    /// ([`exr_camera`]).
+    pub fn write_exr_with_camera(&self, path: &Path, camera: &Camera) -> Result<(), RenderError> {
+        self.write_exr_camera(path, Some(&exr_camera(camera)))
+    }
+
+    fn write_exr_camera(
+        &self,
+        path: &Path,
+        camera: Option<&isokit_io::ExrCamera>,
+    ) -> Result<(), RenderError> {
         let planes = self.channels();
         let list: Vec<(&str, &[f32])> = GBUFFER_CHANNELS
             .iter()
             .zip(planes.iter())
             .map(|(n, p)| (*n, p.as_slice()))
             .collect();
-        isokit_io::write_exr(path, self.width as usize, self.height as usize, &list)?;
+        isokit_io::write_exr_with_camera(
+            path,
+            self.width as usize,
+            self.height as usize,
+            &list,
+            camera,
+        )?;
         Ok(())
+    }
+}
+
+/// The near plane of [`exr_camera`]'s projection, as a fraction of the distance from the eye
+/// to the target (the far plane is at [`EXR_FAR`] times that distance).
+pub const EXR_NEAR: f32 = 0.01;
+/// The far plane of [`exr_camera`]'s projection, in distances from the eye to the target.
+pub const EXR_FAR: f32 = 100.0;
+
+/// A camera as the OpenEXR header attributes `worldToCamera` ([`Camera::view_matrix`]) and
+/// `worldToNDC` ([`Camera::projection_matrix`] times the view matrix, depth in [0, 1], the
+/// near and far planes at [`EXR_NEAR`] and [`EXR_FAR`] times the distance from the eye to
+/// the target).
+pub fn exr_camera(camera: &Camera) -> isokit_io::ExrCamera {
+    let d = (camera.target() - camera.eye()).length();
+    let view = camera.view_matrix();
+    let proj = camera.projection_matrix(EXR_NEAR * d, EXR_FAR * d);
+    isokit_io::ExrCamera {
+        world_to_camera: view.to_cols_array(),
+        world_to_ndc: (proj * view).to_cols_array(),
     }
 }

@@ -102,6 +102,7 @@ mod raycast;
 pub mod setup;
 pub mod shade;
 pub mod splat;
+pub mod supersample;
 mod volume;
 
 /// The ray caster's per-pixel kernel, the CPU twin of `shaders/raycast.wgsl` (the module
@@ -110,7 +111,7 @@ pub use raycast::cpu as kernel;
 
 pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, HALF_RESOLUTION, NOT_RESIDENT};
 pub use error::{BYTES_PER_PIXEL, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};
-pub use gbuffer::{GBUFFER_CHANNELS, GBuffer};
+pub use gbuffer::{EXR_FAR, EXR_NEAR, GBUFFER_CHANNELS, GBuffer, exr_camera};
 pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
 pub use raycast::render::{

@@ -48,6 +48,10 @@ pub struct CameraSpec {
     /// Vertical field of view in degrees (default 45).
     #[serde(default = "fov")]
     pub fov: f32,
+    /// With orthographic projection: the view's height in world units (default: what the
+    /// perspective view shows in the plane of the target, `2 · |target − eye| · tan(fov/2)`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ortho_height: Option<f32>,
 }
 
 /// A light: directional when `direction` is given, a point light at `position` otherwise.

@@ -77,7 +77,7 @@ pub use file::{
 };
 pub use isokit_field::{Cancelled, Job};
 pub use mesh::{MeshOptions, MeshStats, mesh_scene, vertex_colors};
-pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats};
+pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats, molecule_camera};
 pub use node::{BandMethod, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData};
 pub use render::{
     Frame, FrameStats, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer,

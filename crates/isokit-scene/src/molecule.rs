@@ -89,6 +89,8 @@ pub struct MoleculeFrame {
     pub frame: SplatFrame,
     /// Counters and timing.
     pub stats: MoleculeStats,
+    /// The camera.
+    pub camera: Camera,
 }
 
 impl Renderer {
@@ -157,6 +159,45 @@ impl Renderer {
             image,
             frame,
             stats,
+            camera,
         })
     }
+}
+
+/// The camera of [`MoleculeSettings::camera`] for a camera `spec` (a scene file's or the
+/// command line's) and a projection: `spec`'s camera; without one, for an orthographic
+/// view the default framing's eye and target seen orthographically (30° field of view),
+/// else `None` (the default framing, [`framing_camera`]).
+pub fn molecule_camera(
+    mol: &Molecule,
+    model: &MoleculeOptions,
+    spec: Option<&crate::CameraSpec>,
+    kind: crate::ProjectionKind,
+    width: u32,
+    height: u32,
+) -> Result<Option<Camera>, RenderError> {
+    let spec = match (spec, kind) {
+        (Some(s), _) => s.clone(),
+        (None, crate::ProjectionKind::Perspective) => return Ok(None),
+        (None, crate::ProjectionKind::Orthographic) => {
+            let scene = molecule_scene(mol, model)?;
+            let c = framing_camera(&scene, width, height)?;
+            crate::CameraSpec {
+                eye: c.eye().to_array(),
+                target: c.target().to_array(),
+                up: c.up().to_array(),
+                fov: 30.0,
+                ortho_height: None,
+            }
+        }
+    };
+    // The bounds only matter for a camera framing them, which `Some(spec)` is not.
+    let bounds = isokit_field::Aabb::from_center_half(glam::Vec3::ZERO, glam::Vec3::ONE);
+    Ok(Some(crate::camera_for(
+        Some(&spec),
+        bounds,
+        kind,
+        width,
+        height,
+    )?))
 }

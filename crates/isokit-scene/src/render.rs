@@ -12,13 +12,14 @@ use isokit_render::setup::camera_from;
 use isokit_render::shade::default_curvature_scale;
 use isokit_render::{
     BrickCache, GBuffer, Image, Layout, Light, MultiView, RenderError, RenderOptions, Shading,
-    ShadingMode, Uniforms, Volume, estimate_gradient_scale,
+    ShadingMode, Uniforms, Volume, check_image_size, estimate_gradient_scale, supersample,
 };
 use serde::Serialize;
 use std::time::Instant;
 
 /// The scene's camera, or when it has none a camera framing `bounds` from the front upper
-/// right (45° field of view).
+/// right (45° field of view). An orthographic camera with `ortho_height` shows that many
+/// world units vertically; without, what the perspective view shows in the target's plane.
 pub fn camera_for(
     spec: Option<&CameraSpec>,
     bounds: Aabb,
@@ -27,15 +28,23 @@ pub fn camera_for(
     height: u32,
 ) -> Result<Camera, RenderError> {
     match spec {
-        Some(c) => camera_from(
-            Vec3::from(c.eye),
-            Vec3::from(c.target),
-            Vec3::from(c.up),
-            c.fov,
-            kind,
-            width,
-            height,
-        ),
+        Some(c) => {
+            let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+            match (kind, c.ortho_height) {
+                (ProjectionKind::Orthographic, Some(h)) => {
+                    if !(h.is_finite() && h > 0.0) {
+                        return Err(RenderError::BadParameter {
+                            name: "ortho_height",
+                            value: h.to_string(),
+                            why: "must be finite and positive (world units)",
+                        });
+                    }
+                    let projection = Projection::Orthographic { height: h };
+                    Ok(Camera::look_at(eye, target, up, projection, width, height)?)
+                }
+                _ => camera_from(eye, target, up, c.fov, kind, width, height),
+            }
+        }
         None => {
             let projection = match kind {
                 ProjectionKind::Perspective => Projection::Perspective {
@@ -145,6 +154,9 @@ pub struct RenderSettings {
     pub cache_bytes: Option<usize>,
     /// Scene sampling: samples along the longest side (default: the scene's `sampling`).
     pub resolution: Option<usize>,
+    /// Rays per pixel for antialiasing (1, 4, 9, … 64: a `k × k` grid,
+    /// [`isokit_render::supersample`]); 1 (the default) traces one ray per pixel.
+    pub samples: u32,
 }
 
 impl Default for RenderSettings {
@@ -163,6 +175,7 @@ impl Default for RenderSettings {
             default_separation: false,
             cache_bytes: None,
             resolution: None,
+            samples: 1,
         }
     }
 }
@@ -228,8 +241,12 @@ pub struct Frame {
     pub image: Image,
     /// Per-pixel hits, positions, normals, curvatures.
     pub gbuffer: GBuffer,
-    /// The uniforms the frame was traced with (the camera among them).
+    /// The uniforms the frame was traced with (the camera among them; with
+    /// [`RenderSettings::samples`] above 1 those of the supersampled frame, `k` times wider
+    /// and higher).
     pub uniforms: Uniforms,
+    /// The camera (the centre view's, for multi-view frames).
+    pub camera: Camera,
     /// Counters and timing.
     pub stats: FrameStats,
     /// Notes for the user (an isovalue chosen from the data, a band too narrow for the
@@ -254,6 +271,8 @@ pub struct Prepared<'a> {
     sampling: Option<SampleStats>,
     notes: Vec<String>,
     prepare_seconds: f64,
+    /// The side of the grid of rays per pixel (1: one ray).
+    grid: u32,
 }
 
 impl Prepared<'_> {
@@ -455,6 +474,17 @@ impl Renderer {
         if let Some(mv) = &multiview {
             mv.check().map_err(err)?;
         }
+        let grid = supersample::grid_side(settings.samples).map_err(err)?;
+        if grid > 1 {
+            if multiview.is_some() {
+                return Err(SceneError::new(
+                    target_name(target),
+                    "",
+                    "samples: antialiasing of multi-view frames is not supported (one ray per subpixel); use samples = 1",
+                ));
+            }
+            check_image_size(u64::from(w * grid), u64::from(h * grid)).map_err(err)?;
+        }
         Ok(Prepared {
             volume,
             scene: target.scene(),
@@ -466,6 +496,7 @@ impl Renderer {
             sampling,
             notes,
             prepare_seconds: t0.elapsed().as_secs_f64(),
+            grid,
         })
     }
 
@@ -526,7 +557,24 @@ impl Renderer {
         if let (Some(g), Some(b)) = (self.gpu.as_mut(), p.cache_bytes) {
             g.set_cache_bytes(b);
         }
-        let (v, c, o) = (&*p.volume, &p.camera, &p.options);
+        let (v, o) = (&*p.volume, &p.options);
+        // Supersampling: the same camera over k times the pixels in each direction.
+        let k = p.grid;
+        let wide = (k > 1)
+            .then(|| {
+                let c = &p.camera;
+                Camera::look_at(
+                    c.eye(),
+                    c.target(),
+                    c.up(),
+                    c.projection(),
+                    c.width() * k,
+                    c.height() * k,
+                )
+            })
+            .transpose()
+            .map_err(|e| err(e.into()))?;
+        let c = wide.as_ref().unwrap_or(&p.camera);
         let frame = match (&p.multiview, view, self.gpu.as_mut()) {
             (Some(mv), Some(k), Some(g)) => g.render_view(v, c, o, mv, k),
             (Some(mv), Some(k), None) => isokit_render::render_view(v, cache, c, o, mv, k),
@@ -555,9 +603,32 @@ impl Renderer {
             }
             _ => (image, Vec::new()),
         };
+        let (image, gbuffer, parts) = if k > 1 {
+            let parts = resolve_parts(&parts, &frame.gbuffer, k);
+            (
+                supersample::resolve_image(&image, k),
+                supersample::resolve_gbuffer(&frame.gbuffer, k),
+                parts,
+            )
+        } else {
+            (image, frame.gbuffer, parts)
+        };
         let shade_seconds = t1.elapsed().as_secs_f64();
         let st = &frame.stats;
         let mut notes = p.notes.clone();
+        if let (Some(scene), Some(sampling)) = (p.scene, &p.sampling)
+            && p.shading.mode.uses_curvature()
+            && p.options.filter == isokit_render::Filter::Tricubic
+            && let Some(n) = thin_feature_note(
+                scene,
+                &gbuffer,
+                p.volume.spacing(),
+                sampling,
+                p.shading.mode,
+            )
+        {
+            notes.push(n);
+        }
         if st.hits + st.caps == 0 {
             notes.push(format!(
                 "warning: no ray hit the surface f = {}",
@@ -569,8 +640,8 @@ impl Renderer {
             None => cache.capacity(),
         };
         let stats = FrameStats {
-            width: st.width,
-            height: st.height,
+            width: st.width / k,
+            height: st.height / k,
             iso: p.options.iso,
             mode: p.shading.mode.name(),
             hits: st.hits,
@@ -595,8 +666,9 @@ impl Renderer {
         };
         Ok(Frame {
             image,
-            gbuffer: frame.gbuffer,
+            gbuffer,
             uniforms: frame.uniforms,
+            camera: p.camera,
             stats,
             notes,
             parts,
@@ -658,6 +730,105 @@ fn colour_parts(
             });
     }
     (image, parts)
+}
+
+/// The radius of the tricubic B-spline reconstruction kernel in voxels (its support is 4
+/// voxels wide).
+const BSPLINE_RADIUS_VOXELS: f32 = 2.0;
+
+/// The most hit pixels [`thin_feature_note`] probes.
+const THIN_PROBES: usize = 4096;
+
+/// The fraction of probed surface pixels near a crease above which [`thin_feature_note`]
+/// warns (sharp edges alone stay below it: their creases reach only a strip of pixels along
+/// each edge).
+const THIN_FRACTION: f64 = 0.2;
+
+/// A warning when much of the visible surface of a scene lies within the reach of the
+/// tricubic filter (2 voxels) of a crease of its distance field — the medial surface of a
+/// wall or gap thinner than 4 voxels, where the field's gradient flips. The B-spline
+/// averages across the crease, so the Hessian, and with it the principal curvatures, mix
+/// in where the crease passes between the lattice's samples, and the curvature shadings
+/// show the grid (002 Sec. 2.2.3: the distance between the shocks of a distance function
+/// and its surface should exceed the radius of the reconstruction kernel). `None` when the
+/// surface keeps clear.
+///
+/// Probes up to [`THIN_PROBES`] hit pixels: at a hit `p` with outward normal `n`, an exact
+/// distance field without a crease within `r` has `f(p + r·n) = r` and `f(p − r·n) = −r`;
+/// a crease at distance `s < r` on either side brings that side's value to `2s − r`
+/// (measured in units of the field's slope at the surface on that side, a quarter voxel
+/// deep, for fields that are not exact distances).
+fn thin_feature_note(
+    scene: &Scene,
+    g: &GBuffer,
+    spacing: f32,
+    sampling: &SampleStats,
+    mode: ShadingMode,
+) -> Option<String> {
+    let r = BSPLINE_RADIUS_VOXELS * spacing;
+    let hits: Vec<&isokit_render::GSample> = g
+        .pixels()
+        .iter()
+        .filter(|s| s.is_hit() && isokit_render::kernel::is_surface_id(s.id))
+        .collect();
+    if hits.is_empty() || !(r.is_finite() && r > 0.0) {
+        return None;
+    }
+    let step = hits.len().div_ceil(THIN_PROBES);
+    let probes: Vec<&isokit_render::GSample> = hits.iter().step_by(step).copied().collect();
+    use rayon::prelude::*;
+    let mut creases: Vec<f32> = probes
+        .par_iter()
+        .filter_map(|s| {
+            let f = |t: f32| scene.value_clamped(s.position + t * s.normal, 2.0 * r);
+            // Each side's reach in units of its own slope near the surface (fields that are
+            // not exact distances, e.g. twisted ones, change at other rates than 1).
+            let (d, f0) = (0.25 * spacing, f(0.0));
+            let side = |sign: f32| {
+                let slope = sign * (f(sign * d) - f0) / d;
+                if slope > 0.0 {
+                    sign * (f(sign * r) - f0) / slope
+                } else {
+                    -r
+                }
+            };
+            let reach = side(1.0).min(side(-1.0));
+            // The crease's distance from the surface; a margin of a tenth of the radius
+            // for the band's sampling and the hit's refinement.
+            (reach < 0.8 * r).then_some(0.5 * (r + reach.max(-r)))
+        })
+        .collect();
+    let fraction = creases.len() as f64 / probes.len() as f64;
+    if fraction < THIN_FRACTION {
+        return None;
+    }
+    creases.sort_by(f32::total_cmp);
+    let crease = creases[creases.len() / 2].max(0.05 * r);
+    let longest = sampling.dims.iter().copied().max().unwrap_or(0);
+    let needed = (longest as f32 * r / crease).ceil() as usize;
+    Some(format!(
+        "warning: {:.0}% of the visible surface lies within 2 voxels (the reach of the tricubic filter) of a crease of the distance field, a wall or gap about {:.3} thick ({:.1} voxels); the curvature there is unreliable and the {} shading shows the sampling grid. Remedy: sample finer, at least --res {needed} (sampling.resolution; the wall must span 4 voxels), or use a mode without curvature (phong, tone)",
+        100.0 * fraction,
+        2.0 * crease,
+        2.0 * crease / spacing,
+        mode.name(),
+    ))
+}
+
+/// The object map of a supersampled frame at the output size: per pixel the part of the hit
+/// ray nearest its centre (the sample [`supersample::resolve_gbuffer`] keeps).
+fn resolve_parts(parts: &[Option<u32>], g: &GBuffer, k: u32) -> Vec<Option<u32>> {
+    if parts.is_empty() {
+        return Vec::new();
+    }
+    let (w, h) = (g.width() / k, g.height() / k);
+    (0..w * h)
+        .map(|i| {
+            supersample::nearest_hit(g, k, i % w, i / w)
+                .0
+                .and_then(|j| parts[j])
+        })
+        .collect()
 }
 
 fn target_name(t: RenderTarget<'_>) -> &str {

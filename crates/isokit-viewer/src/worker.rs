@@ -220,6 +220,7 @@ fn spec(o: &Orbit) -> CameraSpec {
         target: o.target.to_array(),
         up: o.up.to_array(),
         fov: o.fov,
+        ortho_height: None,
     }
 }
 

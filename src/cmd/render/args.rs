@@ -1,6 +1,7 @@
 //! The arguments of `isokit render`.
 
 use crate::cmd::args::{Backend, InsideArg, shading_names};
+use crate::cmd::camera_args::CameraArgs;
 use crate::cmd::csg_args::CsgArgs;
 use crate::cmd::multiview_args::MultiViewArgs;
 use crate::cmd::raycast_args::RaycastArgs;
@@ -15,11 +16,15 @@ pub struct Args {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = crate::cmd::args::DEFAULT_HEIGHT)]
     pub height: u64,
+    /// Antialiasing: rays per pixel, a k × k grid (1, 4, 9, 16, 25, 36, 49 or 64); the
+    /// image is their mean, the G-buffer's A channel the fraction that hit (coverage).
+    #[arg(long, default_value_t = 1)]
+    pub samples: u32,
     /// Shading mode [default: the scene's `shading.mode`, else phong].
     #[arg(long, value_parser = shading_names())]
     pub shading: Option<String>,
@@ -35,7 +40,8 @@ pub struct Args {
     /// error without one).
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
-    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A).
+    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A; the
+    /// camera as the header attributes worldToCamera and worldToNDC).
     #[arg(long)]
     pub gbuffer: Option<PathBuf>,
     /// Render again whenever the input or a file it references changes (polling), keeping
@@ -49,6 +55,8 @@ pub struct Args {
     /// else 128].
     #[arg(long)]
     pub res: Option<usize>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
     #[command(flatten)]
     pub knobs: RaycastArgs,
     #[command(flatten)]

@@ -39,6 +39,13 @@ pub fn run(a: Args) -> Result<()> {
     }
     a.csg.combine()?;
     let (multiview, default_separation) = a.multiview.multiview()?;
+    isokit_render::supersample::grid_side(a.samples)?;
+    if a.samples > 1 && multiview.is_some() {
+        bail!(
+            "--samples {} with --views: antialiasing of multi-view frames is not supported",
+            a.samples
+        );
+    }
     let mode = a
         .shading
         .as_deref()
@@ -51,16 +58,20 @@ pub fn run(a: Args) -> Result<()> {
         options: a.knobs.options(a.iso.unwrap_or(0.0), a.inside)?,
         iso: a.iso,
         mode,
-        projection: a.knobs.projection()?,
+        projection: a.camera.projection()?,
+        camera: a.camera.spec()?,
         curvature_scale: a.knobs.curvature_scale,
         multiview,
         default_separation,
         cache_bytes: a.knobs.cache_bytes(),
         resolution: a.res,
+        samples: a.samples,
         ..RenderSettings::default()
     };
-    // Opened once: --watch reuses the device, its compiled kernels and its brick cache.
-    let mut renderer = super::args::open_renderer(a.backend)?;
+    // Opened once, at the first rendering (after the input was read, so that a missing
+    // file is reported without a word about adapters): --watch reuses the device, its
+    // compiled kernels and its brick cache.
+    let mut renderer = None;
     if !a.watch {
         return render_once(&a, &settings, &mut renderer).map(|_| ());
     }
@@ -93,12 +104,17 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// Renders once and writes the outputs; returns the files the rendering read.
-fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<Vec<PathBuf>> {
+fn render_once(
+    a: &Args,
+    s: &RenderSettings,
+    renderer: &mut Option<Renderer>,
+) -> Result<Vec<PathBuf>> {
     let name = a.input.display().to_string();
     let (frame, prepared_views, files, what) = if is_scene(&a.input) {
         let scene = Scene::load(&a.input)?;
         let files = scene.dependencies().to_vec();
-        let p = renderer.prepare(RenderTarget::Scene(&scene), s, &Job::default())?;
+        let p = Renderer::cpu().prepare(RenderTarget::Scene(&scene), s, &Job::default())?;
+        let renderer = open(renderer, a)?;
         let mut frame = renderer.render_prepared(&p, &name)?;
         frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
@@ -129,7 +145,8 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
             what = format!("{what}, {c:?} with {}", with.display());
             files.push(with.clone());
         }
-        let p = renderer.prepare(RenderTarget::Volume(&volume), s, &Job::default())?;
+        let p = Renderer::cpu().prepare(RenderTarget::Volume(&volume), s, &Job::default())?;
+        let renderer = open(renderer, a)?;
         let mut frame = renderer.render_prepared(&p, &name)?;
         frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
@@ -145,10 +162,19 @@ fn render_once(a: &Args, s: &RenderSettings, renderer: &mut Renderer) -> Result<
         }
     }
     if let Some(g) = &a.gbuffer {
-        frame.gbuffer.write_exr(g)?;
+        frame.gbuffer.write_exr_with_camera(g, &frame.camera)?;
     }
     summary::print(a, s, &frame, &what)?;
     Ok(files)
+}
+
+/// The renderer, opened (with its note, once) at the first call: after the input was read
+/// and prepared (preparing needs no device), so that errors in the input come alone.
+fn open<'r>(slot: &'r mut Option<Renderer>, a: &Args) -> Result<&'r mut Renderer> {
+    if slot.is_none() {
+        *slot = Some(super::args::open_renderer(a.backend)?);
+    }
+    slot.as_mut().context("renderer")
 }
 
 /// With `--warm-frames N`: the trace seconds of N more frames of the same camera, the

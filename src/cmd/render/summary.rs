@@ -10,13 +10,22 @@ use isokit_scene::{Frame, RenderSettings};
 pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<()> {
     let st = &frame.stats;
     eprintln!(
-        "{what}; {}: {}x{}{} {} image: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
+        "{what}; {}: {}x{}{} {} image{}: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
         st.device,
-        frame.uniforms.width,
+        if s.samples > 1 {
+            st.width
+        } else {
+            frame.uniforms.width
+        },
         st.height,
         s.multiview
             .map_or(String::new(), |m| format!(" {}-view", m.views)),
         st.mode,
+        if s.samples > 1 {
+            format!(" ({} rays per pixel; the counts are rays)", s.samples)
+        } else {
+            String::new()
+        },
         st.hits,
         st.caps,
         st.samples_per_ray,

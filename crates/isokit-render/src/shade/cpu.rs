@@ -68,6 +68,16 @@ impl ShadingMode {
         ("flow", Self::Flow),
     ];
 
+    /// True for the modes that show the principal curvatures (or directions) of the
+    /// G-buffer: `curvature`, `mean`, `gaussian`, `k1`, `k2`, `ridges`, `silhouette`,
+    /// `accessibility`, `flow`.
+    pub fn uses_curvature(self) -> bool {
+        !matches!(
+            self,
+            Self::Phong | Self::Tone | Self::Normal | Self::Reflection | Self::Texture
+        )
+    }
+
     /// The mode's name.
     pub fn name(self) -> &'static str {
         Self::ALL
@@ -160,22 +170,48 @@ impl Shading {
 
     /// Checks the parameters.
     pub fn check(&self) -> Result<(), RenderError> {
-        let finite = self.color.is_finite()
-            && self.ambient.is_finite()
-            && self.specular.is_finite()
-            && self.background.iter().all(|v| v.is_finite())
-            && self.lights.iter().all(|l| {
-                l.color.is_finite()
-                    && l.intensity.is_finite()
-                    && l.direction.is_none_or(|d| d.is_finite() && d != Vec3::ZERO)
-                    && l.position.is_none_or(|p| p.is_finite())
-            });
-        if !finite {
+        let v3 = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+        if !self.color.is_finite() {
+            return Err(RenderError::bad("color", v3(self.color), "must be finite"));
+        }
+        for (name, v) in [("ambient", self.ambient), ("specular", self.specular)] {
+            if !v.is_finite() {
+                return Err(RenderError::bad(name, v, "must be finite"));
+            }
+        }
+        if !self.background.iter().all(|v| v.is_finite()) {
             return Err(RenderError::bad(
-                "shading",
-                format!("{self:?}"),
-                "colours, lights and terms must be finite; light directions nonzero",
+                "background",
+                format!("{:?}", self.background),
+                "must be finite",
             ));
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            if let Some(d) = l.direction
+                && !(d.is_finite() && d != Vec3::ZERO)
+            {
+                return Err(RenderError::bad(
+                    "light direction",
+                    format!("{} (lights[{i}])", v3(d)),
+                    "must be finite and nonzero: the direction the light travels, e.g. [0, -1, 0] for light from above",
+                ));
+            }
+            if let Some(p) = l.position
+                && !p.is_finite()
+            {
+                return Err(RenderError::bad(
+                    "light position",
+                    format!("{} (lights[{i}])", v3(p)),
+                    "must be finite",
+                ));
+            }
+            if !(l.color.is_finite() && l.intensity.is_finite()) {
+                return Err(RenderError::bad(
+                    "light color and intensity",
+                    format!("{} and {} (lights[{i}])", v3(l.color), l.intensity),
+                    "must be finite",
+                ));
+            }
         }
         if !(self.shininess.is_finite() && self.shininess >= 0.0) {
             return Err(RenderError::bad(
