@@ -51,6 +51,8 @@ pub struct Args {
     /// Export the tree sampled on a grid (.nrrd or .npy).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: crate::cmd::volume_args::VolumeOut,
     /// Level of the exported grid (2^level + 1 samples a side) [default: min(max level, 8)].
     #[arg(long)]
     pub export_level: Option<u32>,
