@@ -64,9 +64,9 @@ fn document(
     }
     let asset = json!({"version": "2.0", "generator": "isokit"});
     if mesh.triangles.is_empty() {
-        // An empty scene: glTF has no empty primitive (every accessor holds one element).
+        // One empty node: glTF has no empty primitive (every accessor holds one element).
         return Ok((
-            json!({"asset": asset, "scene": 0, "scenes": [{}]}),
+            json!({"asset": asset, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{}]}),
             Vec::new(),
         ));
     }
@@ -136,7 +136,7 @@ fn document(
 
 /// Writes `mesh` atomically as glTF 2.0: binary `.glb` when `binary`, else `.gltf` with the
 /// buffer embedded as a base64 data URI. `colors` (8-bit sRGB per vertex) become a linear
-/// float `COLOR_0`. An empty mesh gives a scene without nodes.
+/// float `COLOR_0`. An empty mesh gives a scene of one node without a mesh.
 pub(crate) fn write_gltf(
     path: &Path,
     mesh: &TriMesh,
