@@ -288,6 +288,15 @@ impl MeshSdf {
         self.method
     }
 
+    /// Whether the sign flips only across the surface, so that a region far from every
+    /// triangle has one sign: unsigned distances, and pseudonormals on a watertight,
+    /// consistently oriented mesh. Winding-number signs flip on the winding number's 0.5
+    /// level set, which spans an open mesh's holes away from any triangle (counted as not
+    /// local whatever the mesh).
+    pub fn sign_is_local(&self) -> bool {
+        self.box_bound && self.method != SignMethod::Winding
+    }
+
     /// Why that method was chosen (e.g. "auto: watertight and consistently oriented").
     pub fn sign_reason(&self) -> &str {
         &self.reason
@@ -787,9 +796,9 @@ impl MeshSdf {
     /// [`isokit_field::BrickGrid::sample_field_job`]: one query at each brick's centre,
     /// with the distance's Lipschitz bound 1, decides), the others set to `±band` by the
     /// centre's sign; the result is clamped to `±band`. Equal to the dense fill (up to f32
-    /// sample positions) wherever the sign does not flip away from the surface, i.e. for
-    /// winding-number signs and for pseudonormals on a watertight, consistently oriented
-    /// mesh. Progress goes to `job` (stage `"sampling bricks"`).
+    /// sample positions) when [`MeshSdf::sign_is_local`]; otherwise a skipped brick may hold
+    /// a sign flip of the dense fill (across an open mesh's hole), so callers fill densely
+    /// then. Progress goes to `job` (stage `"sampling bricks"`).
     pub fn fill_band_lazy(
         &self,
         grid: &mut isokit_field::Grid,

@@ -47,6 +47,13 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
     let t = Instant::now();
     let job = super::progress::job();
     let (fill, lazy) = match a.band {
+        Some(w) if !a.dense && !sdf.sign_is_local() => {
+            eprintln!(
+                "note: every sample is queried (not only the bricks near the surface): {} signs may flip away from the surface",
+                sdf.sign_method().name()
+            );
+            (sdf.fill_grid(&mut grid, w, &job)?, String::new())
+        }
         Some(w) if !a.dense => {
             let l = sdf.fill_band_lazy(&mut grid, w, 4, &job)?;
             let how = format!(
