@@ -350,8 +350,15 @@ fn kdtree_band_is_lazy_by_bricks_and_equals_the_dense_band() {
         String::from_utf8_lossy(&isokit_ok(&a).stderr).into_owned()
     };
     let said = run(&lazy, &[]);
-    run(&dense, &["--dense"]);
+    let dense_said = run(&dense, &["--dense"]);
     assert!(said.contains("lazy band"), "{said}");
+    // Both count the samples inside the band alike (the clamped ±W is outside it).
+    let share = |t: &str| {
+        let end = t.find("% of samples inside the band").unwrap();
+        t[..end].rsplit(' ').next().unwrap().parse::<f64>().unwrap()
+    };
+    assert_eq!(share(&said), share(&dense_said), "{said}\n{dense_said}");
+    assert!(share(&said) < 50.0, "{said}");
     let (a, b) = (
         isokit::io::read_volume(&lazy).unwrap(),
         isokit::io::read_volume(&dense).unwrap(),

@@ -724,7 +724,9 @@ impl MeshSdf {
                     let (d, t) = self.signed_distance_band_near(p, band, hint, &mut fill.stats);
                     hint = t.or(hint);
                     *v = d as f32;
-                    fill.band_samples += u64::from((v.abs() as f64) < band);
+                    // Against the band as stored (f32): the clamped `±band` rounds below
+                    // the f64 band and must not count as inside it.
+                    fill.band_samples += u64::from(v.abs() < band as f32);
                 }
                 fill
             },
