@@ -101,6 +101,16 @@ fn npy_outputs_carry_their_lattice_and_readers_use_it() {
             args[0]
         );
     }
+    // A scene's volume source reads it too: its mesh lies where the NRRD route's does.
+    let vs = d.join("v.json");
+    std::fs::write(&vs, r#"{"shape": {"volume": {"path": "d.npy"}}}"#).unwrap();
+    let m3 = d.join("v.obj");
+    isokit_ok(&["scene", s(&vs), "--res", "24", "-o", s(&m3)]);
+    let (b3, b2) = (info(&m3)["bounds"].clone(), info(&m2)["bounds"].clone());
+    assert!(
+        close(&b3["min"], &b2["min"], 0.1) && close(&b3["max"], &b2["max"], 0.1),
+        "{b3} {b2}"
+    );
     // Without the sidecar a reader says so, and takes --origin and --spacing.
     std::fs::remove_file(d.join("d.npy.json")).unwrap();
     let out = isokit_ok(&["mesh", s(&npy), "-o", s(&m1)]);
