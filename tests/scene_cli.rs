@@ -182,9 +182,12 @@ fn coloured_parts_reach_the_ply_vertices() {
     let holes = [0.85f32, 0.35, 0.1].map(srgb);
     let body = [0.72f32, 0.72, 0.76].map(srgb);
     let (mut in_holes, mut in_body) = (0, 0);
+    // x y z, the vertex normal nx ny nz (f32 each), then red green blue.
+    assert!(header.contains("property float nx\nproperty float ny\nproperty float nz\n"));
+    let stride = 27;
     for i in 0..n {
-        let rec = &bytes[at + 15 * i..at + 15 * (i + 1)];
-        let rgb = [rec[12], rec[13], rec[14]];
+        let rec = &bytes[at + stride * i..at + stride * (i + 1)];
+        let rgb = [rec[24], rec[25], rec[26]];
         if rgb == holes {
             in_holes += 1;
             // A hole's wall is within a bolt radius (and a voxel) of the bolt circle.

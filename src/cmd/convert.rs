@@ -1,10 +1,8 @@
 //! `isokit convert IN OUT`: between mesh formats, cloud formats or volume formats.
 
 use anyhow::{Result, bail};
-use isokit_io::{
-    FileKind, detect_kind, read_mesh, read_points, read_volume, write_mesh, write_points,
-    write_volume,
-};
+use isokit_io::lattice::{Lattice, read_sidecar};
+use isokit_io::{FileKind, detect_kind, read_mesh, read_points, write_mesh, write_points};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `isokit convert`.
@@ -13,16 +11,21 @@ pub struct Args {
     /// Input file; its kind (mesh, cloud, volume) is taken from the extension and, for PLY,
     /// the header.
     pub input: PathBuf,
-    /// Output file of the same kind: mesh .obj .ply .stl .off; cloud .ply .xyz; volume
-    /// .nrrd .npy. Written to a temporary file and renamed.
+    /// Output file of the same kind: mesh .obj .ply .stl .off .glb .gltf (PLY and glTF with
+    /// vertex normals); cloud .ply .xyz; volume .nrrd .npy (with its lattice sidecar). Written
+    /// to a temporary file and renamed.
     pub output: PathBuf,
+    #[command(flatten)]
+    pub volume: super::volume_args::VolumeIn,
+    #[command(flatten)]
+    pub out: super::volume_args::VolumeOut,
 }
 
 fn output_kind(path: &Path, input: FileKind) -> Option<FileKind> {
     let name = path.to_string_lossy().to_ascii_lowercase();
     let ext = name.rsplit('.').next().unwrap_or("");
     match ext {
-        "obj" | "stl" | "off" => Some(FileKind::Mesh),
+        "obj" | "stl" | "off" | "glb" | "gltf" => Some(FileKind::Mesh),
         "xyz" => Some(FileKind::PointCloud),
         // PLY holds either; follow the input.
         "ply" if matches!(input, FileKind::Mesh | FileKind::PointCloud) => Some(input),
@@ -36,7 +39,7 @@ pub fn run(a: Args) -> Result<()> {
     let kind = detect_kind(&a.input)?;
     let Some(out_kind) = output_kind(&a.output, kind) else {
         bail!(
-            "{}: unknown output format (meshes: .obj .ply .stl .off; clouds: .ply .xyz; volumes: .nrrd .npy)",
+            "{}: unknown output format (meshes: .obj .ply .stl .off .glb .gltf; clouds: .ply .xyz; volumes: .nrrd .npy)",
             a.output.display()
         );
     };
@@ -72,8 +75,13 @@ pub fn run(a: Args) -> Result<()> {
             eprintln!("{} points -> {}", c.points.len(), a.output.display());
         }
         (FileKind::Volume, FileKind::Volume) => {
-            let v = read_volume(&a.input)?;
-            write_volume(&a.output, &v)?;
+            let v = a.volume.read(&a.input)?;
+            // An NPY input's band, inside and sign travel with it.
+            let meta = match read_sidecar(&a.input) {
+                Ok(Some(m)) => m,
+                _ => Lattice::of(&v),
+            };
+            a.out.write_meta(&a.output, &v, &meta)?;
             eprintln!("{:?} samples -> {}", v.dims, a.output.display());
         }
         (from, to) => bail!(

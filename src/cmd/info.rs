@@ -2,8 +2,9 @@
 
 use anyhow::Result;
 use isokit_field::Aabb;
+use isokit_io::lattice::{read_sidecar, sidecar_path};
 use isokit_io::{
-    FileKind, detect_kind, read_exr_info, read_mesh, read_png, read_points, read_volume,
+    FileKind, VolumeFormat, detect_kind, read_exr_info, read_mesh, read_png, read_points,
 };
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -17,6 +18,8 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub volume: super::volume_args::VolumeIn,
 }
 
 fn bounds_json(b: &Aabb) -> Value {
@@ -94,7 +97,9 @@ pub fn run(a: Args) -> Result<()> {
             (t, v)
         }
         FileKind::Volume => {
-            let vol = read_volume(path)?;
+            let vol = a.volume.read(path)?;
+            let npy = VolumeFormat::from_path(path).ok() == Some(VolumeFormat::Npy);
+            let side = if npy { read_sidecar(path)? } else { None };
             let nan = vol.data.iter().filter(|x| !x.is_finite()).count();
             let b = vol.bounds();
             let range = vol.min_max().map(|(lo, hi)| [lo, hi]);
@@ -108,9 +113,24 @@ pub fn run(a: Args) -> Result<()> {
                 "bounds": bounds_json(&b),
                 "range": range,
                 "non_finite_samples": nan,
+                "sidecar": npy.then(|| side.is_some()),
+                "band": side.as_ref().and_then(|s| s.band),
+                "inside": side.as_ref().map(|s| s.inside_name()),
+                "sign": side.as_ref().and_then(|s| s.sign.clone()),
             });
+            let lattice = match (&side, npy) {
+                (Some(s), _) => format!(
+                    "\n  lattice: from {} (band {}, inside {}, sign {})",
+                    sidecar_path(path).display(),
+                    s.band.map_or("none".into(), |b| b.to_string()),
+                    s.inside_name(),
+                    s.sign.as_deref().unwrap_or("none")
+                ),
+                (None, true) => "\n  lattice: no sidecar (origin and spacing from --origin/--spacing, else 0 and 1)".into(),
+                (None, false) => String::new(),
+            };
             let t = format!(
-                "{}: volume\n  samples: {} x {} x {}\n  origin: {:?}\n  spacing: {:?}{}\n  bounds: {}\n  range: {}\n  non-finite samples: {}",
+                "{}: volume\n  samples: {} x {} x {}\n  origin: {:?}\n  spacing: {:?}{}\n  bounds: {}\n  range: {}\n  non-finite samples: {}{lattice}",
                 path.display(),
                 vol.dims[0],
                 vol.dims[1],

@@ -2,7 +2,7 @@
 
 use super::check_output;
 use anyhow::{Result, bail};
-use isokit_io::{read_volume, write_mesh};
+use isokit_io::write_mesh;
 use isokit_levelset::meshing::{MeshOptions, mesh_grid};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -21,7 +21,7 @@ pub enum Inside {
 pub struct Args {
     /// Volume (.nrrd .nhdr .npy .nii .nii.gz).
     pub field: PathBuf,
-    /// Output mesh (.obj, .ply, .stl, .off).
+    /// Output mesh (.obj, .ply, .stl, .off, .glb, .gltf; PLY and glTF with vertex normals).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Isovalue.
@@ -34,15 +34,20 @@ pub struct Args {
     /// so the mesh stays watertight).
     #[arg(long)]
     pub open: bool,
+    #[command(flatten)]
+    pub volume: super::volume_args::VolumeIn,
 }
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    check_output(&a.output, &[".obj", ".ply", ".stl", ".off"])?;
+    check_output(
+        &a.output,
+        &[".obj", ".ply", ".stl", ".off", ".glb", ".gltf"],
+    )?;
     if !a.iso.is_finite() {
         bail!("--iso {} must be finite", a.iso);
     }
-    let mut grid = read_volume(&a.field)?.into_grid()?;
+    let mut grid = a.volume.read(&a.field)?.into_grid()?;
     let mut iso = a.iso;
     if a.inside == Inside::Above {
         grid.data_mut().iter_mut().for_each(|v| *v = -*v);

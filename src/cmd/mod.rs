@@ -24,6 +24,7 @@ pub mod sample_options;
 pub mod scene;
 pub mod sdf;
 pub mod view;
+pub mod volume_args;
 
 use anyhow::{Context, bail};
 use glam::Vec3;
@@ -89,9 +90,8 @@ pub fn padded_grid(
     Ok(isokit_field::Grid::covering(bounds, res, pad)?)
 }
 
-/// A volume file as a uniform grid (anisotropic volumes resampled, with a note).
-pub fn read_grid(path: &std::path::Path) -> anyhow::Result<isokit_field::Grid> {
-    let v = isokit_io::read_volume(path)?;
+/// A volume as a uniform grid (anisotropic volumes resampled, with a note).
+pub fn uniform_grid(v: isokit_io::Volume) -> anyhow::Result<isokit_field::Grid> {
     Ok(if v.is_uniform() {
         v.into_grid()?
     } else {

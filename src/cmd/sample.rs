@@ -5,8 +5,8 @@
 use super::{check_output, parse_vec3};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use isokit_field::{Aabb, Field, Grid, sample_into};
-use isokit_io::{Volume, write_volume};
+use isokit_field::{Field, sample_into};
+use isokit_io::Volume;
 use isokit_scene::primitives::PrimitiveKind;
 use isokit_scene::{Node, Scene};
 use std::path::PathBuf;
@@ -42,22 +42,22 @@ impl clap::ValueEnum for Shape {
 
 /// Arguments of `isokit sample`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = super::volume_args::LAYOUT)]
 pub struct Args {
     /// The primitive; each takes only its own options (defaults shown), plus the
     /// transforms.
     pub shape: Shape,
-    /// Output volume (.nrrd, gzip-encoded, or .npy with shape (nz, ny, nx)).
+    /// Output volume (.nrrd, or .npy with its lattice sidecar .npy.json; see below).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Samples along the longest axis of the sampled box (others get the same spacing).
     #[arg(long, default_value_t = 64)]
     pub res: usize,
-    /// Margin around the shape's bounds, in world units [default: 10% of the bounds' diagonal].
-    #[arg(long, allow_hyphen_values = true)]
-    pub pad: Option<f32>,
-    /// Box to sample, "x0,y0,z0,x1,y1,z1" (required for the unbounded plane).
-    #[arg(long, allow_hyphen_values = true)]
-    pub bounds: Option<String>,
+    /// Where the lattice lies (--bounds is required for the unbounded plane).
+    #[command(flatten)]
+    pub lattice: super::volume_args::LatticeArgs,
+    #[command(flatten)]
+    pub out: super::volume_args::VolumeOut,
     #[command(flatten)]
     pub options: super::sample_options::ShapeOptions,
     /// Uniform scale applied to the shape (about the origin), before rotation.
@@ -113,33 +113,20 @@ pub fn run(a: Args) -> Result<()> {
     let shape = a.shape.0;
     let scene = Scene::from_node(transformed(&a, shape_node(shape, &a.options)?)?)?;
     let name = shape.cli_name();
-    let (bounds, pad) = match &a.bounds {
-        Some(s) => {
-            let v = parse_numbers(s, 6, "bounds")?;
-            let b = Aabb::from_corners(Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
-            (b, a.pad.unwrap_or(0.0))
-        }
-        None => {
-            let b = scene.bounds();
-            if !b.is_finite() {
-                bail!(
-                    "a {name} is unbounded: give the box to sample with --bounds x0,y0,z0,x1,y1,z1"
-                );
-            }
-            (b, a.pad.unwrap_or(0.1 * b.diagonal()))
-        }
-    };
-    if let Some(why) = Grid::padding_problem(bounds, a.res, pad) {
-        bail!("--pad {pad} {why}");
+    let p = &a.lattice.placement;
+    if p.bounds.is_none() && p.like.is_none() && !scene.bounds().is_finite() {
+        bail!("a {name} is unbounded: give the box to sample with --bounds x0,y0,z0,x1,y1,z1");
     }
+    let mut grid = a
+        .lattice
+        .grid(std::path::Path::new(name), scene.bounds(), a.res)?;
     let start = Instant::now();
-    let mut grid = Grid::covering(bounds, a.res, pad)?;
     sample_into(scene.field(), &mut grid);
     let secs = start.elapsed().as_secs_f64();
     let (lo, hi) = grid.min_max().unwrap_or((f32::NAN, f32::NAN));
     let (dims, spacing, origin) = (grid.dims(), grid.spacing(), grid.origin());
     // The volume takes the grid's samples: no second copy at the size limit.
-    write_volume(&a.output, &Volume::from(grid))?;
+    a.out.write(&a.output, &Volume::from(grid), None, None)?;
     eprintln!(
         "{name}: {} x {} x {} samples, spacing {spacing}, origin {:?}, range {lo} .. {hi}, sampled in {secs:.3} s -> {}",
         dims[0],

@@ -4,17 +4,19 @@
 use super::check_output;
 use anyhow::{Result, bail};
 use glam::Vec3;
-use isokit_io::{Volume, write_mesh, write_ply_colored, write_volume};
+use isokit_io::{Volume, write_mesh, write_mesh_colored};
 use isokit_scene::{MeshOptions, SampleOptions, Scene, clamp_to_band, mesh_scene, vertex_colors};
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `isokit scene`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = super::volume_args::LAYOUT)]
 pub struct Args {
     /// Scene file (.json or .toml).
     pub scene: PathBuf,
-    /// Output: a volume (.nrrd, .npy) or a mesh (.obj, .ply, .stl, .off).
+    /// Output: a volume (.nrrd, .npy with its lattice sidecar; see below) or a mesh (.obj,
+    /// .ply, .stl, .off, .glb, .gltf; PLY and glTF carry the nodes' colours).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Samples along the longest side of the domain [default: the scene's
@@ -36,10 +38,16 @@ pub struct Args {
     /// `seconds`, per-source query counts, …).
     #[arg(long)]
     pub stats: bool,
+    /// The domain: --bounds (instead of the scene's box padded by the band) or another
+    /// volume's lattice.
+    #[command(flatten)]
+    pub placement: super::volume_args::Placement,
+    #[command(flatten)]
+    pub out: super::volume_args::VolumeOut,
 }
 
 const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
-const MESHES: [&str; 4] = [".obj", ".ply", ".stl", ".off"];
+const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
 
 /// The node kinds a scene file can hold, for `--help` (from the library's list).
 pub fn node_kinds_help() -> String {
@@ -71,6 +79,12 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(b) = a.brick {
         opts.brick = b;
     }
+    if let Some(b) = a.placement.bounds()? {
+        opts.bounds = Some(b);
+    }
+    if let Some(like) = &a.placement.like {
+        opts.lattice = Some(super::volume_args::like_lattice(like)?);
+    }
     let t1 = Instant::now();
     let job = super::progress::job();
     let (stats, triangles) = if to_mesh {
@@ -80,20 +94,22 @@ pub fn run(a: Args) -> Result<()> {
         };
         let (mesh, st) = mesh_scene(&scene, &mo, &job)?;
         match vertex_colors(&scene, &mesh, st.sampling.spacing) {
-            Some(colors) if name.ends_with(".ply") => write_ply_colored(&a.output, &mesh, &colors)?,
-            _ => write_mesh(&a.output, &mesh)?,
+            Some(colors) => write_mesh_colored(&a.output, &mesh, &colors)?,
+            None => write_mesh(&a.output, &mesh)?,
         }
         (st.sampling, Some(st.triangles))
     } else if a.dense {
         let (mut grid, stats) = scene.sample_dense(&opts)?;
         clamp_to_band(&mut grid, stats.band);
-        write_volume(&a.output, &Volume::from(grid))?;
+        a.out
+            .write(&a.output, &Volume::from(grid), Some(stats.band), None)?;
         (stats, None)
     } else {
         // Kept bricks hold exact values a little beyond the band: clamped, so the file
         // reads "exact within W, ±W beyond" everywhere.
         let (grid, stats) = scene.sample_grid_job(&opts, &job)?;
-        write_volume(&a.output, &Volume::from(grid))?;
+        a.out
+            .write(&a.output, &Volume::from(grid), Some(stats.band), None)?;
         (stats, None)
     };
     let total = t1.elapsed().as_secs_f64();

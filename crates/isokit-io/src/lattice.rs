@@ -60,15 +60,35 @@ impl Lattice {
         }
     }
 
+    /// The lattice of `volume` with the band, inside and sign of `meta` (whose geometry
+    /// fields are ignored).
+    pub fn with_geometry_of(meta: &Self, volume: &Volume) -> Self {
+        Self {
+            origin: volume.origin.to_array(),
+            spacing: volume.spacing.to_array(),
+            dims: volume.dims,
+            ..meta.clone()
+        }
+    }
+
+    /// `"below"` or `"above"`, as the sidecar spells [`Lattice::inside`].
+    pub fn inside_name(&self) -> &'static str {
+        match self.inside {
+            Inside::Below => "below",
+            Inside::Above => "above",
+        }
+    }
+
     /// The sidecar's JSON object.
     pub fn to_json(&self) -> Value {
+        let num = |x: f32| short_json(x);
         json!({
-            "origin": self.origin,
-            "spacing": self.spacing,
+            "origin": self.origin.map(num),
+            "spacing": self.spacing.map(num),
             "dims": self.dims,
             "axis_order": "zyx",
-            "band": self.band,
-            "inside": match self.inside { Inside::Below => "below", Inside::Above => "above" },
+            "band": self.band.map(num),
+            "inside": self.inside_name(),
             "sign": self.sign,
         })
     }
@@ -146,6 +166,16 @@ impl Lattice {
     }
 }
 
+/// An f32 as the JSON number of its shortest decimal form (`0.15`, not the f64 widening
+/// `0.15000000596046448`); it reads back as the same f32. Non-finite values become `null`.
+fn short_json(x: f32) -> Value {
+    format!("{x}")
+        .parse::<f64>()
+        .ok()
+        .and_then(serde_json::Number::from_f64)
+        .map_or(Value::Null, Value::Number)
+}
+
 /// The sidecar of an NPY file: `d.npy` → `d.npy.json`.
 pub fn sidecar_path(npy: &Path) -> PathBuf {
     let mut s = npy.as_os_str().to_owned();
@@ -184,6 +214,17 @@ pub(crate) fn apply(volume: &mut Volume, lattice: &Lattice, npy: &Path) -> Resul
         .map_err(|e| IoError::malformed(&sidecar_path(npy), format!("the lattice is invalid: {e}")))
 }
 
+/// Refuses a band that is not finite and positive, naming `path`.
+pub(crate) fn check_band(lattice: &Lattice, path: &Path) -> Result<(), IoError> {
+    match lattice.band {
+        Some(b) if !(b.is_finite() && b > 0.0) => Err(IoError::invalid_input(
+            path,
+            format!("band {b} must be finite and positive"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Writes `volume` atomically as an f32 NPY array of shape `(nz, ny, nx)` and its lattice
 /// sidecar `<path>.json` (origin, spacing and dims from the volume; band, inside and sign
 /// from `lattice`, whose geometry fields are ignored).
@@ -191,22 +232,10 @@ pub fn write_npy_volume(path: &Path, volume: &Volume, lattice: &Lattice) -> Resu
     volume
         .check()
         .map_err(|e| IoError::invalid_input(path, e.to_string()))?;
-    if let Some(b) = lattice.band
-        && !(b.is_finite() && b > 0.0)
-    {
-        return Err(IoError::invalid_input(
-            path,
-            format!("band {b} must be finite and positive"),
-        ));
-    }
+    check_band(lattice, path)?;
     let [nx, ny, nz] = volume.dims;
     npy::write_npy_f32(path, &[nz, ny, nx], &volume.data)?;
-    let meta = Lattice {
-        origin: volume.origin.to_array(),
-        spacing: volume.spacing.to_array(),
-        dims: volume.dims,
-        ..lattice.clone()
-    };
+    let meta = Lattice::with_geometry_of(lattice, volume);
     let side = sidecar_path(path);
     let text = serde_json::to_string_pretty(&meta.to_json())
         .map_err(|e| IoError::invalid_input(&side, e.to_string()))?;

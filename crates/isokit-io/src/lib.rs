@@ -4,9 +4,9 @@
 //!
 //! | what | type | read | write |
 //! | --- | --- | --- | --- |
-//! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY, STL, OFF |
+//! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY (with normals), STL, OFF, glTF/GLB (with normals); [`write_mesh_colored`]: PLY, glTF/GLB with vertex colours |
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
-//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY; [`lattice::write_npy_volume`]: NPY + sidecar |
+//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY; [`write_volume_with`]: NRRD (chosen compression, band/inside/sign key/values), NPY + sidecar |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
 //! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
 //!
@@ -51,6 +51,7 @@
 mod atomic;
 mod error;
 mod gltf_read;
+mod gltf_write;
 mod image;
 mod kind;
 pub mod lattice;
@@ -75,6 +76,7 @@ pub mod reader {
 
 pub use atomic::{atomic_write, temporary_name};
 pub use error::IoError;
+pub use gltf_write::vertex_normals;
 pub use image::{
     ExrCamera, ExrImage, ExrInfo, MAX_EXR_SAMPLES, encode_png, linear_to_srgb8, read_exr,
     read_exr_bytes, read_exr_info, read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear,
@@ -83,12 +85,12 @@ pub use image::{
 pub use isokit_field::{DEGENERATE_REL_TOL, MeshReport, PointCloud, TriMesh, generate};
 pub use kind::{FileKind, detect_kind};
 pub use mesh::{
-    MeshFormat, read_mesh, read_mesh_bytes, write_mesh, write_ply_ascii, write_ply_colored,
-    write_stl_ascii,
+    MeshFormat, read_mesh, read_mesh_bytes, write_mesh, write_mesh_colored, write_ply_ascii,
+    write_ply_colored, write_stl_ascii,
 };
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};
 pub use volume::{
     ISOTROPY_TOL, NrrdEncoding, Volume, VolumeFormat, read_volume, read_volume_bytes, write_nrrd,
-    write_nrrd_raw, write_volume,
+    write_nrrd_raw, write_volume, write_volume_with,
 };

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use crate::util::{extension, read_file};
-use crate::{IoError, TriMesh, gltf_read, obj, off, ply, stl};
+use crate::{IoError, TriMesh, gltf_read, gltf_write, obj, off, ply, stl};
 use glam::Vec3;
 
 /// The mesh file formats this crate reads, chosen by extension.
@@ -49,7 +49,7 @@ impl MeshFormat {
 
     /// Whether [`write_mesh`] can write this format.
     pub fn can_write(self) -> bool {
-        !matches!(self, MeshFormat::Gltf | MeshFormat::Glb)
+        true
     }
 }
 
@@ -97,7 +97,9 @@ fn read_mesh_from(bytes: &[u8], format: MeshFormat, path: &Path) -> Result<TriMe
 }
 
 /// Writes a mesh atomically, choosing the format by extension: `.obj` (`v` and `f` lines),
-/// `.ply` (binary little-endian), `.stl` (binary), `.off`. glTF is not written.
+/// `.ply` (binary little-endian, with angle-weighted vertex normals `nx ny nz`), `.stl`
+/// (binary), `.off`, `.glb` and `.gltf` (glTF 2.0 with `NORMAL`, one buffer: embedded as a
+/// base64 data URI in `.gltf`).
 ///
 /// Refuses (without touching the file) a mesh with an out-of-range index. See also
 /// [`write_ply_ascii`] and [`write_stl_ascii`].
@@ -107,10 +109,20 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
         MeshFormat::Ply => ply::write_ply_mesh(path, mesh, false),
         MeshFormat::Stl => stl::write_stl(path, mesh, false),
         MeshFormat::Off => off::write_off(path, mesh),
-        MeshFormat::Gltf | MeshFormat::Glb => Err(IoError::UnknownFormat {
-            path: path.to_path_buf(),
-            expected: ".obj, .ply, .stl or .off (glTF is read, not written)",
-        }),
+        MeshFormat::Gltf => gltf_write::write_gltf(path, mesh, None, false),
+        MeshFormat::Glb => gltf_write::write_gltf(path, mesh, None, true),
+    }
+}
+
+/// Writes a mesh with an 8-bit sRGB colour per vertex where the format holds colours:
+/// binary PLY (`red green blue`), glTF and GLB (`COLOR_0`, linear float); the other
+/// formats are written by [`write_mesh`] without them.
+pub fn write_mesh_colored(path: &Path, mesh: &TriMesh, colors: &[[u8; 3]]) -> Result<(), IoError> {
+    match MeshFormat::from_path(path)? {
+        MeshFormat::Ply => ply::write_ply_mesh_colored(path, mesh, Some(colors), false),
+        MeshFormat::Gltf => gltf_write::write_gltf(path, mesh, Some(colors), false),
+        MeshFormat::Glb => gltf_write::write_gltf(path, mesh, Some(colors), true),
+        _ => write_mesh(path, mesh),
     }
 }
 

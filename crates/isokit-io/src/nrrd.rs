@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use isokit_field::checked_len;
 
+use crate::lattice::Lattice;
 use crate::util::{Endian, Scalar, gunzip, parse_f64, read_referenced, show, tokens};
 use crate::{IoError, NrrdEncoding, Volume, atomic_write};
 
@@ -400,37 +401,63 @@ pub(crate) fn flip_negative_axes(v: &mut Volume) {
     }
 }
 
-pub(crate) fn write_nrrd(path: &Path, vol: &Volume, encoding: NrrdEncoding) -> Result<(), IoError> {
+pub(crate) fn write_nrrd(
+    path: &Path,
+    vol: &Volume,
+    encoding: NrrdEncoding,
+    meta: Option<&Lattice>,
+) -> Result<(), IoError> {
     vol.check()
         .map_err(|e| IoError::invalid_input(path, e.to_string()))?;
     let [nx, ny, nz] = vol.dims;
     let (s, o) = (vol.spacing, vol.origin);
-    let enc = match encoding {
-        NrrdEncoding::Raw => "raw",
-        NrrdEncoding::Gzip => "gzip",
+    let (enc, level) = match encoding {
+        NrrdEncoding::Raw => ("raw", None),
+        NrrdEncoding::Gzip => ("gzip", Some(flate2::Compression::fast())),
+        NrrdEncoding::GzipBest => ("gzip", Some(flate2::Compression::best())),
     };
-    let header = format!(
+    let mut header = format!(
         "NRRD0004\n# written by isokit\ntype: float\ndimension: 3\nspace dimension: 3\n\
          sizes: {nx} {ny} {nz}\nspace directions: ({},0,0) (0,{},0) (0,0,{})\n\
-         kinds: domain domain domain\nendian: little\nencoding: {enc}\nspace origin: ({},{},{})\n\n",
+         kinds: domain domain domain\nendian: little\nencoding: {enc}\nspace origin: ({},{},{})\n",
         s.x, s.y, s.z, o.x, o.y, o.z
     );
+    // The lattice's meaning as key/value pairs (NRRD0004 `key:=value`), under the names of
+    // the NPY sidecar.
+    if let Some(m) = meta {
+        if let Some(b) = m.band {
+            header.push_str(&format!("band:={b}\n"));
+        }
+        header.push_str(&format!("inside:={}\n", m.inside_name()));
+        if let Some(sign) = &m.sign {
+            header.push_str(&format!("sign:={sign}\n"));
+        }
+    }
+    header.push('\n');
     atomic_write(path, |w| {
         w.write_all(header.as_bytes())?;
-        match encoding {
-            NrrdEncoding::Raw => {
-                for v in &vol.data {
-                    w.write_all(&v.to_le_bytes())?;
-                }
-            }
-            NrrdEncoding::Gzip => {
-                let mut gz = flate2::write::GzEncoder::new(w, flate2::Compression::new(6));
-                for v in &vol.data {
-                    gz.write_all(&v.to_le_bytes())?;
-                }
+        match level {
+            None => write_le(w, &vol.data)?,
+            Some(level) => {
+                // One gzip member (pynrrd, for one, reads only the first).
+                let mut gz = flate2::write::GzEncoder::new(w, level);
+                write_le(&mut gz, &vol.data)?;
                 gz.finish()?;
             }
         }
         Ok(())
     })
+}
+
+/// Writes samples as little-endian f32 in blocks (one `write_all` per 64 Ki samples).
+fn write_le(w: &mut dyn Write, data: &[f32]) -> std::io::Result<()> {
+    let mut buf = Vec::with_capacity(4 << 16);
+    for chunk in data.chunks(1 << 16) {
+        buf.clear();
+        for v in chunk {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&buf)?;
+    }
+    Ok(())
 }

@@ -507,6 +507,7 @@ pub(crate) fn write_ply_mesh_colored(
             ),
         ));
     }
+    let normals = crate::gltf_write::vertex_normals(mesh);
     atomic_write(path, |w| {
         let fmt = if ascii {
             "ascii"
@@ -521,28 +522,30 @@ pub(crate) fn write_ply_mesh_colored(
         write!(
             w,
             "ply\nformat {fmt} 1.0\ncomment written by isokit\nelement vertex {}\n\
-             property float x\nproperty float y\nproperty float z\n{color_props}element face {}\n\
+             property float x\nproperty float y\nproperty float z\n\
+             property float nx\nproperty float ny\nproperty float nz\n{color_props}element face {}\n\
              property list uchar {} vertex_indices\nend_header\n",
             mesh.positions.len(),
             mesh.triangles.len(),
             index_type(mesh.positions.len())
         )?;
         if ascii {
-            for (i, p) in mesh.positions.iter().enumerate() {
+            for (i, (p, n)) in mesh.positions.iter().zip(&normals).enumerate() {
+                write!(w, "{} {} {} {} {} {}", p.x, p.y, p.z, n.x, n.y, n.z)?;
                 match colors {
                     Some(c) => {
                         let [r, g, b] = c[i];
-                        writeln!(w, "{} {} {} {r} {g} {b}", p.x, p.y, p.z)?
+                        writeln!(w, " {r} {g} {b}")?
                     }
-                    None => writeln!(w, "{} {} {}", p.x, p.y, p.z)?,
+                    None => writeln!(w)?,
                 }
             }
             for t in &mesh.triangles {
                 writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
             }
         } else {
-            for (i, p) in mesh.positions.iter().enumerate() {
-                for x in p.to_array() {
+            for (i, (p, n)) in mesh.positions.iter().zip(&normals).enumerate() {
+                for x in p.to_array().into_iter().chain(n.to_array()) {
                     w.write_all(&x.to_le_bytes())?;
                 }
                 if let Some(c) = colors {

@@ -44,7 +44,8 @@ fn mesh_ply_reads_as_points_and_is_detected_as_mesh() {
     assert_eq!(detect_kind(&p).unwrap(), FileKind::Mesh);
     let c = read_points(&p).unwrap();
     assert_eq!(c.points, m.positions);
-    assert!(c.normals.is_none());
+    // A mesh's PLY carries its vertex normals (it had none before they were written).
+    assert_eq!(c.normals, Some(isokit_io::vertex_normals(&m)));
 }
 
 #[test]

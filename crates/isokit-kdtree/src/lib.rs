@@ -30,5 +30,7 @@ pub mod pseudonormal;
 pub mod tree;
 pub mod triangle;
 
-pub use mesh::{GridFill, MeshError, MeshHit, MeshOptions, MeshSdf, SignMethod, SignMode};
+pub use mesh::{
+    GridFill, LazyFill, MeshError, MeshHit, MeshOptions, MeshSdf, SignMethod, SignMode,
+};
 pub use tree::{BuildParams, KdTree, QueryStats};

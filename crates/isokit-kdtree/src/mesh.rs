@@ -288,6 +288,15 @@ impl MeshSdf {
         self.method
     }
 
+    /// Whether the sign flips only across the surface, so that a region far from every
+    /// triangle has one sign: unsigned distances, and pseudonormals on a watertight,
+    /// consistently oriented mesh. Winding-number signs flip on the winding number's 0.5
+    /// level set, which spans an open mesh's holes away from any triangle (counted as not
+    /// local whatever the mesh).
+    pub fn sign_is_local(&self) -> bool {
+        self.box_bound && self.method != SignMethod::Winding
+    }
+
     /// Why that method was chosen (e.g. "auto: watertight and consistently oriented").
     pub fn sign_reason(&self) -> &str {
         &self.reason
@@ -715,7 +724,9 @@ impl MeshSdf {
                     let (d, t) = self.signed_distance_band_near(p, band, hint, &mut fill.stats);
                     hint = t.or(hint);
                     *v = d as f32;
-                    fill.band_samples += u64::from((v.abs() as f64) < band);
+                    // Against the band as stored (f32): the clamped `±band` rounds below
+                    // the f64 band and must not count as inside it.
+                    fill.band_samples += u64::from(v.abs() < band as f32);
                 }
                 fill
             },
@@ -725,6 +736,107 @@ impl MeshSdf {
                 a
             },
         )
+    }
+}
+
+/// What [`MeshSdf::fill_band_lazy`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LazyFill {
+    /// Queries and band samples, as [`MeshSdf::fill_grid`] counts them (over the evaluated
+    /// samples only).
+    pub fill: GridFill,
+    /// The share of the dense lattice's samples evaluated (one per skipped brick counted).
+    pub evaluated_fraction: f64,
+    /// Bricks evaluated.
+    pub bricks_kept: usize,
+    /// Bricks of the lattice.
+    pub bricks_total: usize,
+}
+
+/// The distance clamped to `±cap` with its query counts: what the lazy band evaluates.
+struct BandField<'a> {
+    sdf: &'a MeshSdf,
+    cap: f64,
+    nodes: std::sync::atomic::AtomicU64,
+    prims: std::sync::atomic::AtomicU64,
+}
+
+thread_local! {
+    /// The closest triangle of this thread's previous query: the samples of a brick are
+    /// evaluated in order on one thread, so it warm-starts the next (values unchanged; any
+    /// index is a safe start, `closest_near` range-checks it and only uses its distance).
+    static HINT: std::cell::Cell<Option<u32>> = const { std::cell::Cell::new(None) };
+}
+
+impl Field for BandField<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        use std::sync::atomic::Ordering::Relaxed;
+        let mut st = QueryStats::default();
+        let hint = HINT.get();
+        let (d, t) = self
+            .sdf
+            .signed_distance_band_near(p.as_dvec3(), self.cap, hint, &mut st);
+        HINT.set(t.or(hint));
+        self.nodes.fetch_add(st.nodes_visited, Relaxed);
+        self.prims.fetch_add(st.prims_tested, Relaxed);
+        d as f32
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.sdf.bounds
+    }
+
+    /// The distance's magnitude is 1-Lipschitz (its sign flips only across the surface).
+    fn lipschitz(&self) -> f32 {
+        1.0
+    }
+}
+
+impl MeshSdf {
+    /// [`MeshSdf::fill_grid`] with a finite `band`, computed only in the bricks of `brick`³
+    /// samples that may come within `band` of the surface (the lazy band sampling of
+    /// [`isokit_field::BrickGrid::sample_field_job`]: one query at each brick's centre,
+    /// with the distance's Lipschitz bound 1, decides), the others set to `±band` by the
+    /// centre's sign; the result is clamped to `±band`. Equal to the dense fill (up to f32
+    /// sample positions) when [`MeshSdf::sign_is_local`]; otherwise a skipped brick may hold
+    /// a sign flip of the dense fill (across an open mesh's hole), so callers fill densely
+    /// then. Progress goes to `job` (stage `"sampling bricks"`).
+    pub fn fill_band_lazy(
+        &self,
+        grid: &mut isokit_field::Grid,
+        band: f64,
+        brick: usize,
+        job: &Job,
+    ) -> Result<LazyFill, isokit_field::FieldError> {
+        let (dims, origin, h) = (grid.dims(), grid.origin(), grid.spacing());
+        let b = band as f32;
+        // Just above what the brick test needs (see `BrickGrid::sample_field`).
+        let reach = 0.5 * brick as f32 * h * 3f32.sqrt();
+        let field = BandField {
+            sdf: self,
+            cap: f64::from((b + reach) * 1.001 + h),
+            nodes: Default::default(),
+            prims: Default::default(),
+        };
+        let bricks = isokit_field::BrickGrid::sample_field_job(
+            &field, dims, origin, h, brick, 0, b, b, job,
+        )?;
+        let mut out = bricks.to_grid()?;
+        out.clamp_to_band(b);
+        let band_samples = out.data().iter().filter(|v| v.abs() < b).count() as u64;
+        *grid = out;
+        Ok(LazyFill {
+            fill: GridFill {
+                stats: QueryStats {
+                    nodes_visited: field.nodes.into_inner(),
+                    prims_tested: field.prims.into_inner(),
+                },
+                band_samples,
+            },
+            evaluated_fraction: bricks.evaluated_fraction(),
+            bricks_kept: bricks.brick_count(),
+            bricks_total: bricks.brick_dims().iter().product(),
+        })
     }
 }
 

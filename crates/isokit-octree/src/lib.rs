@@ -70,7 +70,7 @@ pub use hashed::{Accessor, HashedOctree};
 pub use interp::{trilerp, trilerp_gradient};
 pub use key::{CacheStats, MAX_LEVEL};
 pub use linked::{ALLOC_OVERHEAD, LinkedOctree};
-pub use measure::{AccessRow, TreeErrors, errors, table_3_1, test_points};
+pub use measure::{AccessRow, BoundMiss, TreeErrors, bound_misses, errors, table_3_1, test_points};
 
 use glam::{DVec3, IVec3, UVec3, Vec3};
 use isokit_field::{BrickGrid, Field, Grid};

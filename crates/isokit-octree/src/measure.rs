@@ -98,6 +98,53 @@ pub fn errors(tree: &HashedOctree, field: &dyn Field, pts: &[Vec3]) -> TreeError
     }
 }
 
+/// Where a tree misses an error bound at test points (see [`bound_misses`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundMiss {
+    /// Leaves holding a test point where `|tree − field| > bound`.
+    pub missed_cells: usize,
+    /// Of those, leaves at the maximum level: there the maximum level, not the bound,
+    /// stopped the refinement.
+    pub missed_at_max_level: usize,
+    /// The largest `|tree − field|` in a missed leaf at the maximum level (0 when none).
+    pub worst_at_max_level: f64,
+    /// The maximum level at which that worst miss would meet the bound, estimated from the
+    /// trilinear reconstruction's `O(h²)` error (each level halves `h`, so quarters the
+    /// error): `max_level + ceil(log4(worst / bound))`. `None` when no leaf at the maximum
+    /// level misses, or for a bound of 0 (met at no level).
+    pub level_for_bound: Option<u32>,
+}
+
+/// The leaves of `tree` that miss `bound` at one of `pts` (test points, e.g. from
+/// [`test_points`]), and the maximum level that would meet it.
+pub fn bound_misses(tree: &HashedOctree, field: &dyn Field, pts: &[Vec3], bound: f64) -> BoundMiss {
+    let mut exact = vec![0.0f32; pts.len()];
+    field.values(pts, &mut exact);
+    let l = tree.domain().max_level();
+    let mut a = tree.accessor();
+    let mut cells = std::collections::HashSet::new();
+    let mut worst = 0.0f64;
+    for (&p, &e) in pts.iter().zip(&exact) {
+        let d = (a.value(p) - e).abs() as f64;
+        if d > bound {
+            let c = tree.locate_binary(p);
+            cells.insert((c.level, c.pos.to_array()));
+            if c.level == l {
+                worst = worst.max(d);
+            }
+        }
+    }
+    let at_max = cells.iter().filter(|(level, _)| *level == l).count();
+    let level_for_bound = (at_max > 0 && bound > 0.0 && worst.is_finite())
+        .then(|| l + ((worst / bound).log2() / 2.0).ceil().max(1.0) as u32);
+    BoundMiss {
+        missed_cells: cells.len(),
+        missed_at_max_level: at_max,
+        worst_at_max_level: worst,
+        level_for_bound,
+    }
+}
+
 /// One row of [`table_3_1`]: one dataset at one maximum level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AccessRow {

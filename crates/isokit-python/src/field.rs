@@ -7,7 +7,7 @@ use crate::run::{guarded, run};
 use crate::shape::{Shape, grid_from_array, vec3_arg};
 use glam::Vec3;
 use isokit_field::Grid;
-use isokit_io::lattice::{Lattice, write_npy_volume};
+use isokit_io::lattice::Lattice;
 use isokit_levelset::evolve::{EvolveOptions, MorphOptions, Scheme, Speed};
 use isokit_levelset::reinit::{Order, ReinitMethod, ReinitOptions};
 use isokit_scene::node::VolumeNode;
@@ -287,7 +287,8 @@ impl Field {
         )
     }
 
-    /// Writes the field: `.nrrd` (gzip-compressed float, origin and spacing in the header)
+    /// Writes the field: `.nrrd` (gzip-compressed float, origin and spacing in the header,
+    /// band, inside and sign as key/value pairs)
     /// or `.npy` (float32, shape `(nz, ny, nx)`) with its lattice in the sidecar
     /// `<path>.json` (`origin`, `spacing`, `dims`, `axis_order`, `band`, `inside`, `sign`),
     /// which `isokit` reads back.
@@ -309,8 +310,15 @@ impl Field {
         };
         py.detach(|| {
             guarded(|| match ext.as_deref() {
-                Some("nrrd") => isokit_io::write_volume(&path, &volume).map_err(io_err),
-                Some("npy") => write_npy_volume(&path, &volume, &lattice).map_err(io_err),
+                // One writer for the command line and Python: the NPY sidecar, or the
+                // NRRD header's band/inside/sign key/values.
+                Some("nrrd" | "npy") => isokit_io::write_volume_with(
+                    &path,
+                    &volume,
+                    &lattice,
+                    isokit_io::NrrdEncoding::Gzip,
+                )
+                .map_err(io_err),
                 _ => Err(PyValueError::new_err(format!(
                     "{}: unrecognized extension; a field is saved as .nrrd or .npy",
                     path.display()

@@ -235,6 +235,7 @@ impl Shape {
             brick: brick.or(s.brick).unwrap_or(d.brick),
             apron: 0,
             bounds: bounds.map(|[a, b]| Aabb::from_corners(Vec3::from(a), Vec3::from(b))),
+            lattice: None,
         }
     }
 }

@@ -23,6 +23,10 @@ pub struct SampleOptions {
     pub apron: usize,
     /// The domain (default the scene's).
     pub bounds: Option<Aabb>,
+    /// An exact lattice `(dims, origin, spacing)` to sample on instead of one covering the
+    /// domain (another volume's, so that the two combine sample for sample); `resolution`
+    /// and `bounds` are then not used.
+    pub lattice: Option<([usize; 3], Vec3, f32)>,
 }
 
 impl Default for SampleOptions {
@@ -33,6 +37,7 @@ impl Default for SampleOptions {
             brick: 4,
             apron: 0,
             bounds: None,
+            lattice: None,
         }
     }
 }
@@ -262,6 +267,9 @@ impl Scene {
     /// The lattice [`Scene::sample`] would use with `opts` (checked, nothing allocated).
     pub fn plan(&self, opts: &SampleOptions) -> Result<Plan, SceneError> {
         let err = |node: &str, m: String| SceneError::new(self.name(), node, m);
+        if let Some((dims, origin, spacing)) = opts.lattice {
+            return self.plan_on(opts, dims, origin, spacing);
+        }
         let domain = opts.bounds.unwrap_or_else(|| self.domain());
         if domain.is_empty() {
             return Err(err(
@@ -319,6 +327,50 @@ impl Scene {
         }
         let (dims, origin, spacing) = Grid::covering_geometry(domain, res, pad)
             .map_err(|e| err("sampling", e.to_string()))?;
+        Ok(Plan {
+            dims,
+            origin,
+            spacing,
+            band,
+            brick: opts.brick,
+        })
+    }
+}
+
+impl Scene {
+    /// The plan of [`Scene::plan`] on a given lattice.
+    fn plan_on(
+        &self,
+        opts: &SampleOptions,
+        dims: [usize; 3],
+        origin: Vec3,
+        spacing: f32,
+    ) -> Result<Plan, SceneError> {
+        let err = |m: String| SceneError::new(self.name(), "sampling", m);
+        isokit_field::checked_len(dims).map_err(|e| err(e.to_string()))?;
+        if dims.iter().any(|&d| d < 2) || !(spacing.is_finite() && spacing > 0.0) {
+            return Err(err(format!(
+                "the lattice {dims:?} with spacing {spacing} needs 2 samples a side and a positive spacing"
+            )));
+        }
+        if !origin.is_finite() {
+            return Err(err(format!("the lattice's origin {origin} is not finite")));
+        }
+        BrickGrid::check_brick(opts.brick).map_err(|e| {
+            SceneError::new(
+                self.name(),
+                "sampling.brick",
+                format!("{}: {e}", opts.brick),
+            )
+        })?;
+        let band = opts.band.unwrap_or(4.0 * spacing);
+        if !(band.is_finite() && band > 0.0) {
+            return Err(SceneError::new(
+                self.name(),
+                "sampling.band",
+                format!("{band} must be finite and positive"),
+            ));
+        }
         Ok(Plan {
             dims,
             origin,

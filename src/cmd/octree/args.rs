@@ -48,9 +48,12 @@ pub struct Args {
     /// meshes and primitives, 0 for volumes].
     #[arg(long)]
     pub padding: Option<f32>,
-    /// Export the tree sampled on a grid (.nrrd or .npy).
+    /// Export the tree sampled on a grid (.nrrd, or .npy with its lattice sidecar
+    /// .npy.json: origin, spacing, dims [nx, ny, nz], axis_order "zyx").
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: crate::cmd::volume_args::VolumeOut,
     /// Level of the exported grid (2^level + 1 samples a side) [default: min(max level, 8)].
     #[arg(long)]
     pub export_level: Option<u32>,

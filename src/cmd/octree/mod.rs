@@ -10,8 +10,10 @@ pub use bench::{BenchArgs, bench};
 
 use super::check_output;
 use anyhow::{Result, bail};
-use isokit_io::{Volume, write_volume};
-use isokit_octree::{BuildOptions, Construction, HashedOctree, Octree, errors, test_points};
+use isokit_io::Volume;
+use isokit_octree::{
+    BuildOptions, Construction, HashedOctree, Octree, bound_misses, errors, test_points,
+};
 use isokit_scene::input::open_field;
 use serde_json::json;
 
@@ -73,17 +75,18 @@ pub fn run(a: Args) -> Result<()> {
     );
     let e = errors(&tree, &*inp.field, &pts);
     let (max_error, rms_error) = (e.max, e.rms);
+    let miss = bound_misses(&tree, &*inp.field, &pts, opts.error as f64);
     let exported = match &a.output {
         Some(o) => {
             let g = tree.to_grid(export_level)?;
             let dims = g.dims();
-            write_volume(o, &Volume::from(g))?;
+            a.out.write(o, &Volume::from(g), None, None)?;
             Some((o.display().to_string(), dims))
         }
         None => None,
     };
     let (cells_bytes, nodes_bytes) = tree.memory_split();
-    let v = json!({
+    let mut v = json!({
         "input": a.input,
         "what": inp.what,
         "reference": inp.reference,
@@ -126,6 +129,10 @@ pub fn run(a: Args) -> Result<()> {
         "export_level": exported.as_ref().map(|_| export_level),
         "export_dims": exported.as_ref().map(|(_, d)| *d),
     });
+    // Where the maximum level, not the bound, stopped the refinement.
+    v["bound_missed_cells"] = miss.missed_cells.into();
+    v["bound_missed_cells_at_max_level"] = miss.missed_at_max_level.into();
+    v["level_for_bound"] = miss.level_for_bound.into();
     if a.json {
         println!("{v}");
     } else {

@@ -39,6 +39,18 @@ pub fn print(v: &serde_json::Value) {
         f("rms_error"),
         f("error_bound")
     );
+    if u("bound_missed_cells") > 0 {
+        let at_max = u("bound_missed_cells_at_max_level");
+        let level = match v["level_for_bound"].as_u64() {
+            Some(l) => format!("; about --max-level {l} would meet it (error ~ h^2)"),
+            None => String::new(),
+        };
+        println!(
+            "bound missed: {} leaves hold a test point beyond the bound, {at_max} of them at --max-level {} (refinement stopped there){level}",
+            u("bound_missed_cells"),
+            v["max_level"]
+        );
+    }
     if let (Some(p), Some(d)) = (v["output"].as_str(), v["export_dims"].as_array()) {
         let d: Vec<String> = d.iter().map(|x| x.to_string()).collect();
         println!("-> {p} ({}, level {})", d.join(" x "), v["export_level"]);

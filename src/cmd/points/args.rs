@@ -41,6 +41,7 @@ pub enum SolverArg {
 
 /// Arguments of `isokit points`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = crate::cmd::volume_args::LAYOUT)]
 pub struct Args {
     /// Point cloud (.ply or .xyz).
     pub cloud: PathBuf,
@@ -90,9 +91,10 @@ pub struct Args {
     /// Iteration limit of the solve.
     #[arg(long, default_value_t = PointSdfOptions::default().max_iter)]
     pub max_iter: usize,
-    /// Margin around the cloud bounds in world units [default: 10% of the diagonal].
-    #[arg(long)]
-    pub padding: Option<f32>,
+    #[command(flatten)]
+    pub lattice: crate::cmd::volume_args::LatticeArgs,
+    #[command(flatten)]
+    pub out: crate::cmd::volume_args::VolumeOut,
 }
 
 impl Args {

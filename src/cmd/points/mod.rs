@@ -7,7 +7,7 @@ pub use args::Args;
 
 use super::check_output;
 use anyhow::{Context, Result, bail};
-use isokit_io::{Volume, read_points, write_volume};
+use isokit_io::{Volume, read_points};
 use isokit_points::{NormalOptions, Solver, cloud_to_grid};
 
 /// Runs the command.
@@ -25,7 +25,7 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let cloud = read_points(&a.cloud)?;
-    let mut grid = super::padded_grid(&a.cloud, cloud.bounds(), a.res, a.padding)?;
+    let mut grid = a.lattice.grid(&a.cloud, cloud.bounds(), a.res)?;
     let opts = a.options(&cloud);
     let field = opts.field;
     let st = cloud_to_grid(&cloud, &mut grid, &opts, &super::progress::job())
@@ -75,7 +75,8 @@ pub fn run(a: Args) -> Result<()> {
     }
     eprintln!("build: {:.2} s", st.build_seconds);
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
-    write_volume(&a.output, &Volume::from(grid))?;
+    let band = st.band.as_ref().map(|s| s.band);
+    a.out.write(&a.output, &Volume::from(grid), band, None)?;
     let how = match st.band {
         Some(s) => format!(
             "band {}: {:.2}% of the dense samples evaluated ({} of {} bricks of {}^3 kept)",

@@ -63,6 +63,8 @@ pub struct Args {
     pub multiview: MultiViewArgs,
     #[command(flatten)]
     pub csg: CsgArgs,
+    #[command(flatten)]
+    pub volume: crate::cmd::volume_args::VolumeIn,
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,

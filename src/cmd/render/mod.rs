@@ -8,7 +8,7 @@ mod summary;
 
 pub use args::Args;
 
-use super::{check_output, read_grid};
+use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_field::Job;
 use isokit_render::{Layout, Volume, check_image_size};
@@ -133,14 +133,14 @@ fn render_once(
         );
         (frame, views, files, what)
     } else {
-        let grid = read_grid(&a.input)?;
+        let grid = a.volume.read_grid(&a.input)?;
         let d = grid.dims();
         let mut what = format!("{} x {} x {} volume", d[0], d[1], d[2]);
         let mut volume = Volume::from_grid(grid, Layout::default())?;
         let mut files = vec![a.input.clone()];
         if let (Some(c), Some(with)) = (a.csg.combine()?, &a.csg.with) {
             volume = volume
-                .with_operand(read_grid(with)?, c)
+                .with_operand(a.volume.read_grid(with)?, c)
                 .with_context(|| format!("--with {}", with.display()))?;
             what = format!("{what}, {c:?} with {}", with.display());
             files.push(with.clone());

@@ -1,6 +1,7 @@
 //! The arguments of `isokit sdf` and the library settings they make.
 
 use crate::cmd::mesh_args::MeshKnobs;
+use crate::cmd::volume_args::{LatticeArgs, VolumeOut};
 use isokit_gpu::BackendChoice;
 use isokit_prism::{PrismOptions, SideRule};
 use std::path::PathBuf;
@@ -40,10 +41,11 @@ pub enum Sides {
 
 /// Arguments of `isokit sdf`.
 #[derive(clap::Args, Debug)]
+#[command(after_help = crate::cmd::volume_args::LAYOUT)]
 pub struct Args {
     /// Triangle mesh (.obj .gltf .glb .ply .stl .off).
     pub mesh: PathBuf,
-    /// Output volume (.nrrd or .npy).
+    /// Output volume (.nrrd or .npy with its lattice sidecar .npy.json; see below).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Algorithm.
@@ -56,9 +58,15 @@ pub struct Args {
     /// the right sign (the search exits early beyond W). Required by --method prism.
     #[arg(long)]
     pub band: Option<f64>,
-    /// Margin around the mesh bounds in world units [default: 10% of the diagonal].
+    /// --method kdtree --band W: query every sample of the grid (with the early exit beyond
+    /// W) instead of only the bricks of 4^3 samples that may come within W of the surface
+    /// (the same values; the baseline the lazy band is measured against).
     #[arg(long)]
-    pub padding: Option<f32>,
+    pub dense: bool,
+    #[command(flatten)]
+    pub lattice: LatticeArgs,
+    #[command(flatten)]
+    pub out: VolumeOut,
     /// Where --method prism runs.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,

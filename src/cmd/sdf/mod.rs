@@ -10,7 +10,7 @@ use args::{Backend, Method};
 use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_field::Grid;
-use isokit_io::{Volume, read_mesh, write_volume};
+use isokit_io::{Volume, read_mesh};
 use isokit_kdtree::mesh::MeshSdf;
 use isokit_prism::{Engine, PrismGpu, PrismSdf};
 use std::time::Instant;
@@ -33,7 +33,7 @@ pub fn run(a: Args) -> Result<()> {
     if mesh.triangles.is_empty() {
         bail!("{}: the mesh has no triangles", a.mesh.display());
     }
-    let grid = super::padded_grid(&a.mesh, mesh.bounds(), a.res, a.padding)?;
+    let grid = a.lattice.grid(&a.mesh, mesh.bounds(), a.res)?;
     match a.method {
         Method::Kdtree => run_kdtree(&a, &mesh, grid),
         Method::Prism => run_prism(&a, &mesh, grid),
@@ -45,14 +45,35 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
         MeshSdf::new(mesh, a.knobs.options()).with_context(|| a.mesh.display().to_string())?;
     eprintln!("sign: {} ({})", sdf.sign_method().name(), sdf.sign_reason());
     let t = Instant::now();
-    let fill = sdf.fill_grid(
-        &mut grid,
-        a.band.unwrap_or(f64::INFINITY),
-        &super::progress::job(),
-    )?;
+    let job = super::progress::job();
+    let (fill, lazy) = match a.band {
+        Some(w) if !a.dense && !sdf.sign_is_local() => {
+            eprintln!(
+                "note: every sample is queried (not only the bricks near the surface): {} signs may flip away from the surface",
+                sdf.sign_method().name()
+            );
+            (sdf.fill_grid(&mut grid, w, &job)?, String::new())
+        }
+        Some(w) if !a.dense => {
+            let l = sdf.fill_band_lazy(&mut grid, w, 4, &job)?;
+            let how = format!(
+                ", lazy band: {} of {} bricks of 4^3 evaluated ({:.2}% of the samples)",
+                l.bricks_kept,
+                l.bricks_total,
+                100.0 * l.evaluated_fraction
+            );
+            (l.fill, how)
+        }
+        w => (
+            sdf.fill_grid(&mut grid, w.unwrap_or(f64::INFINITY), &job)?,
+            String::new(),
+        ),
+    };
     let secs = t.elapsed().as_secs_f64();
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
-    write_volume(&a.output, &Volume::from(grid))?;
+    let band = a.band.map(|b| b as f32);
+    let sign = Some(sdf.sign_method().name());
+    a.out.write(&a.output, &Volume::from(grid), band, sign)?;
     let in_band = a.band.map_or(String::new(), |_| {
         format!(
             ", {:.1}% of samples inside the band",
@@ -60,7 +81,7 @@ fn run_kdtree(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()>
         )
     });
     eprintln!(
-        "{} x {} x {} samples, spacing {spacing} in {secs:.2} s ({:.0} samples/s, {:.1} triangles tested per sample{in_band}) -> {}",
+        "{} x {} x {} samples, spacing {spacing} in {secs:.2} s ({:.0} samples/s, {:.1} triangles tested per sample{in_band}{lazy}) -> {}",
         dims[0],
         dims[1],
         dims[2],
@@ -102,7 +123,9 @@ fn run_prism(a: &Args, mesh: &isokit_io::TriMesh, mut grid: Grid) -> Result<()> 
     let stats = sdf.fill_grid(&mut grid, &engine)?;
     let secs = t.elapsed().as_secs_f64();
     let (dims, spacing, len) = (grid.dims(), grid.spacing(), grid.len());
-    write_volume(&a.output, &Volume::from(grid))?;
+    let band = a.band.map(|b| b as f32);
+    let sign = Some(sdf.sign_method().name());
+    a.out.write(&a.output, &Volume::from(grid), band, sign)?;
     let evaluated = if stats.evaluated > 0 {
         format!(
             ", {:.2} distance evaluations per band sample",
