@@ -18,6 +18,10 @@ struct Cli {
     /// [default: ISOKIT_MAX_MEMORY, else 3/4 of the memory available to this process].
     #[arg(long, global = true, value_name = "SIZE", value_parser = isokit_field::memory::parse_size)]
     max_memory: Option<u64>,
+    /// No progress on stderr (long stages otherwise show a bar with the rate and the time
+    /// left on a terminal, a line every 10% when stderr is not one).
+    #[arg(short, long, global = true)]
+    quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -81,6 +85,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    cmd::progress::set_quiet(cli.quiet);
     match cli.max_memory {
         Some(b) => isokit_field::memory::set_budget(b),
         None => match isokit_field::memory::budget_from_env() {

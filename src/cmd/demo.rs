@@ -4,7 +4,6 @@
 
 use super::check_output;
 use anyhow::{Result, bail};
-use isokit_field::Job;
 use isokit_render::check_image_size;
 use isokit_scene::{RenderSettings, RenderTarget, Scene};
 use std::path::{Path, PathBuf};
@@ -84,7 +83,11 @@ pub fn run(a: Args) -> Result<()> {
         resolution: a.res,
         ..RenderSettings::default()
     };
-    let p = renderer.prepare(RenderTarget::Scene(&scene), &settings, &Job::default())?;
+    let p = renderer.prepare(
+        RenderTarget::Scene(&scene),
+        &settings,
+        &super::progress::job(),
+    )?;
     let frame = renderer.render_prepared(&p, scene.name())?;
     let st = &frame.stats;
     if let Some(s) = &st.sampling {

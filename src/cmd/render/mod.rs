@@ -113,7 +113,7 @@ fn render_once(
     let (frame, prepared_views, files, what) = if is_scene(&a.input) {
         let scene = Scene::load(&a.input)?;
         let files = scene.dependencies().to_vec();
-        let p = Renderer::cpu().prepare(RenderTarget::Scene(&scene), s, &Job::default())?;
+        let p = Renderer::cpu().prepare(RenderTarget::Scene(&scene), s, &super::progress::job())?;
         let renderer = open(renderer, a)?;
         let mut frame = renderer.render_prepared(&p, &name)?;
         frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;

@@ -1,0 +1,71 @@
+//! One progress style for long stages: sparse lines with the share, rate and time left when
+//! stderr is not a terminal (as here), nothing with `-q`, nothing for short stages.
+
+mod common;
+
+use common::scratch;
+use std::process::Command;
+
+fn run(args: &[&str], after_ms: &str) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_isokit"))
+        .args(args)
+        .env("ISOKIT_PROGRESS_AFTER_MS", after_ms)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn progress_lines(stderr: &str, stage: &str) -> Vec<String> {
+    stderr
+        .lines()
+        .filter(|l| l.starts_with(&format!("{stage}: ")))
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn long_stages_report_sparse_lines_and_quiet_silences_them() {
+    let d = scratch("progress");
+    let scene = common::data("../examples/scenes/part.json");
+    let out = d.join("p.nrrd").to_string_lossy().into_owned();
+    let args = ["scene", scene.as_str(), "--res", "96", "-o", out.as_str()];
+    // Shown from the start (a delay of 0): every 10% at most, ending with the total time.
+    let lines = progress_lines(&run(&args, "0"), "sampling bricks");
+    assert!(!lines.is_empty(), "no progress lines");
+    assert!(lines.len() <= 11, "{} lines: {lines:?}", lines.len());
+    assert!(
+        lines.iter().all(|l| l.contains('%') && l.contains("/s")),
+        "{lines:?}"
+    );
+    assert!(lines.last().unwrap().contains("100.0%") && lines.last().unwrap().contains("done in"));
+    assert!(
+        !lines[0].contains('['),
+        "no bar when stderr is not a terminal"
+    );
+    // -q: nothing; and a short stage says nothing with the default delay.
+    let mut quiet = args.to_vec();
+    quiet.push("-q");
+    assert!(progress_lines(&run(&quiet, "0"), "sampling bricks").is_empty());
+    assert!(progress_lines(&run(&args, "60000"), "sampling bricks").is_empty());
+    // The scene sampling of `render` reports the same way.
+    let png = d.join("p.png").to_string_lossy().into_owned();
+    let r = run(
+        &[
+            "render",
+            scene.as_str(),
+            "-o",
+            png.as_str(),
+            "--backend",
+            "cpu",
+            "--res",
+            "64",
+        ],
+        "0",
+    );
+    assert!(!progress_lines(&r, "sampling bricks").is_empty(), "{r}");
+}
