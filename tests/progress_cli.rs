@@ -68,4 +68,12 @@ fn long_stages_report_sparse_lines_and_quiet_silences_them() {
         "0",
     );
     assert!(!progress_lines(&r, "sampling bricks").is_empty(), "{r}");
+    // And `sample` of a primitive.
+    let npy = d.join("s.nrrd").to_string_lossy().into_owned();
+    let s = run(
+        &["sample", "sphere", "--res", "64", "-o", npy.as_str()],
+        "0",
+    );
+    let lines = progress_lines(&s, "sampling");
+    assert!(!lines.is_empty() && lines.len() <= 11, "{s}");
 }

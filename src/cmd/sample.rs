@@ -5,7 +5,7 @@
 use super::{check_output, parse_vec3};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use isokit_field::{Field, sample_into};
+use isokit_field::{Field, sample_into_job};
 use isokit_io::Volume;
 use isokit_scene::primitives::PrimitiveKind;
 use isokit_scene::{Node, Scene};
@@ -121,7 +121,7 @@ pub fn run(a: Args) -> Result<()> {
         .lattice
         .grid(std::path::Path::new(name), scene.bounds(), a.res)?;
     let start = Instant::now();
-    sample_into(scene.field(), &mut grid);
+    sample_into_job(scene.field(), &mut grid, &super::progress::job())?;
     let secs = start.elapsed().as_secs_f64();
     let (lo, hi) = grid.min_max().unwrap_or((f32::NAN, f32::NAN));
     let (dims, spacing, origin) = (grid.dims(), grid.spacing(), grid.origin());

@@ -208,12 +208,23 @@ forward_field!(&F, Box<F>, std::sync::Arc<F>);
 /// Samples `field` at every node of `grid` (in parallel, one z-slice per task), overwriting
 /// its samples.
 pub fn sample_into(field: &dyn Field, grid: &mut Grid) {
+    // A default job is never cancelled.
+    let _ = sample_into_job(field, grid, &Job::default());
+}
+
+/// [`sample_into`] with progress (stage `"sampling"`, one unit per sample) and cancellation
+/// checked before every slice.
+pub fn sample_into_job(field: &dyn Field, grid: &mut Grid, job: &Job) -> Result<(), Cancelled> {
     let [nx, ny, _] = grid.dims();
     let (origin, h) = (grid.origin(), grid.spacing());
+    let progress = job.counter("sampling", grid.len() as u64);
     grid.data_mut()
         .par_chunks_mut(nx * ny)
         .enumerate()
         .for_each(|(k, slice)| {
+            if job.is_cancelled() {
+                return;
+            }
             let pts: Vec<Vec3> = (0..nx * ny)
                 .map(|n| origin + h * Vec3::new((n % nx) as f32, (n / nx) as f32, k as f32))
                 .collect();
@@ -221,7 +232,9 @@ pub fn sample_into(field: &dyn Field, grid: &mut Grid) {
             for (o, p) in slice.iter_mut().zip(pts) {
                 *o = field.value(p);
             }
+            progress.advance(slice.len() as u64);
         });
+    job.check()
 }
 
 /// Fills `grid` one z-slice per parallel task, for fields evaluated in f64 or with state

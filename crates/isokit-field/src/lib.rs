@@ -50,7 +50,7 @@ pub use cloud::PointCloud;
 pub use error::FieldError;
 pub use field::{
     DistanceBox, Field, box_lower_bound, fill_slices, finite_difference_hessian, sample_field,
-    sample_into, value_clamped,
+    sample_into, sample_into_job, value_clamped,
 };
 pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, check_grid_budget, checked_len, finite_min_max};
 pub use job::{Cancelled, Counter, Job, ProgressFn};
