@@ -24,7 +24,7 @@ pub struct Args {
     /// else 128].
     #[arg(long)]
     pub res: Option<usize>,
-    /// Append one JSON object per line for every frame and error to this file
+    /// Write one JSON object per line for every frame and error to this file (replaced)
     /// (`{"event":"frame","reason":"edit","final":true,"latency_ms":…}`).
     #[arg(long, value_name = "FILE.jsonl")]
     pub events: Option<PathBuf>,

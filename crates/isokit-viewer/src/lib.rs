@@ -44,7 +44,8 @@ pub struct ViewOptions {
     pub height: u32,
     /// Scene sampling: samples along the longest side (default: the scene's).
     pub resolution: Option<usize>,
-    /// Append one JSON object per line for every frame and error to this file.
+    /// Write one JSON object per line for every frame and error to this file (replaced at
+    /// start).
     pub events: Option<PathBuf>,
     /// Write the last final frame as PNG on exit.
     pub screenshot: Option<PathBuf>,
