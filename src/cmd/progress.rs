@@ -101,7 +101,8 @@ impl Printer {
             Some(p) if self.tty => now.duration_since(p) >= Duration::from_millis(200),
             Some(_) => done * 10 / total > s.done * 10 / total,
         };
-        if !due {
+        // Nothing done yet has no rate or time left to show.
+        if !due || done == 0 {
             return;
         }
         let text = line(stage, done, total, elapsed.as_secs_f64(), self.tty);
