@@ -138,7 +138,7 @@ struct Worker<F: Fn(Reply)> {
     renderer: Renderer,
     cache: SourceCache,
     /// The last full sampling of the scene, for the next edit to reuse bricks from.
-    previous: Option<isokit_scene::Sampled>,
+    previous: Option<std::sync::Arc<isokit_scene::Sampled>>,
     reuse: bool,
     /// The resolution and band of the sampling being shown.
     sampling: Option<(usize, f32)>,
@@ -200,9 +200,6 @@ pub(crate) fn run(
             InputKind::Volume => w.volume(req),
             InputKind::Molecule => w.molecule(req),
         };
-        if pending.is_none() && w.closed() {
-            return;
-        }
     }
 }
 
@@ -241,11 +238,6 @@ fn size_of(req: &Request) -> (u32, u32) {
 }
 
 impl<F: Fn(Reply)> Worker<F> {
-    fn closed(&self) -> bool {
-        // A disconnected channel makes recv fail: the main loop returns then.
-        false
-    }
-
     /// `req` merged with every request queued behind it.
     fn newest(&self, mut req: Request) -> Request {
         while let Ok(n) = self.rx.try_recv() {
@@ -429,8 +421,8 @@ impl<F: Fn(Reply)> Worker<F> {
                 return pending;
             }
         }
-        let sampled = match scene.sample_again(&opts, self.previous.as_ref(), &job) {
-            Ok(x) => x,
+        let sampled = match scene.sample_again(&opts, self.previous.as_deref(), &job) {
+            Ok(x) => std::sync::Arc::new(x),
             Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
             Err(e) => {
                 self.error(&e, req.reason);
@@ -440,6 +432,7 @@ impl<F: Fn(Reply)> Worker<F> {
         let reused = sampled.stats.bricks_reused;
         self.sampling = Some((opts.resolution, sampled.stats.band));
         if self.reuse {
+            // Shared, not copied: the renderer's volume is built from it below.
             self.previous = Some(sampled.clone());
         }
         let mut p = match self
