@@ -347,3 +347,46 @@ fn the_resolution_flag_sets_the_sampling() {
     let ev = read_events(&events);
     assert_eq!(finals(&ev)[0]["evaluated_bricks"], stats["bricks_kept"]);
 }
+
+#[test]
+fn a_volume_and_a_molecule_open_too() {
+    if !have_display() {
+        return;
+    }
+    let d = scratch("view-volume");
+    let (vol, events, shot) = (d.join("t.npy"), d.join("ev.jsonl"), d.join("v.png"));
+    isokit_ok(&[
+        "sdf",
+        &common::data("torus.off"),
+        "--res",
+        "48",
+        "-o",
+        &vol.to_string_lossy(),
+    ]);
+    finish(spawn_view(
+        &vol,
+        &events,
+        &shot,
+        &["--exit-after-frames", "1"],
+    ));
+    let reference = d.join("r.png");
+    render(&vol, &reference);
+    assert_shows(
+        &shot,
+        &reference,
+        "the volume's first frame against isokit render",
+    );
+    // A molecule (PDB, gzipped): a frame with some atoms on it.
+    let mol = Path::new(&common::data("molecules")).join("1a8o.pdb.gz");
+    std::fs::remove_file(&events).unwrap();
+    finish(spawn_view(
+        &mol,
+        &events,
+        &shot,
+        &["--exit-after-frames", "1"],
+    ));
+    let (_, _, px) = isokit_io::read_png(&shot).unwrap();
+    let background = px.chunks(4).filter(|p| p[..3] == [255, 255, 255]).count();
+    assert!(background < px.len() / 4, "only background");
+    assert_eq!(finals(&read_events(&events))[0]["reason"], "start");
+}

@@ -27,17 +27,8 @@ pub(crate) enum InputKind {
 impl InputKind {
     pub fn of(path: &Path) -> Self {
         if SceneFormat::from_path(path).is_some() {
-            return InputKind::Scene;
-        }
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        let name = name.strip_suffix(".gz").unwrap_or(&name);
-        if [".pdb", ".ent", ".cif", ".mmcif"]
-            .iter()
-            .any(|e| name.ends_with(e))
-        {
+            InputKind::Scene
+        } else if isokit_molecule::MoleculeFormat::from_path(path).is_ok() {
             InputKind::Molecule
         } else {
             InputKind::Volume
