@@ -23,12 +23,14 @@ if [ -z "${DISPLAY:-}" ] && command -v Xvfb >/dev/null; then
   for _ in $(seq 50); do [ -e "/tmp/.X11-unix/X$n" ] && break; sleep 0.1; done
 fi
 cargo test --workspace
-cargo build --bin isokit
+# The binary and the examples in the test profile `cargo test` has just built them in
+# (target/debug): the dev profile would compile every workspace crate a second time.
+cargo build --profile test --bin isokit
 # The modeling scripts in examples/ run too (they check their own results).
 examples_out=$(mktemp -d)
 trap 'rm -rf "$examples_out"; [ -z "$xvfb_pid" ] || kill "$xvfb_pid" 2>/dev/null || true' EXIT
-cargo run --quiet --example model_in_code -- "$examples_out"
-cargo run --quiet --example csg_scene -- "$examples_out/part.obj"
+cargo run --profile test --quiet --example model_in_code -- "$examples_out"
+cargo run --profile test --quiet --example csg_scene -- "$examples_out/part.obj"
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
