@@ -77,3 +77,40 @@ fn long_stages_report_sparse_lines_and_quiet_silences_them() {
     let lines = progress_lines(&s, "sampling");
     assert!(!lines.is_empty() && lines.len() <= 11, "{s}");
 }
+
+#[test]
+fn octree_and_mesh_report_their_stages() {
+    let d = scratch("progress-octree-mesh");
+    // The octree: a line per level reached, ending each level with its total time.
+    let o = run(&["octree", "sphere", "--max-level", "6"], "0");
+    let level5 = progress_lines(&o, "octree level 5 of 6");
+    assert!(!level5.is_empty(), "{o}");
+    assert!(level5.last().unwrap().contains("done in"), "{level5:?}");
+    assert!(progress_lines(&o, "octree level 6 of 6").is_empty(), "{o}");
+    let bottom_up = run(
+        &["octree", "sphere", "--max-level", "5", "--bottom-up"],
+        "0",
+    );
+    assert!(
+        !progress_lines(&bottom_up, "sampling the finest octree level").is_empty(),
+        "{bottom_up}"
+    );
+    // Meshing a volume: blocks of cells.
+    let vol = d.join("s.nrrd").to_string_lossy().into_owned();
+    run(
+        &["sample", "sphere", "--res", "64", "-o", vol.as_str(), "-q"],
+        "0",
+    );
+    let obj = d.join("s.obj").to_string_lossy().into_owned();
+    let m = run(&["mesh", vol.as_str(), "-o", obj.as_str()], "0");
+    let lines = progress_lines(&m, "meshing");
+    assert!(!lines.is_empty() && lines.len() <= 11, "{m}");
+    assert!(lines.last().unwrap().contains("100.0%"), "{lines:?}");
+    assert!(
+        progress_lines(
+            &run(&["mesh", vol.as_str(), "-o", obj.as_str(), "-q"], "0"),
+            "meshing"
+        )
+        .is_empty()
+    );
+}

@@ -3,7 +3,7 @@
 use super::check_output;
 use anyhow::{Result, bail};
 use isokit_io::write_mesh;
-use isokit_levelset::meshing::{MeshOptions, mesh_grid};
+use isokit_levelset::meshing::{MeshOptions, mesh_grid_job};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -58,7 +58,7 @@ pub fn run(a: Args) -> Result<()> {
         iso,
         close_boundary: !a.open,
     };
-    let mesh = mesh_grid(&grid, &opts)?;
+    let mesh = mesh_grid_job(&grid, &opts, &super::progress::job())?;
     let secs = t.elapsed().as_secs_f64();
     if mesh.triangles.is_empty() {
         eprintln!(

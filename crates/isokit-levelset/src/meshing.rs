@@ -69,7 +69,7 @@
 
 use glam::{DVec3, Vec3};
 use isokit_field::TriMesh;
-use isokit_field::{BrickGrid, Grid};
+use isokit_field::{BrickGrid, Grid, Job};
 use rayon::prelude::*;
 
 /// Options of [`mesh_grid`] and [`mesh_brick_grid`].
@@ -126,6 +126,9 @@ pub enum MeshingError {
     /// meshing, before the pieces are welded.
     #[error(transparent)]
     OverBudget(#[from] isokit_field::FieldError),
+    /// The meshing's [`Job`] was cancelled.
+    #[error(transparent)]
+    Cancelled(#[from] isokit_field::Cancelled),
 }
 
 /// Bytes one piece holds while meshing and welding: a key and a position per vertex (twice,
@@ -156,7 +159,33 @@ fn piece_bytes(vertices: usize, triangles: usize) -> u64 {
 /// assert!((mesh_volume(&mesh) - exact).abs() < 0.01 * exact);
 /// ```
 pub fn mesh_grid(grid: &Grid, opts: &MeshOptions) -> Result<TriMesh, MeshingError> {
-    mesh_grid_impl(grid, opts, true).map(|(mesh, _)| mesh)
+    mesh_grid_job(grid, opts, &Job::new())
+}
+
+/// [`mesh_grid`] reporting its progress to `job` (stage `meshing`, in blocks of 16³ cells)
+/// and stopping with [`MeshingError::Cancelled`] once the job is cancelled.
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Grid, Job, primitives::Sphere, sample_into};
+/// use isokit_levelset::meshing::{MeshOptions, MeshingError, mesh_grid_job};
+/// use std::sync::{Arc, Mutex};
+///
+/// let mut grid = Grid::new([40, 40, 40], Vec3::splat(-1.0), 2.0 / 39.0).unwrap();
+/// sample_into(&Sphere::new(Vec3::ZERO, 0.7).unwrap(), &mut grid);
+/// let last = Arc::new(Mutex::new((0, 0)));
+/// let seen = last.clone();
+/// let job = Job::new().with_progress(move |_, done, total| *seen.lock().unwrap() = (done, total));
+/// mesh_grid_job(&grid, &MeshOptions::default(), &job).unwrap();
+/// let (done, total) = *last.lock().unwrap();
+/// assert!(total >= 27 && done == total); // at least 3 x 3 x 3 blocks of 16³ cells
+///
+/// job.cancel();
+/// let err = mesh_grid_job(&grid, &MeshOptions::default(), &job);
+/// assert!(matches!(err, Err(MeshingError::Cancelled(_))));
+/// ```
+pub fn mesh_grid_job(grid: &Grid, opts: &MeshOptions, job: &Job) -> Result<TriMesh, MeshingError> {
+    mesh_grid_impl(grid, opts, true, job).map(|(mesh, _)| mesh)
 }
 
 /// Meshes the isosurface `f = opts.iso` of a sparse brick grid, visiting only the blocks of
@@ -187,7 +216,18 @@ pub fn mesh_grid(grid: &Grid, opts: &MeshOptions) -> Result<TriMesh, MeshingErro
 /// assert!(sparse.validate().watertight);
 /// ```
 pub fn mesh_brick_grid(grid: &BrickGrid, opts: &MeshOptions) -> Result<TriMesh, MeshingError> {
-    mesh_brick_grid_impl(grid, opts, true).map(|(mesh, _)| mesh)
+    mesh_brick_grid_job(grid, opts, &Job::new())
+}
+
+/// [`mesh_brick_grid`] reporting its progress to `job` (stage `meshing`, in the blocks that
+/// can hold the surface) and stopping with [`MeshingError::Cancelled`] once the job is
+/// cancelled.
+pub fn mesh_brick_grid_job(
+    grid: &BrickGrid,
+    opts: &MeshOptions,
+    job: &Job,
+) -> Result<TriMesh, MeshingError> {
+    mesh_brick_grid_impl(grid, opts, true, job).map(|(mesh, _)| mesh)
 }
 
 /// Signed volume enclosed by a mesh, by the divergence theorem (sum of the signed volumes
@@ -811,18 +851,22 @@ impl Geometry {
         blocks: &[[i64; 3]],
         s: usize,
         sample: impl Fn(usize, usize, usize) -> f32 + Sync,
+        job: &Job,
     ) -> Result<(TriMesh, Stats), MeshingError> {
         // Pieces are counted as they are made, against the memory budget: a mesh too large
         // stops the meshing once it has used the budget, not when the allocator gives up.
         let budget = isokit_field::memory::budget();
         let held = std::sync::atomic::AtomicU64::new(0);
+        let counter = job.counter("meshing", blocks.len() as u64);
         let pieces: Vec<BlockMesh> = blocks
             .par_iter()
             .filter_map(|&c| {
-                if held.load(std::sync::atomic::Ordering::Relaxed) > budget {
+                if held.load(std::sync::atomic::Ordering::Relaxed) > budget || job.is_cancelled() {
                     return None;
                 }
-                let p = self.run_block(c, s, &sample)?;
+                let p = self.run_block(c, s, &sample);
+                counter.advance(1);
+                let p = p?;
                 held.fetch_add(
                     piece_bytes(p.positions.len(), p.triangles.len()),
                     std::sync::atomic::Ordering::Relaxed,
@@ -830,6 +874,7 @@ impl Geometry {
                 Some(p)
             })
             .collect();
+        job.check()?;
         let held = held.into_inner();
         if held > budget {
             let cells = blocks.len() as u128 * (s as u128).pow(3);
@@ -910,12 +955,18 @@ fn mesh_grid_impl(
     grid: &Grid,
     opts: &MeshOptions,
     constrain: bool,
+    job: &Job,
 ) -> Result<(TriMesh, Stats), MeshingError> {
     let geo = Geometry::new(grid.dims(), grid.origin(), grid.spacing(), opts, constrain)?;
     let blocks = geo.all_blocks(DENSE_BLOCK);
     let data = grid.data();
     let [nx, ny, _] = grid.dims();
-    geo.run(&blocks, DENSE_BLOCK, |i, j, k| data[i + nx * (j + ny * k)])
+    geo.run(
+        &blocks,
+        DENSE_BLOCK,
+        |i, j, k| data[i + nx * (j + ny * k)],
+        job,
+    )
 }
 
 /// What a brick position reads as, for skipping.
@@ -930,6 +981,7 @@ fn mesh_brick_grid_impl(
     grid: &BrickGrid,
     opts: &MeshOptions,
     constrain: bool,
+    job: &Job,
 ) -> Result<(TriMesh, Stats), MeshingError> {
     let geo = Geometry::new(grid.dims(), grid.origin(), grid.spacing(), opts, constrain)?;
     let iso = opts.iso;
@@ -1062,7 +1114,7 @@ fn mesh_brick_grid_impl(
         }
         false
     });
-    geo.run(&candidates, s, |i, j, k| grid.get(i, j, k))
+    geo.run(&candidates, s, |i, j, k| grid.get(i, j, k), job)
 }
 
 #[cfg(test)]
@@ -1174,9 +1226,9 @@ mod tests {
         let mut broken = 0;
         for seed in 0..8 {
             let g = random_grid(seed, 12);
-            let (free, _) = mesh_grid_impl(&g, &opts, false).unwrap();
+            let (free, _) = mesh_grid_impl(&g, &opts, false, &Job::new()).unwrap();
             broken += non_manifold_edges(&free);
-            let (ok, stats) = mesh_grid_impl(&g, &opts, true).unwrap();
+            let (ok, stats) = mesh_grid_impl(&g, &opts, true, &Job::new()).unwrap();
             assert_eq!(non_manifold_edges(&ok), 0, "seed {seed}");
             assert!(ok.validate().watertight);
             eprintln!(
@@ -1198,9 +1250,15 @@ mod tests {
             g.set(i, j, k, p.length() - 0.6);
         }
         let bricks = BrickGrid::from_grid(&g, 8, 1, 2.0 * h, 2.0 * h).unwrap();
-        let (sparse, stats) = mesh_brick_grid_impl(&bricks, &MeshOptions::default(), true).unwrap();
-        let (dense, _) =
-            mesh_grid_impl(&bricks.to_grid().unwrap(), &MeshOptions::default(), true).unwrap();
+        let (sparse, stats) =
+            mesh_brick_grid_impl(&bricks, &MeshOptions::default(), true, &Job::new()).unwrap();
+        let (dense, _) = mesh_grid_impl(
+            &bricks.to_grid().unwrap(),
+            &MeshOptions::default(),
+            true,
+            &Job::new(),
+        )
+        .unwrap();
         assert_eq!(sparse.positions, dense.positions);
         let f = stats.blocks_visited as f64 / stats.blocks_total as f64;
         eprintln!(

@@ -9,7 +9,7 @@ use crate::interp::trilerp;
 use crate::key::{CacheStats, DirectCache, KeyBuild, NodeKey};
 use crate::{OctreeError, key::MAX_LEVEL};
 use glam::{UVec3, Vec3};
-use isokit_field::{Aabb, Field, checked_len};
+use isokit_field::{Aabb, Field, Job, checked_len};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::time::Instant;
@@ -525,18 +525,26 @@ impl Ctx {
     }
 
     /// Top-down subdivision of `frontier` (cells not yet decided) and their descendants.
+    /// Progress is reported per level (stage `octree level K of L`, in cells of the level's
+    /// frontier, followed by `pass` when it is not empty), and the job's cancellation is
+    /// checked between batches.
     fn refine(
         &self,
         set: &mut CellSet,
         s: &mut impl Sampler,
         mut frontier: Vec<Cell>,
+        job: &Job,
+        pass: &str,
     ) -> Result<(), OctreeError> {
         // Cells split at the previous level, for the growth projection below.
         let mut previous: Option<(u32, usize)> = None;
         while !frontier.is_empty() {
             let level = frontier.iter().map(|c| c.level).min().unwrap_or(0);
             let mut next = Vec::new();
+            let stage = format!("octree level {level} of {}{pass}", self.l);
+            let counter = job.counter(&stage, frontier.len() as u64);
             for chunk in frontier.chunks(BATCH) {
+                job.check()?;
                 // Cells above the minimum level are subdivided without looking.
                 let to_assess: Vec<Cell> = chunk
                     .iter()
@@ -581,6 +589,7 @@ impl Ctx {
                     set.len() as u128 * BYTES_PER_CELL,
                     "raise --error, lower --max-level, or raise the budget",
                 )?;
+                counter.advance(chunk.len() as u64);
             }
             // Refuse early what cannot fit: at the growth of the last two levels (a surface
             // quadruples its cells per level), the levels still to come would reach several
@@ -615,6 +624,7 @@ impl Ctx {
         set: &mut CellSet,
         s: &mut impl Sampler,
         stats: &mut BuildStats,
+        job: &Job,
     ) -> Result<NodeMap, OctreeError> {
         let l = self.l;
         loop {
@@ -709,7 +719,13 @@ impl Ctx {
                     frontier.extend((0..8).map(|n| c.child(n, l)));
                 }
             }
-            self.refine(set, s, frontier)?;
+            self.refine(
+                set,
+                s,
+                frontier,
+                job,
+                &format!(" (hanging nodes, pass {})", stats.passes),
+            )?;
         }
     }
 
@@ -781,11 +797,12 @@ fn lipschitz_of(cull: Cull, field: &dyn Field) -> Option<f32> {
 }
 
 /// Builds the topology and node values of an octree of `field` over the cube around
-/// `bounds`.
+/// `bounds`, reporting progress to `job` and stopping when it is cancelled.
 pub(crate) fn build(
     field: &dyn Field,
     bounds: Aabb,
     opts: &BuildOptions,
+    job: &Job,
 ) -> Result<Built, OctreeError> {
     let t0 = Instant::now();
     opts.validate()?;
@@ -811,19 +828,19 @@ pub(crate) fn build(
                 domain,
                 values: NodeMap::default(),
             };
-            ctx.refine(&mut set, &mut s, vec![Cell::ROOT])?;
-            let nodes = ctx.finalize(&mut set, &mut s, &mut stats)?;
+            ctx.refine(&mut set, &mut s, vec![Cell::ROOT], job, "")?;
+            let nodes = ctx.finalize(&mut set, &mut s, &mut stats, job)?;
             (nodes, s.evaluations())
         }
         Construction::BottomUp => {
-            let mut s = sample_dense(field, &domain)?;
+            let mut s = sample_dense(field, &domain, job)?;
             coalesce(&ctx, &s, &mut set);
             if set.len().saturating_mul(8).saturating_add(1) > ctx.max_cells {
                 return Err(OctreeError::TooManyCells {
                     limit: ctx.max_cells,
                 });
             }
-            let nodes = ctx.finalize(&mut set, &mut s, &mut stats)?;
+            let nodes = ctx.finalize(&mut set, &mut s, &mut stats, job)?;
             (nodes, s.evaluations())
         }
     };
@@ -849,19 +866,25 @@ pub(crate) fn build(
 }
 
 /// Every node of the finest grid (refused beyond [`isokit_field::MAX_SAMPLES`]).
-fn sample_dense(field: &dyn Field, domain: &Domain) -> Result<GridSampler, OctreeError> {
+fn sample_dense(field: &dyn Field, domain: &Domain, job: &Job) -> Result<GridSampler, OctreeError> {
     let l = domain.max_level();
     let n = (1usize << l) + 1;
     let len = checked_len([n, n, n])?;
     let mut data = vec![0.0f32; len];
+    let counter = job.counter("sampling the finest octree level", n as u64);
     data.par_chunks_mut(n * n)
         .enumerate()
         .for_each(|(k, slice)| {
+            if job.is_cancelled() {
+                return;
+            }
             for (m, v) in slice.iter_mut().enumerate() {
                 let q = UVec3::new((m % n) as u32, (m / n) as u32, k as u32);
                 *v = field.value(domain.position(q));
             }
+            counter.advance(1);
         });
+    job.check()?;
     if let Some(i) = data.iter().position(|v| !v.is_finite()) {
         let q = NodeKey::from_u64(i as u64).position(l);
         let p = domain.position(q);

@@ -5,6 +5,9 @@ use isokit_field::FieldError;
 /// What can go wrong when building or exporting an octree from user parameters and fields.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum OctreeError {
+    /// The build's [`isokit_field::Job`] was cancelled.
+    #[error(transparent)]
+    Cancelled(#[from] isokit_field::Cancelled),
     /// A parameter is out of its valid range.
     #[error("invalid parameter {name} = {value}: {why}")]
     BadParameter {

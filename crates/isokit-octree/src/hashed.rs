@@ -6,7 +6,7 @@ use crate::interp::{trilerp, trilerp_gradient};
 use crate::key::{CacheStats, DirectCache, KeyMap, NARROW_LEVELS, NodeKey};
 use crate::{Octree, OctreeError};
 use glam::{DVec3, IVec3, UVec3, Vec3};
-use isokit_field::{Aabb, Field, Grid};
+use isokit_field::{Aabb, Field, Grid, Job};
 use rayon::prelude::*;
 
 /// An adaptively sampled field in a hashed octree.
@@ -58,7 +58,43 @@ impl HashedOctree {
         bounds: Aabb,
         opts: &BuildOptions,
     ) -> Result<Self, OctreeError> {
-        let b = build::build(field, bounds, opts)?;
+        Self::build_job(field, bounds, opts, &Job::new())
+    }
+
+    /// [`HashedOctree::build`] reporting its progress to `job` (stage `octree level K of
+    /// L`, in cells of that level's frontier; `sampling the finest octree level`, in z
+    /// slices, for the bottom-up construction) and stopping with
+    /// [`OctreeError::Cancelled`] once the job is cancelled.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use isokit_field::{Aabb, Job, primitives::Sphere};
+    /// use isokit_octree::{BuildOptions, HashedOctree, OctreeError};
+    /// use std::sync::{Arc, Mutex};
+    ///
+    /// let sphere = Sphere::new(Vec3::ZERO, 0.6).unwrap();
+    /// let bounds = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+    /// let stages = Arc::new(Mutex::new(Vec::new()));
+    /// let seen = stages.clone();
+    /// let job = Job::new().with_progress(move |stage, done, total| {
+    ///     if done == total {
+    ///         seen.lock().unwrap().push(stage.to_owned());
+    ///     }
+    /// });
+    /// HashedOctree::build_job(&sphere, bounds, &BuildOptions::new(5), &job).unwrap();
+    /// assert!(stages.lock().unwrap().contains(&"octree level 4 of 5".to_owned()));
+    ///
+    /// job.cancel();
+    /// let err = HashedOctree::build_job(&sphere, bounds, &BuildOptions::new(5), &job);
+    /// assert!(matches!(err, Err(OctreeError::Cancelled(_))));
+    /// ```
+    pub fn build_job(
+        field: &dyn Field,
+        bounds: Aabb,
+        opts: &BuildOptions,
+        job: &Job,
+    ) -> Result<Self, OctreeError> {
+        let b = build::build(field, bounds, opts, job)?;
         let hint = b
             .stats
             .leaves_per_level

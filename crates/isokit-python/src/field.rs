@@ -571,13 +571,14 @@ impl Field {
 
     /// The isosurface `f = iso` as a triangle mesh `(V, F)` (an `isokit.Mesh`): marching
     /// cubes with the asymptotic decider, closed where it leaves the lattice unless
-    /// `close_boundary=False`.
-    #[pyo3(signature = (iso = 0.0, close_boundary = true))]
+    /// `close_boundary=False`. `progress` as for the other long calls (stage `meshing`).
+    #[pyo3(signature = (iso = 0.0, close_boundary = true, progress = None))]
     fn mesh<'py>(
         &self,
         py: Python<'py>,
         iso: f32,
         close_boundary: bool,
+        progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let mut grid = self.grid(py)?;
         let mut iso = iso;
@@ -590,8 +591,8 @@ impl Field {
             iso,
             close_boundary,
         };
-        let mesh = py.detach(|| {
-            guarded(|| isokit_levelset::meshing::mesh_grid(&grid, &opts).map_err(value_err))
+        let mesh = run(py, progress, "mesh", |job| {
+            isokit_levelset::meshing::mesh_grid_job(&grid, &opts, job).map_err(value_err)
         })?;
         crate::shape::mesh_tuple(py, &mesh, py.None().into_bound(py))
     }

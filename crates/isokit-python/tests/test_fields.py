@@ -113,6 +113,10 @@ def test_fields_mesh_and_become_shapes():
     f = isokit.sphere(0.6).sample(res=40)
     V, F = f.mesh()
     assert len(F) > 100 and np.abs(np.linalg.norm(V, axis=1) - 0.6).max() < 0.02
+    seen = []
+    V1, F1 = f.mesh(progress=lambda stage, done, total: seen.append((stage, done, total)))
+    assert np.array_equal(F1, F)
+    assert seen and seen[-1][0] == "meshing" and seen[-1][1] == seen[-1][2] > 0
     g = f.to_shape() - isokit.sphere(0.3)
     assert g(np.array([[0.0, 0, 0]]))[0] > 0.25
     dens = isokit.Field(-f.values, origin=f.origin, spacing=f.spacing, inside="above")

@@ -3,7 +3,7 @@
 
 use crate::{SampleOptions, SampleStats, Scene, SceneError};
 use isokit_field::{Job, TriMesh};
-use isokit_levelset::meshing::{mesh_brick_grid, mesh_grid};
+use isokit_levelset::meshing::{mesh_brick_grid_job, mesh_grid_job};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -49,13 +49,21 @@ pub fn mesh_scene(
         job.check()
             .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
         let t1 = Instant::now();
-        (mesh_grid(&grid, &mesh_opts).map_err(err)?, stats, t1)
+        (
+            mesh_grid_job(&grid, &mesh_opts, job).map_err(err)?,
+            stats,
+            t1,
+        )
     } else {
         let (grid, stats) = scene.sample_job(&sampling, job)?;
         job.check()
             .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
         let t1 = Instant::now();
-        (mesh_brick_grid(&grid, &mesh_opts).map_err(err)?, stats, t1)
+        (
+            mesh_brick_grid_job(&grid, &mesh_opts, job).map_err(err)?,
+            stats,
+            t1,
+        )
     };
     let triangles = mesh.triangles.len();
     Ok((

@@ -59,7 +59,7 @@ pub fn run(a: Args) -> Result<()> {
         max_cells: a.max_cells,
         ..BuildOptions::new(l)
     };
-    let tree = HashedOctree::build(&*inp.field, bounds, &opts)?;
+    let tree = HashedOctree::build_job(&*inp.field, bounds, &opts, &super::progress::job())?;
     let st = tree.stats().clone();
     let test_band = a.test_band.unwrap_or(2.0 * h);
     if !(test_band.is_finite() && test_band > 0.0) {
