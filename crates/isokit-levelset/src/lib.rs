@@ -11,6 +11,7 @@
 //! - [`evolve`]: level-set evolution with an upwind (Godunov) scheme on a narrow band.
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export (marching cubes).
+//! - [`dual`]: dual contouring with Hermite data, sharp edges and corners from exact fields.
 //! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
 //! - [`deform`]: twist, bend, taper and elongate, each with its distance bound derived.
@@ -25,6 +26,7 @@
 
 pub mod csg;
 pub mod deform;
+pub mod dual;
 pub mod evolve;
 pub mod meshing;
 pub mod morph;

@@ -343,10 +343,10 @@ const LOWER_FACES: u8 = 0b01_0101;
 // ------------------------------------------------------------------ one cell
 
 /// The closed loops of one cell: `edges[..len[0]]` is the first loop, and so on.
-struct Loops {
-    edges: [u8; 12],
-    len: [u8; 4],
-    count: usize,
+pub(crate) struct Loops {
+    pub(crate) edges: [u8; 12],
+    pub(crate) len: [u8; 4],
+    pub(crate) count: usize,
 }
 
 /// Whether the two inside samples of an ambiguous face (inside `a, c` on one diagonal,
@@ -358,7 +358,7 @@ fn inside_joined(inside: [f32; 2], outside: [f32; 2], iso: f32) -> bool {
 }
 
 /// Traces the loops of a cell with corner `values` and inside mask `mask` (bit n: corner n).
-fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
+pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
     let inside = |c: usize| mask >> c & 1 == 1;
     // next[e]: the edge that follows crossed edge e in its loop.
     let mut next = [u8::MAX; 12];
