@@ -37,8 +37,8 @@ pub struct Args {
     #[arg(long)]
     pub open: bool,
     /// `mc` (marching cubes: watertight and 2-manifold by construction) or `dual` (dual
-    /// contouring with normals from the samples' central differences: sharper edges, not
-    /// guaranteed 2-manifold where a cell holds several pieces of the surface).
+    /// contouring with normals from the samples' central differences: sharper edges;
+    /// 2-manifold except in a rare ambiguous configuration).
     #[arg(long, value_enum, default_value_t = super::scene::MesherArg::Mc)]
     pub mesher: super::scene::MesherArg,
     #[command(flatten)]

@@ -428,6 +428,10 @@ fn solve_qef_fixed(
     if out.is_finite() { out } else { c + y0 }
 }
 
+/// Distance from the surface (voxels, by the exact field) above which a cell's vertex is
+/// improved.
+const SURFACE_TOL: f64 = 0.01;
+
 /// Rank of the normals after truncation (how many independent planes the QEF sees: 1 on a
 /// face, 2 on an edge, 3 at a corner).
 fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
@@ -651,23 +655,44 @@ fn contour(
                 }
                 let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
                 // An edge whose corner lies in this cell while the third face crosses only
-                // edges of the neighbouring cells: the neighbours' crossings within one cell
-                // find the corner. Kept only when it lies in the cell, is a corner (rank 3)
-                // and stays on this loop's planes.
-                if !clamped && qef_rank(&nrm[..m], truncation) == 2 {
+                // the neighbours' edges (rank 2), or, with an exact field, a vertex off the
+                // surface: the crossings of the neighbouring cells are added, and their
+                // minimiser kept where all their planes meet in one corner inside this cell
+                // and it is no farther from the surface.
+                let off = |x: DVec3| {
+                    lat.field.map_or(0.0, |f| {
+                        let v = f.value((lo + lat.h * x).as_vec3()) as f64 - lat.iso as f64;
+                        if v.is_finite() {
+                            v.abs() / lat.h
+                        } else {
+                            f64::INFINITY
+                        }
+                    })
+                };
+                let before = off(x);
+                let rank = qef_rank(&nrm[..m], truncation);
+                let try_neighbours = match lat.field {
+                    Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
+                    None => rank == 2 && !clamped,
+                };
+                if try_neighbours {
                     let (mut more_p, mut more_n) = (pts[..m].to_vec(), nrm[..m].to_vec());
                     for dz in -1..=2 {
                         for dy in -1..=2 {
                             for dx in -1..=2 {
                                 let g = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                                let o = [dx, dy, dz];
                                 for a in 0..3 {
                                     let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                                    let o = [dx, dy, dz];
-                                    // Edges of the cell itself are in already; the others
-                                    // within one cell of it.
-                                    if o[a] == 2
-                                        || (o[a] == 0 && (0..=1).contains(&o[b]) && (0..=1).contains(&o[c]))
-                                    {
+                                    // The cell's own edges are in already.
+                                    let own = o[a] == 0
+                                        && (0..=1).contains(&o[b])
+                                        && (0..=1).contains(&o[c]);
+                                    let in_range = (0..3).all(|i| {
+                                        let top = g[i] + (i == a) as i64;
+                                        g[i] >= r[i].0 && top <= r[i].1
+                                    });
+                                    if o[a] == 2 || own || !in_range {
                                         continue;
                                     }
                                     if let Some(h) = find_edge(lat.node_key(g) * 3 + a as u64) {
@@ -681,7 +706,10 @@ fn contour(
                     if qef_rank(&more_n, truncation) == 3 {
                         let y = solve_qef_fixed(&more_p, &more_n, truncation, [None; 3]);
                         let inside = (0..3).all(|a| (0.0..=1.0).contains(&y[a]));
-                        if inside && residual(&pts[..m], &nrm[..m], y) < 1e-4 {
+                        if inside
+                            && residual(&more_p, &more_n, y) < 1e-3
+                            && off(y) <= before.max(SURFACE_TOL)
+                        {
                             x = y;
                         }
                     }

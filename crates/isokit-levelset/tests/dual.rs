@@ -239,7 +239,11 @@ fn random_csg_trees_non_manifold_frequency() {
             if r.non_manifold_edges > 0 || st.multi_component_cells > 0 {
                 eprintln!(
                     "seed {seed} n {n}: {} triangles, {} non-manifold edges, {} flagged cells of {}, {} clamped",
-                    r.triangles, r.non_manifold_edges, st.multi_component_cells, st.cells, st.clamped
+                    r.triangles,
+                    r.non_manifold_edges,
+                    st.multi_component_cells,
+                    st.cells,
+                    st.clamped
                 );
             }
         }

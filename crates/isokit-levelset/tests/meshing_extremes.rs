@@ -4,8 +4,8 @@
 //! with no degenerate triangles.
 
 use glam::Vec3;
-use isokit_field::rng::SplitMix64;
 use isokit_field::primitives::Cuboid;
+use isokit_field::rng::SplitMix64;
 use isokit_field::{BrickGrid, Grid, TriMesh, sample_into};
 use isokit_levelset::meshing::{MeshOptions, mesh_brick_grid, mesh_grid, mesh_volume};
 use isokit_levelset::weld::merge_coincident;
@@ -79,7 +79,10 @@ fn box_on_the_lattice_stays_watertight_after_merging() {
     // The volume of the box within the marching-cubes displacement at nodes (1/1024 cell).
     let exact = 8.0 * 0.75 * 0.5 * 0.25;
     let v = mesh_volume(&mesh);
-    assert!((v - exact).abs() < 0.01 * exact, "volume {v}, exact {exact}");
+    assert!(
+        (v - exact).abs() < 0.01 * exact,
+        "volume {v}, exact {exact}"
+    );
     // Every vertex within 1/1000 of a cell of the exact box.
     let worst = mesh
         .positions
@@ -108,7 +111,9 @@ fn planes_through_nodes_edges_and_faces() {
         ("x + y = 9", |i, j, _| (i + j - 9.0) / 2f64.sqrt()),
         ("x - z = 2", |i, _, k| (i - k - 2.0) / 2f64.sqrt()),
         ("x + y + z = 13", |i, j, k| (i + j + k - 13.0) / 3f64.sqrt()),
-        ("x + 2y - 2z = 1", |i, j, k| (i + 2.0 * j - 2.0 * k - 1.0) / 3.0),
+        ("x + 2y - 2z = 1", |i, j, k| {
+            (i + 2.0 * j - 2.0 * k - 1.0) / 3.0
+        }),
     ];
     for (name, f) in planes {
         for neg in [false, true] {
@@ -139,8 +144,10 @@ fn isovalues_exactly_at_sample_values() {
         let data: Vec<f32> = (0..n * n * n)
             .map(|m| {
                 let (i, j, k) = (m % n, (m / n) % n, m / (n * n));
-                let d = ((i as f32 - 4.5).powi(2) + (j as f32 - 4.5).powi(2) + (k as f32 - 4.5).powi(2))
-                    .sqrt();
+                let d = ((i as f32 - 4.5).powi(2)
+                    + (j as f32 - 4.5).powi(2)
+                    + (k as f32 - 4.5).powi(2))
+                .sqrt();
                 let noise = if seed >= 3 { rng.range(-1.5, 1.5) } else { 0.0 };
                 (d - 3.0 + noise).round()
             })
@@ -182,7 +189,11 @@ fn isovalues_exactly_at_sample_values() {
                 let r = merge_coincident(&open).validate();
                 assert_eq!(r.degenerate_triangles, 0, "seed {seed} iso {iso} open: {r}");
                 assert_eq!(r.non_manifold_edges, 0, "seed {seed} iso {iso} open: {r}");
-                assert_eq!(open.validate().duplicate_vertices, 0, "seed {seed} iso {iso}");
+                assert_eq!(
+                    open.validate().duplicate_vertices,
+                    0,
+                    "seed {seed} iso {iso}"
+                );
             }
             iso += 1.0;
         }

@@ -17,8 +17,10 @@ pub enum Mesher {
     #[default]
     Mc,
     /// Dual contouring with Hermite data from the scene's exact field
-    /// (`isokit_levelset::dual`): sharp edges and corners; not guaranteed 2-manifold where a
-    /// cell holds several pieces of the surface.
+    /// (`isokit_levelset::dual`): sharp edges and corners, a vertex per surface component
+    /// of each cell; closed and oriented, 2-manifold except where an ambiguous cell face's
+    /// two segments belong to one component on both sides (rare; then an edge has four
+    /// triangles).
     Dual,
 }
 
@@ -48,8 +50,8 @@ pub struct MeshStats {
     /// Dual contouring only: vertices whose QEF minimiser was clamped into its cell.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clamped_vertices: Option<usize>,
-    /// Dual contouring only: cells the surface crosses in more than one piece (where the
-    /// mesh may be non-manifold).
+    /// Dual contouring only: cells the surface crosses in more than one piece (given a
+    /// vertex per piece).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub multi_component_cells: Option<usize>,
 }

@@ -114,7 +114,11 @@ fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3], tight: bool) -> Re
             .iter()
             .map(|p| p.distance(*c) as f64)
             .fold(f64::INFINITY, f64::min);
-        assert!(near < 0.05 * h, "{name}: corner {c}: nearest vertex {near} ({} voxel)", near / h);
+        assert!(
+            near < 0.05 * h,
+            "{name}: corner {c}: nearest vertex {near} ({} voxel)",
+            near / h
+        );
     }
     let points = surface_points(s, 4000, 11);
     let rep = Report {
@@ -130,8 +134,16 @@ fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3], tight: bool) -> Re
         vertex_error(s, &mc) / h
     );
     if tight {
-        assert!(rep.dual_vertex < 0.05, "{name}: vertex error {} voxel", rep.dual_vertex);
-        assert!(rep.dual_hausdorff < 0.1, "{name}: Hausdorff {} voxel", rep.dual_hausdorff);
+        assert!(
+            rep.dual_vertex < 0.05,
+            "{name}: vertex error {} voxel",
+            rep.dual_vertex
+        );
+        assert!(
+            rep.dual_hausdorff < 0.1,
+            "{name}: Hausdorff {} voxel",
+            rep.dual_hausdorff
+        );
     }
     assert!(rep.mc_hausdorff > 2.0 * rep.dual_hausdorff, "{name}");
     rep
@@ -152,7 +164,8 @@ fn box_corners(c: Vec3, half: Vec3) -> Vec<Vec3> {
 
 #[test]
 fn box_edges_and_corners_are_sharp() {
-    let s = scene(r#"{"shape": {"box": {"half": [0.6, 0.4, 0.3], "center": [0.013, -0.021, 0.007]}}}"#);
+    let s =
+        scene(r#"{"shape": {"box": {"half": [0.6, 0.4, 0.3], "center": [0.013, -0.021, 0.007]}}}"#);
     let corners = box_corners(Vec3::new(0.013, -0.021, 0.007), Vec3::new(0.6, 0.4, 0.3));
     sharp("box", &s, 64, &corners, true);
 }
@@ -198,7 +211,11 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
         // On the surface of the union: not inside the other box.
         f.value(*c).abs() < 1e-5
     });
-    assert!(corners.len() >= 10, "{} corners on the surface", corners.len());
+    assert!(
+        corners.len() >= 10,
+        "{} corners on the surface",
+        corners.len()
+    );
     // Not yet within 0.05 voxel everywhere (about 0.14 voxel at worst, Hausdorff about 0.3
     // voxel, against marching cubes' 0.7): corners and closedness are checked, the bounds
     // reported.
@@ -224,7 +241,10 @@ fn marching_cubes_on_a_box_on_the_lattice() {
     assert_eq!(r.duplicate_vertices, 0, "{r}");
     assert_eq!(r.degenerate_triangles, 0, "{r}");
     let merged = merge_coincident(&m).validate();
-    assert!(merged.watertight && merged.consistently_oriented, "{merged}");
+    assert!(
+        merged.watertight && merged.consistently_oriented,
+        "{merged}"
+    );
     assert_eq!(merged.degenerate_triangles, 0, "{merged}");
     assert_eq!(merged.components, 1);
 }
