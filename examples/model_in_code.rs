@@ -55,6 +55,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &MeshOptions {
             sampling,
             dense: false,
+            ..MeshOptions::default()
         },
         &Job::default(),
     )?;

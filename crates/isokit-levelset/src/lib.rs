@@ -10,7 +10,9 @@
 //!   morph that moves one surface into the other).
 //! - [`evolve`]: level-set evolution with an upwind (Godunov) scheme on a narrow band.
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
-//! - [`meshing`]: watertight, 2-manifold isosurface meshes for export.
+//! - [`meshing`]: watertight, 2-manifold isosurface meshes for export (marching cubes).
+//! - [`dual`]: dual contouring with Hermite data, sharp edges and corners from exact fields.
+//! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
 //! - [`deform`]: twist, bend, taper and elongate, each with its distance bound derived.
 //! - [`repeat`]: infinite repetition, finite arrays and circular arrays, exact for shapes
@@ -24,6 +26,7 @@
 
 pub mod csg;
 pub mod deform;
+pub mod dual;
 pub mod evolve;
 pub mod meshing;
 pub mod morph;
@@ -31,3 +34,4 @@ pub mod offset;
 pub mod profile;
 pub mod reinit;
 pub mod repeat;
+pub mod weld;

@@ -15,9 +15,8 @@
 //! - **Vertices**: one per crossed grid edge, shared by the (up to four) cells around the
 //!   edge, at the linear interpolation of the two samples (clamped into the edge; computed
 //!   in f64). A sample of exactly `iso` puts the crossings of its inside neighbours' edges at
-//!   the sample itself: those vertices coincide in space (and may give zero-area triangles)
-//!   but stay distinct vertices, so the topology is unaffected. An infinite sample (±∞) puts
-//!   the crossing at the finite end.
+//!   the sample itself, and an infinite sample (±∞) puts it at the finite end; see
+//!   *Samples at the isovalue* for how such vertices are kept apart.
 //! - **Faces.** On each face of a cell the crossings (0, 2 or 4) are joined by segments. A
 //!   face with 4 crossings (inside samples on one diagonal, outside on the other) is resolved
 //!   by the *asymptotic decider* on that face's four samples alone: the inside samples are
@@ -45,6 +44,24 @@
 //! Together: every mesh edge is shared by exactly two triangles with opposite directions,
 //! and every vertex's link is a single cycle, whenever the surface does not reach the edge of
 //! the grid.
+//!
+//! ## Samples at the isovalue
+//! The classification above is a *simulation of simplicity* (Edelsbrunner and Mücke 1990):
+//! a sample exactly at `iso` is treated as lying infinitesimally on the outside, so the
+//! topology is that of a surface that passes just inside the node. The geometry follows the
+//! same rule: every edge vertex is kept at least 1/1024 of a cell from both
+//! end nodes of its edge, and, where f32 rounding would still put it on a node's
+//! coordinate, one f32 step towards the edge's interior. Several edges that end at one node
+//! (a surface through a lattice node, edge or face: a box face on the lattice) therefore
+//! get distinct vertices, each in the open interior of its own edge. Three vertices of one
+//! loop lie in the open interiors of three different edges of one cube, which no line
+//! meets (a line meets a convex cell's boundary twice, or runs along one face, where it
+//! meets two edges at most; a closing cap's vertices at boundary samples are corners of its
+//! face, and the edge between two of them is not crossed): no triangle is degenerate, and no two vertices coincide, so
+//! merging coincident vertices (as trimesh does on load) changes nothing and the mesh stays
+//! watertight and 2-manifold. The price is a displacement of at most 1/1024 of a cell. (At
+//! coordinates so far from the origin that f32 cannot resolve a step along an edge the
+//! guarantee fails; a lattice of spacing `h` at distance `D` needs `D/h < 2^23`.)
 //!
 //! ## The grid boundary
 //! A surface that reaches the grid's boundary is open there unless
@@ -366,10 +383,10 @@ const LOWER_FACES: u8 = 0b01_0101;
 // ------------------------------------------------------------------ one cell
 
 /// The closed loops of one cell: `edges[..len[0]]` is the first loop, and so on.
-struct Loops {
-    edges: [u8; 12],
-    len: [u8; 4],
-    count: usize,
+pub(crate) struct Loops {
+    pub(crate) edges: [u8; 12],
+    pub(crate) len: [u8; 4],
+    pub(crate) count: usize,
 }
 
 /// Whether the two inside samples of an ambiguous face (inside `a, c` on one diagonal,
@@ -381,7 +398,7 @@ fn inside_joined(inside: [f32; 2], outside: [f32; 2], iso: f32) -> bool {
 }
 
 /// Traces the loops of a cell with corner `values` and inside mask `mask` (bit n: corner n).
-fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
+pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
     let inside = |c: usize| mask >> c & 1 == 1;
     // next[e]: the edge that follows crossed edge e in its loop.
     let mut next = [u8::MAX; 12];
@@ -563,6 +580,10 @@ fn triangulate(
 
 // ------------------------------------------------------------------ blocks
 
+/// Smallest distance of an edge vertex from the edge's end nodes, in cell units: crossings
+/// nearer a node (a sample at or next to the isovalue) are moved to it.
+const NODE_GAP: f64 = 1.0 / 1024.0;
+
 /// Cells are processed in cubic blocks of `DENSE_BLOCK` cells a side for dense grids.
 const DENSE_BLOCK: usize = 16;
 /// Largest block side for brick grids (blocks subdivide bricks).
@@ -659,6 +680,11 @@ impl Geometry {
 
     fn world(&self, p: DVec3) -> Vec3 {
         (self.origin + self.spacing * p).as_vec3()
+    }
+
+    /// Coordinate `a` of node `g` in world units, rounded to f32 as vertices are.
+    fn world_node(&self, g: [i64; 3], a: usize) -> f32 {
+        (self.origin[a] + self.spacing * g[a] as f64) as f32
     }
 
     /// Meshes one block: cells from `first` with `count` cells per axis; `values` holds the
@@ -787,6 +813,9 @@ impl Geometry {
             } else {
                 1.0 - crossing(v[c1], v[c0], self.iso)
             };
+            // Kept off the edge's end nodes (see the module docs, "Samples at the
+            // isovalue"), so that no two vertices coincide.
+            let t = t.clamp(NODE_GAP, 1.0 - NODE_GAP);
             let mut lp = Vec3::new(o0[0] as f32, o0[1] as f32, o0[2] as f32);
             lp[a] += t as f32;
             let mut gp = DVec3::new(g0[0] as f64, g0[1] as f64, g0[2] as f64);
@@ -796,7 +825,11 @@ impl Geometry {
         if slots[slot] == u32::MAX {
             slots[slot] = out.positions.len() as u32;
             out.keys.push(key);
-            out.positions.push(self.world(grid_pos));
+            let mut p = self.world(grid_pos);
+            if !(pad0 || pad1) {
+                p = crate::weld::off_nodes(p, a, self.world_node(g0, a), self.world_node(g1, a));
+            }
+            out.positions.push(p);
         }
         (slots[slot], local)
     }

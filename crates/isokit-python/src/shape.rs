@@ -759,6 +759,7 @@ impl Shape {
         let opts = MeshOptions {
             sampling: self.sample_options(res, band, bounds_arg(bounds)?, None),
             dense,
+            ..MeshOptions::default()
         };
         let (mesh, stats) = run(py, progress, "mesh", |job| {
             let scene = self.scene()?;

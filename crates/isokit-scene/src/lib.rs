@@ -76,7 +76,7 @@ pub use file::{
     json_schema, parse, parse_with_params,
 };
 pub use isokit_field::{Cancelled, Job};
-pub use mesh::{MeshOptions, MeshStats, mesh_scene, vertex_colors};
+pub use mesh::{MeshOptions, MeshStats, Mesher, mesh_scene, vertex_colors};
 pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats, molecule_camera};
 pub use node::{BandMethod, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData};
 pub use render::{

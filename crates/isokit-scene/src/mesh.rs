@@ -1,11 +1,28 @@
-//! Meshing a scene: the band sampled lazily, then marching cubes over the kept bricks (or
-//! over the dense grid, for the baseline).
+//! Meshing a scene: the band sampled lazily, then marching cubes or dual contouring over the
+//! kept bricks (or over the dense grid, for the baseline).
 
 use crate::{SampleOptions, SampleStats, Scene, SceneError};
 use isokit_field::{Job, TriMesh};
+use isokit_levelset::dual::{DualOptions, DualStats, mesh_dual_brick_grid, mesh_dual_grid};
 use isokit_levelset::meshing::{mesh_brick_grid_job, mesh_grid_job};
 use serde::Serialize;
 use std::time::Instant;
+
+/// Which isosurface mesher [`mesh_scene`] runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mesher {
+    /// Marching cubes with the asymptotic decider (`isokit_levelset::meshing`): watertight
+    /// and 2-manifold by construction; chamfers sharp edges by about a voxel. The default.
+    #[default]
+    Mc,
+    /// Dual contouring with Hermite data from the scene's exact field
+    /// (`isokit_levelset::dual`): sharp edges and corners, a vertex per surface component
+    /// of each cell; closed and oriented, 2-manifold except where an ambiguous cell face's
+    /// two segments belong to one component on both sides (rare; then an edge has four
+    /// triangles).
+    Dual,
+}
 
 /// Knobs of [`mesh_scene`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -15,6 +32,8 @@ pub struct MeshOptions {
     /// Evaluate every sample of the dense grid instead of the lazy band (the baseline;
     /// the same mesh).
     pub dense: bool,
+    /// The mesher (default marching cubes).
+    pub mesher: Mesher,
 }
 
 /// What [`mesh_scene`] did.
@@ -26,11 +45,22 @@ pub struct MeshStats {
     pub triangles: usize,
     /// Seconds spent meshing (after sampling).
     pub mesh_seconds: f64,
+    /// The mesher that ran.
+    pub mesher: Mesher,
+    /// Dual contouring only: vertices whose QEF minimiser was clamped into its cell.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clamped_vertices: Option<usize>,
+    /// Dual contouring only: cells the surface crosses in more than one piece (given a
+    /// vertex per piece).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub multi_component_cells: Option<usize>,
 }
 
-/// The scene's surface as a watertight, consistently oriented triangle mesh (marching cubes
-/// with the asymptotic decider on the sampled band; see `isokit_levelset::meshing`). An
-/// empty mesh when the surface does not cross the sampled domain.
+/// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
+/// consistently oriented (marching cubes with the asymptotic decider on the sampled band;
+/// see `isokit_levelset::meshing`), with [`Mesher::Dual`] dual contouring whose Hermite data
+/// come from the scene's exact field (see `isokit_levelset::dual`). An empty mesh when the
+/// surface does not cross the sampled domain.
 pub fn mesh_scene(
     scene: &Scene,
     opts: &MeshOptions,
@@ -44,26 +74,38 @@ pub fn mesh_scene(
         SceneError::new(scene.name(), "", format!("meshing: {e}"))
     };
     let mesh_opts = isokit_levelset::meshing::MeshOptions::default();
+    let dual_opts = DualOptions::default();
+    // Dual contouring takes its Hermite data from the exact field.
+    let field = Some(scene.field());
+    let mut dual: Option<DualStats> = None;
     let (mesh, stats, t1) = if opts.dense {
         let (grid, stats) = scene.sample_dense(&sampling)?;
         job.check()
             .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
         let t1 = Instant::now();
-        (
-            mesh_grid_job(&grid, &mesh_opts, job).map_err(err)?,
-            stats,
-            t1,
-        )
+        let mesh = match opts.mesher {
+            Mesher::Mc => mesh_grid_job(&grid, &mesh_opts, job).map_err(err)?,
+            Mesher::Dual => {
+                let (m, d) = mesh_dual_grid(&grid, field, &dual_opts).map_err(err)?;
+                dual = Some(d);
+                m
+            }
+        };
+        (mesh, stats, t1)
     } else {
         let (grid, stats) = scene.sample_job(&sampling, job)?;
         job.check()
             .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
         let t1 = Instant::now();
-        (
-            mesh_brick_grid_job(&grid, &mesh_opts, job).map_err(err)?,
-            stats,
-            t1,
-        )
+        let mesh = match opts.mesher {
+            Mesher::Mc => mesh_brick_grid_job(&grid, &mesh_opts, job).map_err(err)?,
+            Mesher::Dual => {
+                let (m, d) = mesh_dual_brick_grid(&grid, field, &dual_opts).map_err(err)?;
+                dual = Some(d);
+                m
+            }
+        };
+        (mesh, stats, t1)
     };
     let triangles = mesh.triangles.len();
     Ok((
@@ -72,6 +114,9 @@ pub fn mesh_scene(
             sampling: stats,
             triangles,
             mesh_seconds: t1.elapsed().as_secs_f64(),
+            mesher: opts.mesher,
+            clamped_vertices: dual.map(|d| d.clamped),
+            multi_component_cells: dual.map(|d| d.multi_component_cells),
         },
     ))
 }

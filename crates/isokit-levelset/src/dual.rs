@@ -1,0 +1,855 @@
+//! Dual contouring with Hermite data (Ju, Losasso, Schaefer and Warren 2002, "Dual
+//! Contouring of Hermite Data"): sharp edges and corners that marching cubes chamfers.
+//!
+//! [`mesh_dual_grid`] meshes a dense [`Grid`], [`mesh_dual_brick_grid`] a sparse
+//! [`BrickGrid`]; both take an optional exact [`Field`] for the Hermite data. The result is
+//! an [`isokit_field::TriMesh`] in world units, triangles counter-clockwise seen from
+//! outside, with the same classification as [`crate::meshing`]: a sample is inside when
+//! `value < iso` (NaN and `iso` itself are outside), and with
+//! [`DualOptions::close_boundary`] the grid is padded with one layer of outside samples.
+//!
+//! ## Method
+//! - **Hermite data** (Ju et al. 2002, Sec. 2): on every grid edge whose two samples lie on
+//!   different sides, a crossing point and a unit normal. From samples alone the point is the
+//!   linear interpolation of the two samples and the normal the linear interpolation of the
+//!   central-difference gradients at the two nodes. With an exact field, the crossing is
+//!   refined on the field itself (Illinois false position from the edge's two ends, a few
+//!   steps; kept on the samples' crossing when the field does not bracket it) and the normal
+//!   is the field's gradient there: this is what puts vertices on edges and corners. An edge
+//!   into the padding beyond the grid crosses at its in-grid node, normal along the axis,
+//!   so the closing caps lie in the boundary faces as with marching cubes.
+//! - **One vertex per surface component of a cell**: the components are the loops that
+//!   marching cubes traces in the cell ([`crate::meshing`], with its asymptotic decider on
+//!   ambiguous faces), so a cell that the surface crosses twice (a wall thinner than a cell,
+//!   two surfaces within a cell) gets two vertices, one for each (vertex splitting as in
+//!   Schaefer, Ju and Warren 2007, "Manifold Dual Contouring", Sec. 3, and Nielson 2004,
+//!   "Dual Marching Cubes"; without their octree simplification). Each vertex is the
+//!   minimiser of the quadratic error function `E(x) = Σ (nᵢ · (x − pᵢ))²` over the
+//!   crossings of its loop, solved relative to their mass point `c` by the pseudo-inverse
+//!   of `AᵀA` with singular values (of `A`) below [`DualOptions::truncation`] of the largest
+//!   dropped (Lindstrom 2000, "Out-of-core simplification of large polygonal models",
+//!   Sec. 3; Ju et al. 2002, Sec. 2.3): on a flat piece the vertex is the mass point moved
+//!   onto the plane, on an edge it is on the edge nearest the mass point, at a corner it is
+//!   the corner. Where that minimiser lies outside the cell, the coordinates it violates
+//!   are fixed on the cell's faces and the others re-solved (an active-set step), and the
+//!   result is clamped to the cell: the vertex never leaves its cell.
+//! - **One quad per crossed edge**, joining the vertices (of the loops holding that edge)
+//!   of the four cells around it,
+//!   split into two triangles along its shorter diagonal and oriented so that the edge's
+//!   inside sample is behind it (the marching-cubes convention of [`crate::meshing`]).
+//!
+//! ## Guarantees and limits
+//! The mesh is the dual of the marching-cubes polygon mesh (a vertex per loop, a quad per
+//! marching-cubes vertex), which is closed, 2-manifold and oriented: so the dual mesh is
+//! closed and consistently oriented, and every edge borders exactly two quads, except where
+//! an ambiguous cell face carries two segments that belong to one loop in *both* cells
+//! (the rare case `crate::meshing` describes under *Triangulation*, found in random noise,
+//! not on smooth fields in the tests): the edge joining those two vertices then borders four
+//! quads. Vertices clamped into their cells can make quads fold, so triangles may intersect
+//! near features the lattice cannot resolve (this module does not test for it). Crossings
+//! refined on the field are exact to about f32 rounding; normals are the field's gradient
+//! (analytic or finite differences). Vertices are not shared across cells, so a vertex of
+//! one component never serves another.
+
+use glam::{DVec3, Vec3};
+use isokit_field::{BrickGrid, Field, Grid, TriMesh};
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+
+use crate::meshing::MeshingError;
+
+/// Options of [`mesh_dual_grid`] and [`mesh_dual_brick_grid`].
+///
+/// ```
+/// use isokit_levelset::dual::DualOptions;
+/// let o = DualOptions::default();
+/// assert_eq!((o.iso, o.truncation, o.refine_steps), (0.0, 0.1, 12));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DualOptions {
+    /// The isovalue: the surface is `f = iso`, inside where `f < iso`. Default 0.
+    pub iso: f32,
+    /// Close surfaces that reach the grid's boundary, as if the grid were padded with
+    /// outside samples (the caps lie in the boundary faces). Default `true`.
+    pub close_boundary: bool,
+    /// Relative threshold of the QEF's rank truncation: singular values of the normal
+    /// matrix below this fraction of the largest are dropped. In `[0, 1)`; default 0.1.
+    pub truncation: f64,
+    /// False-position steps that refine a crossing on the exact field, when one is given.
+    /// Default 12.
+    pub refine_steps: usize,
+}
+
+impl Default for DualOptions {
+    fn default() -> Self {
+        Self {
+            iso: 0.0,
+            close_boundary: true,
+            truncation: 0.1,
+            refine_steps: 12,
+        }
+    }
+}
+
+/// What [`mesh_dual_grid`] and [`mesh_dual_brick_grid`] found.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DualStats {
+    /// Crossed edges (one quad each).
+    pub edges: usize,
+    /// Crossed cells.
+    pub cells: usize,
+    /// Vertices: one per surface component of each crossed cell.
+    pub vertices: usize,
+    /// Cells whose free QEF minimiser lay outside the cell (solved again on the cell's faces
+    /// and clamped into it).
+    pub clamped: usize,
+    /// Cells the surface crosses in more than one piece (marching-cubes loops), each given
+    /// a vertex per piece.
+    pub multi_component_cells: usize,
+    /// Crossings where the exact field did not bracket the samples' crossing (kept on the
+    /// samples' crossing).
+    pub unrefined: usize,
+}
+
+/// Dual contouring of a dense grid (see the [module](self) docs). With `field`, the Hermite
+/// data come from the exact field (which should agree with the samples' signs); without,
+/// from the samples.
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Grid, primitives::Cuboid, sample_into};
+/// use isokit_levelset::dual::{DualOptions, mesh_dual_grid};
+///
+/// let h = 0.1;
+/// let mut grid = Grid::new([21, 21, 21], Vec3::splat(-1.0), h).unwrap();
+/// let cube = Cuboid::new(Vec3::splat(0.013), Vec3::splat(0.52)).unwrap();
+/// sample_into(&cube, &mut grid);
+/// let (mesh, _) = mesh_dual_grid(&grid, Some(&cube), &DualOptions::default()).unwrap();
+/// let r = mesh.validate();
+/// assert!(r.watertight && r.consistently_oriented);
+/// // The corners are reproduced.
+/// let corner = Vec3::splat(0.533);
+/// assert!(mesh.positions.iter().any(|p| p.distance(corner) < 1e-4));
+/// ```
+pub fn mesh_dual_grid(
+    grid: &Grid,
+    field: Option<&dyn Field>,
+    opts: &DualOptions,
+) -> Result<(TriMesh, DualStats), MeshingError> {
+    let data = grid.data();
+    let [nx, ny, _] = grid.dims();
+    contour(
+        grid.dims(),
+        grid.origin(),
+        grid.spacing(),
+        |i, j, k| data[i + nx * (j + ny * k)],
+        field,
+        opts,
+    )
+}
+
+/// Dual contouring of a sparse brick grid, read through [`BrickGrid::get`] (absent bricks
+/// read their background, whose sign must be right). Visits every cell's samples, but
+/// computes Hermite data and vertices only where the surface is.
+pub fn mesh_dual_brick_grid(
+    grid: &BrickGrid,
+    field: Option<&dyn Field>,
+    opts: &DualOptions,
+) -> Result<(TriMesh, DualStats), MeshingError> {
+    contour(
+        grid.dims(),
+        grid.origin(),
+        grid.spacing(),
+        |i, j, k| grid.get(i, j, k),
+        field,
+        opts,
+    )
+}
+
+/// One crossed edge: its key, crossing point (world, f64) and unit normal.
+#[derive(Clone, Copy)]
+struct Hermite {
+    key: u64,
+    point: DVec3,
+    normal: DVec3,
+    /// Whether the edge's lower node is the inside one.
+    lower_inside: bool,
+}
+
+/// The sampled lattice in padded node coordinates (`-1 ..= n` when closing).
+struct Lattice<'a, S> {
+    dims: [usize; 3],
+    origin: DVec3,
+    h: f64,
+    iso: f32,
+    close: bool,
+    sample: S,
+    field: Option<&'a dyn Field>,
+    steps: usize,
+}
+
+impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
+    fn in_grid(&self, g: [i64; 3]) -> bool {
+        (0..3).all(|a| g[a] >= 0 && g[a] < self.dims[a] as i64)
+    }
+
+    /// Node value; `+∞` in the padding.
+    fn value(&self, g: [i64; 3]) -> f32 {
+        if self.in_grid(g) {
+            (self.sample)(g[0] as usize, g[1] as usize, g[2] as usize)
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    fn inside(&self, g: [i64; 3]) -> bool {
+        self.value(g) < self.iso
+    }
+
+    /// Node range along axis `a` (inclusive).
+    fn node_range(&self, a: usize) -> (i64, i64) {
+        let n = self.dims[a] as i64;
+        if self.close { (-1, n) } else { (0, n - 1) }
+    }
+
+    fn padded(&self) -> [u64; 3] {
+        self.dims.map(|d| d as u64 + 2)
+    }
+
+    fn node_key(&self, g: [i64; 3]) -> u64 {
+        let p = g.map(|v| (v + 1) as u64);
+        let [nx, ny, _] = self.padded();
+        p[0] + nx * (p[1] + ny * p[2])
+    }
+
+    fn world(&self, g: DVec3) -> DVec3 {
+        self.origin + self.h * g
+    }
+
+    /// Central-difference gradient of the samples at in-grid node `g` (one-sided at the
+    /// boundary; finite samples only), in world units; zero when nothing is known.
+    fn sample_gradient(&self, g: [i64; 3]) -> DVec3 {
+        let mut out = DVec3::ZERO;
+        let at = |q: [i64; 3]| {
+            if self.in_grid(q) {
+                let v = self.value(q);
+                v.is_finite().then_some(v as f64)
+            } else {
+                None
+            }
+        };
+        let Some(c) = at(g) else { return out };
+        for a in 0..3 {
+            let (mut lo, mut hi) = (g, g);
+            lo[a] -= 1;
+            hi[a] += 1;
+            out[a] = match (at(lo), at(hi)) {
+                (Some(l), Some(u)) => (u - l) / (2.0 * self.h),
+                (Some(l), None) => (c - l) / self.h,
+                (None, Some(u)) => (u - c) / self.h,
+                (None, None) => 0.0,
+            };
+        }
+        out
+    }
+
+    /// Hermite data of the edge along axis `a` from node `g`, whose ends lie on different
+    /// sides; `bool` is true when the exact field did not bracket the crossing.
+    fn hermite(&self, g: [i64; 3], a: usize) -> (Hermite, bool) {
+        let mut g1 = g;
+        g1[a] += 1;
+        let lower_inside = self.inside(g);
+        let key = self.node_key(g) * 3 + a as u64;
+        let gp = |q: [i64; 3]| DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
+        let mut axis = DVec3::ZERO;
+        axis[a] = if lower_inside { 1.0 } else { -1.0 };
+        // Into the padding: the crossing at the in-grid node, the normal along the axis.
+        if !self.in_grid(g) || !self.in_grid(g1) {
+            let node = if self.in_grid(g) { g } else { g1 };
+            let h = Hermite {
+                key,
+                point: self.world(gp(node)),
+                normal: axis,
+                lower_inside,
+            };
+            return (h, false);
+        }
+        let (v0, v1) = (self.value(g) as f64, self.value(g1) as f64);
+        let iso = self.iso as f64;
+        let t = if v1.is_nan() || v0.is_nan() {
+            0.5
+        } else {
+            match (v0.is_finite(), v1.is_finite()) {
+                (true, true) => ((iso - v0) / (v1 - v0)).clamp(0.0, 1.0),
+                (true, false) => 0.0,
+                (false, true) => 1.0,
+                (false, false) => 0.5,
+            }
+        };
+        let (p0, p1) = (self.world(gp(g)), self.world(gp(g1)));
+        let mut point = p0 + t * (p1 - p0);
+        let mut normal = (1.0 - t) * self.sample_gradient(g) + t * self.sample_gradient(g1);
+        let mut unrefined = false;
+        if let Some(f) = self.field {
+            match refine(f, p0, p1, self.iso, self.steps) {
+                Some(p) => {
+                    point = p;
+                    normal = f.gradient(p.as_vec3()).as_dvec3();
+                }
+                None => unrefined = true,
+            }
+        }
+        let normal = if normal.is_finite() && normal.length_squared() > 0.0 {
+            normal.normalize()
+        } else {
+            axis
+        };
+        (
+            Hermite {
+                key,
+                point,
+                normal,
+                lower_inside,
+            },
+            unrefined,
+        )
+    }
+}
+
+/// The crossing of `f = iso` on the segment `p0 .. p1` by Illinois false position, or `None`
+/// when the field's values at the ends do not lie on different sides.
+fn refine(f: &dyn Field, p0: DVec3, p1: DVec3, iso: f32, steps: usize) -> Option<DVec3> {
+    let at = |t: f64| p0 + t * (p1 - p0);
+    let val = |t: f64| f.value(at(t).as_vec3()) as f64 - iso as f64;
+    let (mut a, mut b) = (0.0f64, 1.0f64);
+    let (mut fa, mut fb) = (val(a), val(b));
+    if !(fa.is_finite() && fb.is_finite()) || (fa < 0.0) == (fb < 0.0) {
+        return None;
+    }
+    let mut side = 0i8;
+    for _ in 0..steps {
+        let t = if fb != fa {
+            (a * fb - b * fa) / (fb - fa)
+        } else {
+            0.5 * (a + b)
+        };
+        let t = if t > a && t < b { t } else { 0.5 * (a + b) };
+        let ft = val(t);
+        if !ft.is_finite() {
+            break;
+        }
+        if ft == 0.0 {
+            return Some(at(t));
+        }
+        if (ft < 0.0) == (fa < 0.0) {
+            a = t;
+            fa = ft;
+            if side == -1 {
+                fb *= 0.5;
+            }
+            side = -1;
+        } else {
+            b = t;
+            fb = ft;
+            if side == 1 {
+                fa *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    // The end nearer the surface by the (possibly halved) values' interpolation.
+    let t = if fb != fa {
+        (a * fb - b * fa) / (fb - fa)
+    } else {
+        0.5 * (a + b)
+    };
+    Some(at(t.clamp(a, b)))
+}
+
+/// Minimiser of `Σ (nᵢ · (x − pᵢ))²` over the crossings, relative to their mass point, with
+/// singular values of the normal matrix below `truncation` of the largest dropped.
+#[cfg(test)]
+fn solve_qef(points: &[DVec3], normals: &[DVec3], truncation: f64) -> DVec3 {
+    solve_qef_fixed(points, normals, truncation, [None; 3])
+}
+
+/// [`solve_qef`] with some coordinates fixed (`Some(value)`): the minimiser over the free
+/// ones, the truncation applied to the free block of the normal matrix.
+fn solve_qef_fixed(
+    points: &[DVec3],
+    normals: &[DVec3],
+    truncation: f64,
+    fixed: [Option<f64>; 3],
+) -> DVec3 {
+    let n = points.len().max(1) as f64;
+    let c = points.iter().copied().sum::<DVec3>() / n;
+    // y = x − c; fixed coordinates of y are known.
+    let mut y0 = DVec3::ZERO;
+    for a in 0..3 {
+        if let Some(v) = fixed[a] {
+            y0[a] = v - c[a];
+        }
+    }
+    let mut ata = Matrix3::<f64>::zeros();
+    let mut atb = Vector3::<f64>::zeros();
+    for (p, nn) in points.iter().zip(normals) {
+        let mut free = *nn;
+        for a in 0..3 {
+            if fixed[a].is_some() {
+                free[a] = 0.0;
+            }
+        }
+        let nv = Vector3::new(free.x, free.y, free.z);
+        let d = nn.dot(*p - c) - nn.dot(y0);
+        ata += nv * nv.transpose();
+        atb += nv * d;
+    }
+    let svd = ata.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return c + y0;
+    };
+    // Singular values of AᵀA are the squares of those of A: truncate on A's.
+    let smax = svd.singular_values.max().max(0.0).sqrt();
+    let mut inv = Matrix3::<f64>::zeros();
+    for i in 0..3 {
+        let s = svd.singular_values[i].max(0.0).sqrt();
+        if smax > 0.0 && s > truncation * smax {
+            inv[(i, i)] = 1.0 / (s * s);
+        }
+    }
+    let x = vt.transpose() * inv * u.transpose() * atb;
+    let mut y = DVec3::new(x[0], x[1], x[2]);
+    for a in 0..3 {
+        if fixed[a].is_some() {
+            y[a] = y0[a];
+        }
+    }
+    let out = c + y;
+    if out.is_finite() { out } else { c + y0 }
+}
+
+/// Distance from the surface (voxels, by the exact field) above which a cell's vertex is
+/// improved.
+const SURFACE_TOL: f64 = 0.01;
+
+/// Rank of the normals after truncation (how many independent planes the QEF sees: 1 on a
+/// face, 2 on an edge, 3 at a corner).
+fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
+    let mut ata = Matrix3::<f64>::zeros();
+    for nn in normals {
+        let nv = Vector3::new(nn.x, nn.y, nn.z);
+        ata += nv * nv.transpose();
+    }
+    let sv = ata.singular_values();
+    let smax = sv.max().max(0.0).sqrt();
+    sv.iter()
+        .filter(|&&v| smax > 0.0 && v.max(0.0).sqrt() > truncation * smax)
+        .count()
+}
+
+/// Largest plane residual `|nᵢ · (x − pᵢ)|` of the crossings at `x`.
+fn residual(points: &[DVec3], normals: &[DVec3], x: DVec3) -> f64 {
+    points
+        .iter()
+        .zip(normals)
+        .map(|(p, n)| n.dot(x - *p).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The QEF minimiser kept in the unit cell `[0, 1]³` (cell units): where the free minimiser
+/// leaves the cell, the coordinates it violates are fixed at the cell's faces and the rest
+/// re-solved (an active-set step, at most three times), then clamped. Returns the point and
+/// whether the free minimiser was outside.
+fn solve_in_cell(points: &[DVec3], normals: &[DVec3], truncation: f64) -> (DVec3, bool) {
+    let inside = |x: DVec3| (0..3).all(|a| (0.0..=1.0).contains(&x[a]));
+    let mut fixed = [None; 3];
+    let mut x = solve_qef_fixed(points, normals, truncation, fixed);
+    if inside(x) {
+        return (x, false);
+    }
+    for _ in 0..3 {
+        let mut changed = false;
+        for a in 0..3 {
+            if fixed[a].is_none() && !(0.0..=1.0).contains(&x[a]) {
+                fixed[a] = Some(x[a].clamp(0.0, 1.0));
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+        x = solve_qef_fixed(points, normals, truncation, fixed);
+        if inside(x) {
+            break;
+        }
+    }
+    (x.clamp(DVec3::ZERO, DVec3::ONE), true)
+}
+
+/// Edge `q` of a cell (12): axis `q / 4`, offsets along the other two axes.
+fn cell_edge(cell: [i64; 3], q: usize) -> ([i64; 3], usize) {
+    let a = q / 4;
+    let mut g = cell;
+    g[(a + 1) % 3] += (q & 1) as i64;
+    g[(a + 2) % 3] += ((q >> 1) & 1) as i64;
+    (g, a)
+}
+
+fn contour(
+    dims: [usize; 3],
+    origin: Vec3,
+    spacing: f32,
+    sample: impl Fn(usize, usize, usize) -> f32 + Sync,
+    field: Option<&dyn Field>,
+    opts: &DualOptions,
+) -> Result<(TriMesh, DualStats), MeshingError> {
+    if !opts.iso.is_finite() {
+        return Err(MeshingError::BadIso(opts.iso));
+    }
+    if dims.iter().any(|&d| d < 2) {
+        return Err(MeshingError::GridTooSmall { dims });
+    }
+    let lat = Lattice {
+        dims,
+        origin: origin.as_dvec3(),
+        h: spacing as f64,
+        iso: opts.iso,
+        close: opts.close_boundary,
+        sample,
+        field,
+        steps: opts.refine_steps,
+    };
+    let truncation = if opts.truncation.is_finite() {
+        opts.truncation.clamp(0.0, 0.999)
+    } else {
+        0.1
+    };
+    let r = [0, 1, 2].map(|a| lat.node_range(a));
+    // Pass 1: the crossed edges, slab by slab (sorted by key).
+    let slabs: Vec<Vec<(Hermite, bool)>> = (r[2].0..=r[2].1)
+        .into_par_iter()
+        .map(|z| {
+            let mut out = Vec::new();
+            for y in r[1].0..=r[1].1 {
+                for x in r[0].0..=r[0].1 {
+                    let g = [x, y, z];
+                    let ins = lat.inside(g);
+                    for a in 0..3 {
+                        if g[a] + 1 > r[a].1 {
+                            continue;
+                        }
+                        let mut g1 = g;
+                        g1[a] += 1;
+                        if lat.inside(g1) != ins {
+                            out.push(lat.hermite(g, a));
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let unrefined = slabs.iter().flatten().filter(|h| h.1).count();
+    let edges: Vec<Hermite> = slabs.into_iter().flatten().map(|h| h.0).collect();
+    // The cells around each crossed edge (those inside the cell range).
+    let cell_lo = [0, 1, 2].map(|a| r[a].0);
+    let cell_hi = [0, 1, 2].map(|a| r[a].1 - 1);
+    let [px, py, _] = lat.padded();
+    let decode = |key: u64| -> [i64; 3] {
+        let n = key;
+        [
+            (n % px) as i64 - 1,
+            ((n / px) % py) as i64 - 1,
+            (n / (px * py)) as i64 - 1,
+        ]
+    };
+    let around = |h: &Hermite| -> [Option<[i64; 3]>; 4] {
+        let g = decode(h.key / 3);
+        let a = (h.key % 3) as usize;
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        // Counter-clockwise about +a: (−,−), (+,−), (+,+), (−,+) in (b, c).
+        [(-1, -1), (0, -1), (0, 0), (-1, 0)].map(|(db, dc)| {
+            let mut cell = g;
+            cell[b] += db;
+            cell[c] += dc;
+            (0..3)
+                .all(|i| cell[i] >= cell_lo[i] && cell[i] <= cell_hi[i])
+                .then_some(cell)
+        })
+    };
+    let mut cells: Vec<u64> = edges
+        .par_iter()
+        .flat_map_iter(|h| around(h).into_iter().flatten().map(|c| lat.node_key(c)))
+        .collect();
+    cells.par_sort_unstable();
+    cells.dedup();
+    let limit = u32::MAX as usize;
+    if cells.len() > limit || 2 * edges.len() > limit {
+        return Err(MeshingError::TooLarge {
+            vertices: cells.len(),
+            triangles: 2 * edges.len(),
+            limit,
+        });
+    }
+    let find_edge = |key: u64| -> Option<&Hermite> {
+        edges
+            .binary_search_by_key(&key, |h| h.key)
+            .ok()
+            .map(|i| &edges[i])
+    };
+    // Pass 2: a vertex per surface component of each crossed cell (per marching-cubes loop
+    // of the cell, with the face decisions of `crate::meshing`).
+    struct CellVerts {
+        verts: Vec<(Vec3, bool)>,
+        /// Loop (local vertex) of each of the 12 cube edges.
+        of_edge: [u8; 12],
+        several: bool,
+    }
+    let per_cell: Vec<CellVerts> = cells
+        .par_iter()
+        .map(|&ck| {
+            let cell = decode(ck);
+            let mut values = [0f32; 8];
+            let mut mask = 0u8;
+            for (n, v) in values.iter_mut().enumerate() {
+                let g = [
+                    cell[0] + (n & 1) as i64,
+                    cell[1] + ((n >> 1) & 1) as i64,
+                    cell[2] + ((n >> 2) & 1) as i64,
+                ];
+                *v = lat.value(g);
+                if *v < lat.iso {
+                    mask |= 1 << n;
+                }
+            }
+            let loops = crate::meshing::cell_loops(&values, mask, lat.iso);
+            let lo = lat.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
+            let hi = lo + DVec3::splat(lat.h);
+            let mut of_edge = [0u8; 12];
+            let mut verts = Vec::with_capacity(loops.count);
+            let mut at = 0;
+            for l in 0..loops.count.max(1) {
+                let len = if loops.count == 0 {
+                    0
+                } else {
+                    loops.len[l] as usize
+                };
+                let mut pts = [DVec3::ZERO; 12];
+                let mut nrm = [DVec3::ZERO; 12];
+                let mut m = 0;
+                for &q in &loops.edges[at..at + len] {
+                    of_edge[q as usize] = l as u8;
+                    let (g, a) = cell_edge(cell, q as usize);
+                    if let Some(h) = find_edge(lat.node_key(g) * 3 + a as u64) {
+                        // Solved in cell units about the cell's corner, for conditioning.
+                        pts[m] = (h.point - lo) / lat.h;
+                        nrm[m] = h.normal;
+                        m += 1;
+                    }
+                }
+                at += len;
+                if m == 0 {
+                    // No loop traced (cannot happen for a crossed cell): the cell's centre.
+                    verts.push(((lo + 0.5 * lat.h * DVec3::ONE).as_vec3(), false));
+                    continue;
+                }
+                let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
+                // An edge whose corner lies in this cell while the third face crosses only
+                // the neighbours' edges (rank 2), or, with an exact field, a vertex off the
+                // surface: the crossings of the neighbouring cells are added, and their
+                // minimiser kept where all their planes meet in one corner inside this cell
+                // and it is no farther from the surface.
+                let off = |x: DVec3| {
+                    lat.field.map_or(0.0, |f| {
+                        let v = f.value((lo + lat.h * x).as_vec3()) as f64 - lat.iso as f64;
+                        if v.is_finite() {
+                            v.abs() / lat.h
+                        } else {
+                            f64::INFINITY
+                        }
+                    })
+                };
+                let before = off(x);
+                let rank = qef_rank(&nrm[..m], truncation);
+                let try_neighbours = match lat.field {
+                    Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
+                    None => rank == 2 && !clamped,
+                };
+                if try_neighbours {
+                    let (mut more_p, mut more_n) = (pts[..m].to_vec(), nrm[..m].to_vec());
+                    for dz in -1..=2 {
+                        for dy in -1..=2 {
+                            for dx in -1..=2 {
+                                let g = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                                let o = [dx, dy, dz];
+                                for a in 0..3 {
+                                    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                                    // The cell's own edges are in already.
+                                    let own = o[a] == 0
+                                        && (0..=1).contains(&o[b])
+                                        && (0..=1).contains(&o[c]);
+                                    let in_range = (0..3).all(|i| {
+                                        let top = g[i] + (i == a) as i64;
+                                        g[i] >= r[i].0 && top <= r[i].1
+                                    });
+                                    if o[a] == 2 || own || !in_range {
+                                        continue;
+                                    }
+                                    if let Some(h) = find_edge(lat.node_key(g) * 3 + a as u64) {
+                                        more_p.push((h.point - lo) / lat.h);
+                                        more_n.push(h.normal);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if qef_rank(&more_n, truncation) == 3 {
+                        let y = solve_qef_fixed(&more_p, &more_n, truncation, [None; 3]);
+                        let inside = (0..3).all(|a| (0.0..=1.0).contains(&y[a]));
+                        if inside
+                            && residual(&more_p, &more_n, y) < 1e-3
+                            && off(y) <= before.max(SURFACE_TOL)
+                        {
+                            x = y;
+                        }
+                    }
+                }
+                verts.push(((lo + lat.h * x).clamp(lo, hi).as_vec3(), clamped));
+            }
+            CellVerts {
+                verts,
+                of_edge,
+                several: loops.count > 1,
+            }
+        })
+        .collect();
+    let mut first = Vec::with_capacity(per_cell.len() + 1);
+    let mut total = 0usize;
+    for c in &per_cell {
+        first.push(total as u32);
+        total += c.verts.len();
+    }
+    if total > limit {
+        return Err(MeshingError::TooLarge {
+            vertices: total,
+            triangles: 2 * edges.len(),
+            limit,
+        });
+    }
+    let positions: Vec<Vec3> = per_cell
+        .iter()
+        .flat_map(|c| c.verts.iter().map(|v| v.0))
+        .collect();
+    // The vertex of cell `c` on lattice edge (`g`, axis `a`).
+    let vertex = |c: [i64; 3], g: [i64; 3], a: usize| -> Option<u32> {
+        let i = cells.binary_search(&lat.node_key(c)).ok()?;
+        let (b, cc) = ((a + 1) % 3, (a + 2) % 3);
+        let q = 4 * a + (g[b] - c[b]) as usize + 2 * (g[cc] - c[cc]) as usize;
+        Some(first[i] + per_cell[i].of_edge[q] as u32)
+    };
+    // Pass 3: a quad per crossed edge with all four cells.
+    let triangles: Vec<[u32; 3]> = edges
+        .par_iter()
+        .flat_map_iter(|h| {
+            let g = decode(h.key / 3);
+            let a = (h.key % 3) as usize;
+            let around = around(h);
+            let mut quad = [0u32; 4];
+            let mut ok = true;
+            for (i, c) in around.iter().enumerate() {
+                match c.and_then(|c| vertex(c, g, a)) {
+                    Some(v) => quad[i] = v,
+                    None => ok = false,
+                }
+            }
+            let mut out = Vec::with_capacity(2);
+            if ok {
+                if !h.lower_inside {
+                    quad.reverse();
+                }
+                let p = quad.map(|v| positions[v as usize]);
+                let [a, b, c, d] = quad;
+                if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
+                    out.push([a, b, c]);
+                    out.push([a, c, d]);
+                } else {
+                    out.push([a, b, d]);
+                    out.push([b, c, d]);
+                }
+            }
+            out
+        })
+        .collect();
+    let stats = DualStats {
+        edges: edges.len(),
+        cells: cells.len(),
+        vertices: positions.len(),
+        clamped: per_cell
+            .iter()
+            .flat_map(|c| c.verts.iter())
+            .filter(|v| v.1)
+            .count(),
+        multi_component_cells: per_cell.iter().filter(|c| c.several).count(),
+        unrefined,
+    };
+    Ok((TriMesh::new(positions, triangles), stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn qef_finds_planes_edges_and_corners() {
+        let x = DVec3::X;
+        let y = DVec3::Y;
+        let z = DVec3::Z;
+        // A corner at (0.3, 0.6, 0.2): three planes.
+        let pts = [
+            DVec3::new(0.3, 0.0, 0.0),
+            DVec3::new(0.3, 1.0, 1.0),
+            DVec3::new(0.0, 0.6, 0.0),
+            DVec3::new(1.0, 0.6, 1.0),
+            DVec3::new(0.0, 1.0, 0.2),
+            DVec3::new(1.0, 0.0, 0.2),
+        ];
+        let nrm = [x, x, y, y, z, z];
+        let v = solve_qef(&pts, &nrm, 0.1);
+        assert!(v.distance(DVec3::new(0.3, 0.6, 0.2)) < 1e-12, "{v}");
+        // One plane x = 0.3: the mass point moved onto it.
+        let v = solve_qef(&pts[..2], &nrm[..2], 0.1);
+        assert!(v.distance(DVec3::new(0.3, 0.5, 0.5)) < 1e-12, "{v}");
+        // Nearly parallel normals are truncated to one plane.
+        let tilt = DVec3::new(1.0, 0.01, 0.0).normalize();
+        let v = solve_qef(&pts[..2], &[x, tilt], 0.1);
+        assert!((v.x - 0.3).abs() < 0.01, "{v}");
+    }
+
+    #[test]
+    fn minimiser_outside_the_cell_is_solved_on_its_faces() {
+        // Planes x = 1.3 (tilted slightly) and y = 0.5: the edge leaves the cell.
+        let nx = DVec3::new(1.0, 0.0, 0.05).normalize();
+        let pts = [
+            DVec3::new(1.3, 0.0, 0.2),
+            DVec3::new(1.3, 1.0, 0.8),
+            DVec3::new(0.0, 0.5, 0.4),
+            DVec3::new(1.0, 0.5, 0.6),
+        ];
+        let nrm = [nx, nx, DVec3::Y, DVec3::Y];
+        let free = solve_qef(&pts, &nrm, 0.1);
+        assert!(free.x > 1.0, "{free}");
+        let (v, outside) = solve_in_cell(&pts, &nrm, 0.1);
+        assert!(outside);
+        assert_eq!(v.x, 1.0);
+        assert!((v.y - 0.5).abs() < 1e-12, "{v}");
+        assert!((0.0..=1.0).contains(&v.z));
+    }
+
+    #[test]
+    fn refinement_finds_the_crossing() {
+        let s = isokit_field::primitives::Sphere::new(Vec3::ZERO, 0.5).unwrap();
+        let p = refine(&s, DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0), 0.0, 12).unwrap();
+        assert!((p.x - 0.5).abs() < 1e-6, "{p}");
+        assert!(refine(&s, DVec3::ZERO, DVec3::new(0.2, 0.0, 0.0), 0.0, 12).is_none());
+    }
+}
