@@ -142,6 +142,7 @@ pub mod knn;
 pub mod normals;
 mod sdf;
 pub mod solve;
+pub mod winding;
 
 pub use error::PointsError;
 pub use grid::{
@@ -150,10 +151,11 @@ pub use grid::{
 };
 pub use normals::{NormalOptions, NormalReport, estimate_normals};
 pub use sdf::{
-    BuildStats, DEFAULT_DAMPING, Evaluation, NormalSource, PointSdf, PointSdfOptions, Solver,
-    Weighting,
+    BuildStats, DEFAULT_DAMPING, Evaluation, NormalSource, PointSdf, PointSdfOptions, SignRule,
+    Solver, Weighting,
 };
 pub use solve::SolveStats;
+pub use winding::{WindingNumber, WindingOptions, point_areas};
 
 use glam::Vec3;
 
