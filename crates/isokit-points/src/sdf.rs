@@ -16,6 +16,10 @@ use std::time::Instant;
 /// Krylov vectors kept by GMRES between restarts.
 const GMRES_RESTART: usize = 50;
 
+/// How far from 1/2 the winding number must be to override the closest sample's side
+/// ([`SignRule::Winding`]): it is near 0 or 1 a few spacings off the surface.
+pub const WINDING_MARGIN: f64 = 0.25;
+
 /// The default damping of [`Solver::Lsqr`] (chosen by the measurements in the crate docs).
 pub const DEFAULT_DAMPING: f64 = 0.05;
 
@@ -89,12 +93,14 @@ pub enum SignRule {
     /// the point from the solid (e.g. below the rim of a pocket, in the pocket).
     Nearest,
     /// The default: the winding number of the oriented cloud ([`crate::winding`]; inside
-    /// where it exceeds 1/2) where the nearest-sample rule is ambiguous, i.e. where the
-    /// `far_k` nearest samples do not all put the point on the same side of their tangent
-    /// planes; the nearest-sample rule elsewhere.
+    /// where it exceeds 3/4, outside below 1/4, [`WINDING_MARGIN`]) where the
+    /// nearest-sample rule is ambiguous, i.e. where the `far_k` nearest samples do not all
+    /// put the point on the same side of their tangent planes; the closest sample's side
+    /// elsewhere and where the winding number is not clear.
     Winding,
     /// The winding number wherever the far field counts (blend weight below 1), whatever
-    /// the samples agree on. For comparison: slower, same signs in the measurements.
+    /// the samples agree on (with the same margin). For comparison: slower, same signs in
+    /// the measurements.
     WindingEverywhere,
 }
 
@@ -620,9 +626,13 @@ impl PointSdf {
                     .any(|&(j, _)| (self.nrm[j].dot(x - self.pts[j]) >= 0.0) != outside),
             };
             if ask {
+                // Near the surface the winding number of a cloud wanders around 1/2 (each
+                // sample is a dipole, not a patch): only a clear answer overrides the side.
                 let v = wn.value(x);
                 winding = Some(v);
-                outside = v <= 0.5;
+                if (v - 0.5).abs() > WINDING_MARGIN {
+                    outside = v < 0.5;
+                }
             }
         }
         let far = if outside { d0.sqrt() } else { -d0.sqrt() };

@@ -15,7 +15,9 @@
 //! nearest-sample rule's counts are printed beside). With Gaussian noise of 0.5% of the
 //! bounding diagonal: none beyond 3 spacings plus 3 noise deviations. Counts:
 //! `cargo test -p isokit-points --test sign -- --nocapture`. With `ISOKIT_SIGN_CLOUDS=DIR`
-//! the clouds are also written there as PLY (for `isokit points` and the peers).
+//! the clouds and their meshes are also written there as PLY (for `isokit points` and the peers), and the
+//! winding-number check's cloud, areas and values as text for
+//! `tests/peers/check_winding.py`.
 
 use glam::{DVec3, Vec3};
 use isokit_field::rng::SplitMix64;
@@ -150,13 +152,10 @@ fn blob() -> TriMesh {
     let mut g = Grid::covering(bounds, 128, 0.05).unwrap();
     let [nx, ny, _] = g.dims();
     let (o, s) = (g.origin().as_dvec3(), g.spacing() as f64);
-    g.data_mut()
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(n, v)| {
-            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-            *v = f(o + s * DVec3::new(i as f64, j as f64, k as f64)) as f32;
-        });
+    g.data_mut().par_iter_mut().enumerate().for_each(|(n, v)| {
+        let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+        *v = f(o + s * DVec3::new(i as f64, j as f64, k as f64)) as f32;
+    });
     let mesh =
         isokit_levelset::meshing::mesh_grid(&g, &isokit_levelset::meshing::MeshOptions::default())
             .unwrap();
@@ -188,14 +187,7 @@ struct Count {
     seconds: f64,
 }
 
-fn count(
-    p: &[Vec3],
-    n: &[Vec3],
-    grid: &Grid,
-    exact: &[f64],
-    beyond: f64,
-    rule: SignRule,
-) -> Count {
+fn count(p: &[Vec3], n: &[Vec3], grid: &Grid, exact: &[f64], beyond: f64, rule: SignRule) -> Count {
     let t = std::time::Instant::now();
     let sdf = PointSdf::new(
         p,
@@ -295,6 +287,8 @@ fn run(noise: f64) {
                 normals: Some(n.clone()),
             };
             isokit_io::write_points(&file, &cloud).unwrap();
+            let mesh = d.join(format!("{}.ply", case.name.replace(' ', "-") + "-mesh"));
+            isokit_io::write_mesh(&mesh, &case.mesh).unwrap();
         }
         let exact = exact_at(&case.mesh, &grid);
         let beyond = 3.0 * s + 3.0 * sigma;
@@ -352,9 +346,11 @@ fn winding_number_matches_the_direct_sum() {
     let (mut worst, mut sum2, mut worst8, mut far_wrong, mut tree_wrong, mut far) =
         (0.0f64, 0.0, 0.0f64, 0, 0, 0);
     let m = 2000;
+    let mut rows = String::new();
     for _ in 0..m {
         let q = rng.point_in(b.min, b.max).as_dvec3();
         let (a, e) = (w.value(q), w.exact(q));
+        rows += &format!("{} {} {} {a} {} {e}\n", q.x, q.y, q.z, fine.value(q));
         worst = worst.max((a - e).abs());
         worst8 = worst8.max((fine.value(q) - e).abs());
         sum2 += (a - e) * (a - e);
@@ -364,6 +360,18 @@ fn winding_number_matches_the_direct_sum() {
             far_wrong += usize::from((e > 0.5) != (d < 0.0));
             tree_wrong += usize::from((a > 0.5) != (d < 0.0));
         }
+    }
+    if let Some(d) = std::env::var_os("ISOKIT_SIGN_CLOUDS").map(std::path::PathBuf::from) {
+        // For the peer check (tests/peers/check_winding.py): the cloud with its areas, and
+        // the queries with the tree (beta 2, 8) and direct sums.
+        let cloud: String = p
+            .iter()
+            .zip(&n)
+            .zip(&areas)
+            .map(|((p, n), a)| format!("{} {} {} {} {} {} {a}\n", p.x, p.y, p.z, n.x, n.y, n.z))
+            .collect();
+        std::fs::write(d.join("winding-cloud.txt"), cloud).unwrap();
+        std::fs::write(d.join("winding-queries.txt"), rows).unwrap();
     }
     let rms = (sum2 / m as f64).sqrt();
     let area = isokit_levelset::meshing::mesh_area(&mesh);
