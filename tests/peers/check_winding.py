@@ -8,7 +8,8 @@ The test writes the cloud (20,000 area-uniform samples of a pocketed blob with e
 normals) with isokit's Voronoi areas, and 2000 random query points in and around it with
 isokit's tree at beta 2 and 8 and the direct sum. Here libigl's
 `igl.fast_winding_number(P, N, A, Q, expansion_order, beta)` runs on the same input at
-orders 1-3, beta 2, and exactly (beta 0). Never run in CI: it needs the peers of
+orders 1-3, beta 2 (order 3 raised MemoryError in the pip build tried), and exactly
+(beta 0). Never run in CI: it needs the peers of
 tests/peers/requirements.txt.
 """
 
@@ -43,7 +44,11 @@ def main():
     row("isokit tree, beta 8 (order 1)", tree8)
     for order in (1, 2, 3):
         t = time.perf_counter()
-        v = igl.fast_winding_number(P, N, A, Q, order, 2.0)
+        try:
+            v = igl.fast_winding_number(P, N, A, Q, order, 2.0)
+        except MemoryError as e:  # order 3 fails this way in the pip build tried
+            print(f"libigl order {order}, beta 2: failed ({e!r})")
+            continue
         row(f"libigl order {order}, beta 2 ({time.perf_counter() - t:.3f} s)", v)
     print(f"(libigl exact: {te:.3f} s)")
 
