@@ -12,8 +12,9 @@
 //! - a sharp box.
 //!
 //! Clean clouds: no wrong sign beyond 3 grid spacings with [`SignRule::Winding`] (the
-//! nearest-sample rule's counts are printed beside). With Gaussian noise of 0.5% of the
-//! bounding diagonal: none beyond 3 spacings plus 3 noise deviations. Counts:
+//! nearest-sample rule's counts are printed beside). With Gaussian noise of 0.5% and 2% of
+//! the bounding diagonal: none beyond 3 spacings plus 3 noise deviations. On clean clouds the
+//! error within 2 spacings of the surface stays below 1 spacing. Counts:
 //! `cargo test -p isokit-points --test sign -- --nocapture`. With `ISOKIT_SIGN_CLOUDS=DIR`
 //! the clouds and their meshes are also written there as PLY (for `isokit points` and the peers), and the
 //! winding-number check's cloud, areas and values as text for
@@ -184,6 +185,9 @@ struct Count {
     wrong_inside: usize,
     /// Largest exact distance of a wrong sign, in grid spacings.
     worst: f64,
+    /// RMS and largest error at the nodes within 2 spacings of the surface, in spacings.
+    near_rms: f64,
+    near_max: f64,
     seconds: f64,
 }
 
@@ -212,7 +216,15 @@ fn count(p: &[Vec3], n: &[Vec3], grid: &Grid, exact: &[f64], beyond: f64, rule: 
         })
         .collect();
     let s = grid.spacing() as f64;
+    let near: Vec<f64> = nodes
+        .par_iter()
+        .zip(exact)
+        .filter(|(_, e)| e.abs() < 2.0 * s)
+        .map(|(&(i, j, k), &e)| (sdf.evaluate(grid.position(i, j, k).as_dvec3()).value - e).abs())
+        .collect();
     Count {
+        near_rms: (near.iter().map(|e| e * e).sum::<f64>() / near.len().max(1) as f64).sqrt() / s,
+        near_max: near.iter().copied().fold(0.0, f64::max) / s,
         wrong: bad.len(),
         nodes: exact.iter().filter(|e| e.abs() > beyond).count(),
         wrong_inside: bad.iter().filter(|b| b.0).count(),
@@ -301,7 +313,8 @@ fn run(noise: f64) {
             let r = count(&p, &n, &grid, &exact, beyond, rule);
             println!(
                 "{} (noise {:.1}% of the diagonal), spacing {s:.4}, sign {}: {} wrong of {} nodes \
-                 beyond {:.2} spacings ({} reported inside; farthest {:.1} spacings), agreement {:.6}, {:.1} s",
+                 beyond {:.2} spacings ({} reported inside; farthest {:.1} spacings), agreement {:.6}; \
+                 within 2 spacings: RMS {:.3}, max {:.2} spacings; {:.1} s",
                 case.name,
                 100.0 * noise,
                 rule.name(),
@@ -311,10 +324,17 @@ fn run(noise: f64) {
                 r.wrong_inside,
                 r.worst,
                 1.0 - r.wrong as f64 / r.nodes as f64,
+                r.near_rms,
+                r.near_max,
                 r.seconds
             );
             assert!(r.nodes > 1000, "{}: {} nodes", case.name, r.nodes);
             wrong.push(r.wrong);
+            if noise == 0.0 && rule == SignRule::Winding {
+                // Measured 0.57–0.91 spacings; the nearest-sample rule gives 1.6–2.5 here,
+                // its wrong signs reaching into the band beside the sharp edges.
+                assert!(r.near_max <= 1.0, "{}: near max {}", case.name, r.near_max);
+            }
         }
         assert_eq!(wrong[1], 0, "{}: winding-number sign", case.name);
         assert_eq!(wrong[2], 0, "{}: winding number everywhere", case.name);
@@ -386,4 +406,9 @@ fn winding_number_matches_the_direct_sum() {
     assert!(worst8 < 0.01, "beta 8: max {worst8}");
     assert_eq!((far_wrong, tree_wrong), (0, 0));
     assert!((w.total_area() / area - 1.0).abs() < 0.02);
+}
+
+#[test]
+fn far_signs_with_two_percent_noise() {
+    run(0.02);
 }
