@@ -217,3 +217,93 @@ fn query_a_cloud() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not available for point clouds"));
 }
+
+/// `--sign`: beside a box's sharp edges the closest sample's side is wrong several grid
+/// spacings away (`--sign nearest`, the old rule); the default winding-number sign agrees
+/// with the exact sign everywhere beyond 3 spacings.
+#[test]
+fn sign_rules_on_a_sharp_box() {
+    let d = scratch("sign");
+    let half = glam::Vec3::new(0.7, 0.5, 0.4);
+    // Area-uniform samples on the six faces, with their exact normals.
+    let mut rng = isokit_field::rng::SplitMix64::new(21);
+    let areas = [half.y * half.z, half.x * half.z, half.x * half.y];
+    let total: f32 = areas.iter().sum();
+    let (mut points, mut normals) = (Vec::new(), Vec::new());
+    for _ in 0..30_000 {
+        let r = rng.next_f32() * total;
+        let axis = if r < areas[0] {
+            0
+        } else if r < areas[0] + areas[1] {
+            1
+        } else {
+            2
+        };
+        let mut p = rng.point_in(-half, half);
+        let s = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+        p[axis] = s * half[axis];
+        let mut n = glam::Vec3::ZERO;
+        n[axis] = s;
+        points.push(p);
+        normals.push(n);
+    }
+    let cloud = d.join("box.ply");
+    let pc = isokit_field::PointCloud {
+        points,
+        normals: Some(normals),
+    };
+    isokit_io::write_points(&cloud, &pc).unwrap();
+    let exact = |p: glam::Vec3| {
+        let q = p.abs() - half;
+        q.max(glam::Vec3::ZERO).length() + q.max_element().min(0.0)
+    };
+    let mut wrong = Vec::new();
+    for sign in [None, Some("nearest"), Some("winding")] {
+        let out = d.join(format!("box_{}.nrrd", sign.unwrap_or("default")));
+        let mut args = vec![
+            "points",
+            cloud.to_str().unwrap(),
+            "--res",
+            "64",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        if let Some(s) = sign {
+            args.extend(["--sign", s]);
+        }
+        let o = isokit(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{err}");
+        let name = sign.unwrap_or("winding");
+        assert!(err.contains(&format!("sign: {name})")), "{err}");
+        assert_eq!(
+            err.contains("winding number: sample areas"),
+            name == "winding"
+        );
+        let grid = isokit_io::read_volume(&out).unwrap().into_grid().unwrap();
+        let h = grid.spacing();
+        let bad = grid
+            .iter()
+            .filter(|&([i, j, k], v)| {
+                let e = exact(grid.position(i, j, k));
+                e.abs() > 3.0 * h && (v < 0.0) != (e < 0.0)
+            })
+            .count();
+        eprintln!("sharp box, sign {name}: {bad} wrong signs beyond 3 spacings");
+        wrong.push(bad);
+    }
+    assert!(
+        wrong[1] > 0,
+        "the nearest-sample rule was expected to fail here"
+    );
+    assert_eq!((wrong[0], wrong[2]), (0, 0));
+    let o = isokit(&[
+        "points",
+        cloud.to_str().unwrap(),
+        "--sign",
+        "majority",
+        "-o",
+        "x.nrrd",
+    ]);
+    assert!(!o.status.success());
+}

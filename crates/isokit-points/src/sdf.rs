@@ -4,6 +4,7 @@ use crate::far::{blend_weight, sigma_bar};
 use crate::knn::Knn;
 use crate::normals::{NormalOptions, NormalReport, estimate_normals};
 use crate::solve::{Preconditioner, SolveStats, bicgstab, gmres, lsqr};
+use crate::winding::{WindingNumber, WindingOptions, areas_with};
 use crate::{PointsError, check_points};
 use glam::{DVec3, Vec3};
 use isokit_field::PointCloud;
@@ -14,6 +15,10 @@ use std::time::Instant;
 
 /// Krylov vectors kept by GMRES between restarts.
 const GMRES_RESTART: usize = 50;
+
+/// How far from 1/2 the winding number must be to override the closest sample's side
+/// ([`SignRule::Winding`]): it is near 0 or 1 a few spacings off the surface.
+pub const WINDING_MARGIN: f64 = 0.25;
 
 /// The default damping of [`Solver::Lsqr`] (chosen by the measurements in the crate docs).
 pub const DEFAULT_DAMPING: f64 = 0.05;
@@ -80,6 +85,36 @@ impl Solver {
     }
 }
 
+/// Where the far field (the distance to the closest sample) gets its sign.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SignRule {
+    /// The side of the closest sample's tangent plane (002 Sec. 4.3.5). Wrong beside sharp
+    /// edges, where the closest sample may lie on the face whose plane does not separate
+    /// the point from the solid (e.g. below the rim of a pocket, in the pocket).
+    Nearest,
+    /// The default: the winding number of the oriented cloud ([`crate::winding`]; inside
+    /// where it exceeds 3/4, outside below 1/4, [`WINDING_MARGIN`]) where the
+    /// nearest-sample rule is ambiguous, i.e. where the `far_k` nearest samples do not all
+    /// put the point on the same side of their tangent planes; the closest sample's side
+    /// elsewhere and where the winding number is not clear.
+    Winding,
+    /// The winding number wherever the far field counts (blend weight below 1), whatever
+    /// the samples agree on (with the same margin). For comparison: slower, same signs in
+    /// the measurements.
+    WindingEverywhere,
+}
+
+impl SignRule {
+    /// Name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            SignRule::Nearest => "nearest",
+            SignRule::Winding => "winding",
+            SignRule::WindingEverywhere => "winding-everywhere",
+        }
+    }
+}
+
 /// Knobs of [`PointSdf`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointSdfOptions {
@@ -108,6 +143,8 @@ pub struct PointSdfOptions {
     pub tol: f64,
     /// Iteration limit of the solve.
     pub max_iter: usize,
+    /// Where the far field gets its sign (only with `far_field`).
+    pub sign: SignRule,
 }
 
 impl Default for PointSdfOptions {
@@ -121,6 +158,7 @@ impl Default for PointSdfOptions {
             damping: DEFAULT_DAMPING,
             tol: 1e-4,
             max_iter: 200,
+            sign: SignRule::Winding,
         }
     }
 }
@@ -145,8 +183,12 @@ pub struct BuildStats {
     pub k: usize,
     /// The sparse solve ([`Weighting::PolyGauss`] only).
     pub solve: Option<SolveStats>,
-    /// Seconds to build (tree, solve).
+    /// Seconds to build (tree, solve, winding number).
     pub seconds: f64,
+    /// Seconds building the winding number (areas and tree); 0 without one.
+    pub winding_seconds: f64,
+    /// Sum of the sample areas of the winding number (≈ the surface area); 0 without one.
+    pub winding_area: f64,
 }
 
 /// One evaluation, split into its parts.
@@ -156,8 +198,10 @@ pub struct Evaluation {
     pub value: f64,
     /// The partition-of-unity near field; `None` where no weight reaches ([`Weighting::Nie04`]).
     pub near: Option<f64>,
-    /// Distance to the closest sample, signed by that sample's normal.
+    /// Distance to the closest sample, signed by [`PointSdfOptions::sign`].
     pub far: f64,
+    /// The winding number at the point, where the sign rule evaluated it.
+    pub winding: Option<f64>,
     /// The blend weight `w` (1 on the surface, 0 far away; 1 when the far field is off).
     pub weight: f64,
 }
@@ -184,6 +228,8 @@ pub struct PointSdf {
     opts: PointSdfOptions,
     bounds: Aabb,
     stats: BuildStats,
+    /// The winding number for [`SignRule::Winding`] and [`SignRule::WindingEverywhere`].
+    winding: Option<WindingNumber>,
 }
 
 impl PointSdf {
@@ -279,6 +325,7 @@ impl PointSdf {
             nrm,
             knn,
             opts,
+            winding: None,
             stats: BuildStats {
                 samples: n,
                 duplicates_removed,
@@ -303,6 +350,15 @@ impl PointSdf {
                 sdf.support_max = support.iter().copied().fold(0.0, f64::max);
                 sdf.support = support;
             }
+        }
+        if opts.far_field && opts.sign != SignRule::Nearest {
+            let t = Instant::now();
+            let w = WindingOptions::default();
+            let areas = areas_with(&sdf.knn, &sdf.pts, &sdf.nrm, w.area_k);
+            let wn = WindingNumber::build(sdf.pts.clone(), sdf.nrm.clone(), areas, w.beta)?;
+            sdf.stats.winding_area = wn.total_area();
+            sdf.winding = Some(wn);
+            sdf.stats.winding_seconds = t.elapsed().as_secs_f64();
         }
         sdf.stats.seconds = t0.elapsed().as_secs_f64();
         Ok(sdf)
@@ -346,6 +402,12 @@ impl PointSdf {
     /// The unit normals of [`PointSdf::samples`].
     pub fn normals(&self) -> &[DVec3] {
         &self.nrm
+    }
+
+    /// The winding number of the samples, built for [`SignRule::Winding`] and
+    /// [`SignRule::WindingEverywhere`] (with the far field on); `None` otherwise.
+    pub fn winding_number(&self) -> Option<&WindingNumber> {
+        self.winding.as_ref()
     }
 
     /// The constants `c_i` of the local linear fields (0 without a solve).
@@ -543,7 +605,6 @@ impl PointSdf {
         self.knn.nearest(x, kq, &mut nb);
         let (j0, d0) = nb[0];
         let side = self.nrm[j0].dot(x - self.pts[j0]);
-        let far = if side < 0.0 { -d0.sqrt() } else { d0.sqrt() };
         let near = self.near_with(x, &nb[..self.opts.k.min(nb.len())]);
         let weight = if self.opts.far_field {
             // At a point coinciding with all its samples (mean distance 0): on the surface.
@@ -551,6 +612,30 @@ impl PointSdf {
         } else {
             1.0
         };
+        let mut winding = None;
+        let mut outside = side >= 0.0;
+        if let Some(wn) = &self.winding
+            && weight < 1.0
+        {
+            let ask = match self.opts.sign {
+                SignRule::Nearest => false,
+                SignRule::WindingEverywhere => true,
+                // Ambiguous: the nearest samples' tangent planes disagree on the side.
+                SignRule::Winding => nb
+                    .iter()
+                    .any(|&(j, _)| (self.nrm[j].dot(x - self.pts[j]) >= 0.0) != outside),
+            };
+            if ask {
+                // Near the surface the winding number of a cloud wanders around 1/2 (each
+                // sample is a dipole, not a patch): only a clear answer overrides the side.
+                let v = wn.value(x);
+                winding = Some(v);
+                if (v - 0.5).abs() > WINDING_MARGIN {
+                    outside = v < 0.5;
+                }
+            }
+        }
+        let far = if outside { d0.sqrt() } else { -d0.sqrt() };
         let value = match near {
             Some(v) => weight * v + (1.0 - weight) * far,
             None => far,
@@ -559,6 +644,7 @@ impl PointSdf {
             value,
             near,
             far,
+            winding,
             weight,
         }
     }

@@ -2,7 +2,7 @@
 
 use isokit_field::PointCloud;
 use isokit_points::{
-    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, Solver, Weighting,
+    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, SignRule, Solver, Weighting,
 };
 use std::path::PathBuf;
 
@@ -39,6 +39,16 @@ pub enum SolverArg {
     Bicgstab,
 }
 
+/// Where the far field gets its sign.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SignArg {
+    /// The side of the closest sample's tangent plane: wrong beside sharp edges.
+    Nearest,
+    /// The winding number of the oriented cloud (Barill et al. 2018) where the nearest
+    /// samples disagree on the side, the closest sample's side elsewhere.
+    Winding,
+}
+
 /// Arguments of `isokit points`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = crate::cmd::volume_args::LAYOUT)]
@@ -69,6 +79,9 @@ pub struct Args {
     /// Turn the far-field blend off (near field everywhere).
     #[arg(long)]
     pub no_far: bool,
+    /// Sign of the far field away from the surface.
+    #[arg(long, value_enum, default_value_t = SignArg::Winding)]
+    pub sign: SignArg,
     /// Where normals come from [default: given when the cloud has them, else estimate].
     #[arg(long, value_enum)]
     pub normals: Option<Normals>,
@@ -128,6 +141,10 @@ impl Args {
             },
             damping: self.damping,
             max_iter: self.max_iter,
+            sign: match self.sign {
+                SignArg::Nearest => SignRule::Nearest,
+                SignArg::Winding => SignRule::Winding,
+            },
             ..PointSdfOptions::default()
         };
         CloudGridOptions {

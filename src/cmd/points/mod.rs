@@ -49,8 +49,18 @@ pub fn run(a: Args) -> Result<()> {
         b.duplicates_removed,
         field.weighting.name(),
         b.k,
-        if field.far_field { "on" } else { "off" }
+        if field.far_field {
+            format!("on (sign: {})", field.sign.name())
+        } else {
+            "off".to_string()
+        }
     );
+    if b.winding_seconds > 0.0 {
+        eprintln!(
+            "winding number: sample areas sum to {:.4}, {:.2} s",
+            b.winding_area, b.winding_seconds
+        );
+    }
     if let Some(s) = b.solve {
         let damping = if field.solver == Solver::Lsqr {
             format!(" (damping {})", s.damping)
