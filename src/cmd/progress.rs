@@ -76,11 +76,19 @@ impl Printer {
         if QUIET.load(Ordering::Relaxed) || total == 0 {
             return;
         }
-        let Ok(mut last) = self.last.try_lock() else {
-            return;
+        // A report that arrives while another thread prints is dropped, except a stage's
+        // first (0 done, which starts it) and last, which wait: the line with the total time
+        // must not be lost.
+        let mut last = if done == 0 || done >= total {
+            self.last.lock().unwrap_or_else(|e| e.into_inner())
+        } else {
+            match self.last.try_lock() {
+                Ok(g) => g,
+                Err(_) => return,
+            }
         };
         let now = Instant::now();
-        if last.as_ref().is_none_or(|s| s.name != stage) {
+        if done == 0 || last.as_ref().is_none_or(|s| s.name != stage) {
             *last = Some(Stage {
                 name: stage.to_owned(),
                 start: now,
@@ -89,6 +97,11 @@ impl Printer {
             });
         }
         let Some(s) = last.as_mut() else { return };
+        // Reports from parallel workers can arrive out of order: never step back, and say
+        // nothing more once the stage's end is printed.
+        if done < s.done || (s.printed.is_some() && s.done >= total) {
+            return;
+        }
         let elapsed = now.duration_since(s.start);
         let finished = done >= total;
         // A short stage says nothing; a stage that printed also prints its end.
