@@ -2,6 +2,7 @@
 interpreter. Long calls stop on Ctrl-C and on a progress callback returning False."""
 
 import _thread
+import signal
 import threading
 import time
 
@@ -149,7 +150,17 @@ def test_progress_callbacks_report_and_cancel():
         s.sample(res=16, progress=3)
 
 
-def test_ctrl_c_cancels_a_long_call():
+@pytest.fixture
+def python_handles_ctrl_c():
+    """Python's own SIGINT handler for the test: a process started in the background by a
+    shell inherits SIGINT ignored, and then Ctrl-C (and `_thread.interrupt_main`) never
+    reaches Python at all."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
+def test_ctrl_c_cancels_a_long_call(python_handles_ctrl_c):
     V, F = icosphere(5)
     P = np.random.default_rng(1).uniform(-1.5, 1.5, size=(1_000_000, 3))  # ~20 s of work
     timer = threading.Timer(0.3, _thread.interrupt_main)
