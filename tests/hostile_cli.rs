@@ -184,6 +184,44 @@ fn each_stage_refuses_what_does_not_fit() {
     }
 }
 
+/// White noise crosses the isovalue on about half of all lattice edges: its mesh is many
+/// times the size of the volume. Both meshers count what they hold against the budget while
+/// meshing and refuse in one line, leaving no output behind.
+#[test]
+fn a_noise_volume_whose_mesh_exceeds_the_budget_is_refused() {
+    let d = scratch("budget-mesh");
+    let n = 64;
+    let mut rng = isokit_field::rng::SplitMix64::new(7);
+    let noise: Vec<f32> = (0..n * n * n).map(|_| rng.next_f32() - 0.5).collect();
+    let vol = d.join("noise.npy");
+    isokit_io::write_npy_f32(&vol, &[n, n, n], &noise).unwrap();
+    let vol = vol.display().to_string();
+    let out = d.join("m.obj").display().to_string();
+    for mesher in ["mc", "dual"] {
+        let args = [
+            "mesh",
+            &vol,
+            "-o",
+            &out,
+            "--mesher",
+            mesher,
+            "--max-memory",
+            "8M",
+        ];
+        let (o, _) = run_limited("", &args, &[], 60);
+        assert_clear_error(&o, "memory budget of 8.0 MiB");
+        assert!(!std::path::Path::new(&out).exists(), "{mesher}");
+        // The same volume meshes within the default budget.
+        let ok = isokit(&["mesh", &vol, "-o", &out, "--mesher", mesher]);
+        assert!(
+            ok.status.success(),
+            "{mesher}: {}",
+            String::from_utf8_lossy(&ok.stderr)
+        );
+        std::fs::remove_file(&out).unwrap();
+    }
+}
+
 // ------------------------------------------------------------------ bounded reads
 
 /// A glTF buffer on `/dev/zero` and a detached NRRD on `/dev/urandom` were read until memory

@@ -52,9 +52,10 @@
 //! one component never serves another.
 
 use glam::{DVec3, Vec3};
-use isokit_field::{BrickGrid, Field, Grid, TriMesh};
+use isokit_field::{BrickGrid, Field, Grid, Job, TriMesh};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::meshing::MeshingError;
 
@@ -136,6 +137,44 @@ pub fn mesh_dual_grid(
     field: Option<&dyn Field>,
     opts: &DualOptions,
 ) -> Result<(TriMesh, DualStats), MeshingError> {
+    mesh_dual_grid_job(grid, field, opts, &Job::new())
+}
+
+/// [`mesh_dual_grid`] reporting its progress to `job` (stages `meshing (crossed edges)`, in
+/// slabs of the lattice, and `meshing (vertices)`, in crossed cells) and stopping with
+/// [`MeshingError::Cancelled`] once the job is cancelled.
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Grid, Job, primitives::Sphere, sample_into};
+/// use isokit_levelset::dual::{DualOptions, mesh_dual_grid_job};
+/// use isokit_levelset::meshing::MeshingError;
+/// use std::sync::{Arc, Mutex};
+///
+/// let mut grid = Grid::new([24; 3], Vec3::splat(-1.0), 2.0 / 23.0).unwrap();
+/// sample_into(&Sphere::new(Vec3::ZERO, 0.7).unwrap(), &mut grid);
+/// let stages = Arc::new(Mutex::new(Vec::new()));
+/// let seen = stages.clone();
+/// let job = Job::new().with_progress(move |stage, done, total| {
+///     if done == total {
+///         seen.lock().unwrap().push(stage.to_owned());
+///     }
+/// });
+/// mesh_dual_grid_job(&grid, None, &DualOptions::default(), &job).unwrap();
+/// let stages = stages.lock().unwrap();
+/// assert!(stages.iter().any(|s| s == "meshing (crossed edges)"));
+/// assert!(stages.iter().any(|s| s == "meshing (vertices)"));
+///
+/// job.cancel();
+/// let err = mesh_dual_grid_job(&grid, None, &DualOptions::default(), &job);
+/// assert!(matches!(err, Err(MeshingError::Cancelled(_))));
+/// ```
+pub fn mesh_dual_grid_job(
+    grid: &Grid,
+    field: Option<&dyn Field>,
+    opts: &DualOptions,
+    job: &Job,
+) -> Result<(TriMesh, DualStats), MeshingError> {
     let data = grid.data();
     let [nx, ny, _] = grid.dims();
     contour(
@@ -145,6 +184,7 @@ pub fn mesh_dual_grid(
         |i, j, k| data[i + nx * (j + ny * k)],
         field,
         opts,
+        job,
     )
 }
 
@@ -156,6 +196,17 @@ pub fn mesh_dual_brick_grid(
     field: Option<&dyn Field>,
     opts: &DualOptions,
 ) -> Result<(TriMesh, DualStats), MeshingError> {
+    mesh_dual_brick_grid_job(grid, field, opts, &Job::new())
+}
+
+/// [`mesh_dual_brick_grid`] reporting its progress to `job` and stopping once it is
+/// cancelled, as [`mesh_dual_grid_job`] does.
+pub fn mesh_dual_brick_grid_job(
+    grid: &BrickGrid,
+    field: Option<&dyn Field>,
+    opts: &DualOptions,
+    job: &Job,
+) -> Result<(TriMesh, DualStats), MeshingError> {
     contour(
         grid.dims(),
         grid.origin(),
@@ -163,6 +214,7 @@ pub fn mesh_dual_brick_grid(
         |i, j, k| grid.get(i, j, k),
         field,
         opts,
+        job,
     )
 }
 
@@ -495,6 +547,177 @@ fn cell_edge(cell: [i64; 3], q: usize) -> ([i64; 3], usize) {
     (g, a)
 }
 
+/// Bytes the meshing holds per crossed edge: its Hermite data, up to four cell keys before
+/// they are deduplicated, a share of a cell's vertices, and the two triangles of its quad.
+const BYTES_PER_EDGE: u64 = (std::mem::size_of::<(Hermite, bool)>()
+    + 4 * std::mem::size_of::<u64>()
+    + std::mem::size_of::<CellVerts>()
+    + 2 * std::mem::size_of::<[u32; 3]>()) as u64;
+
+/// The vertices of one crossed cell.
+struct CellVerts {
+    /// One per surface component (loop), with whether its QEF minimiser was clamped.
+    verts: Vec<(Vec3, bool)>,
+    /// Loop (local vertex) of each of the 12 cube edges.
+    of_edge: [u8; 12],
+    several: bool,
+}
+
+/// The crossed edge with this key, from the sorted crossed edges.
+fn find_edge(edges: &[Hermite], key: u64) -> Option<&Hermite> {
+    edges
+        .binary_search_by_key(&key, |h| h.key)
+        .ok()
+        .map(|i| &edges[i])
+}
+
+impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
+    /// The crossed edges of one z slab of nodes, in key order; `bool` as in
+    /// [`Lattice::hermite`].
+    fn slab_edges(&self, z: i64, r: &[(i64, i64); 3]) -> Vec<(Hermite, bool)> {
+        let mut out = Vec::new();
+        for y in r[1].0..=r[1].1 {
+            for x in r[0].0..=r[0].1 {
+                let g = [x, y, z];
+                let ins = self.inside(g);
+                for a in 0..3 {
+                    if g[a] + 1 > r[a].1 {
+                        continue;
+                    }
+                    let mut g1 = g;
+                    g1[a] += 1;
+                    if self.inside(g1) != ins {
+                        out.push(self.hermite(g, a));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// A vertex per surface component of the crossed cell (per marching-cubes loop of the
+    /// cell, with the face decisions of `crate::meshing`).
+    fn cell_vertices(
+        &self,
+        cell: [i64; 3],
+        r: &[(i64, i64); 3],
+        edges: &[Hermite],
+        truncation: f64,
+    ) -> CellVerts {
+        let mut values = [0f32; 8];
+        let mut mask = 0u8;
+        for (n, v) in values.iter_mut().enumerate() {
+            let g = [
+                cell[0] + (n & 1) as i64,
+                cell[1] + ((n >> 1) & 1) as i64,
+                cell[2] + ((n >> 2) & 1) as i64,
+            ];
+            *v = self.value(g);
+            if *v < self.iso {
+                mask |= 1 << n;
+            }
+        }
+        let loops = crate::meshing::cell_loops(&values, mask, self.iso);
+        let lo = self.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
+        let hi = lo + DVec3::splat(self.h);
+        let mut of_edge = [0u8; 12];
+        let mut verts = Vec::with_capacity(loops.count);
+        let mut at = 0;
+        for l in 0..loops.count.max(1) {
+            let len = if loops.count == 0 {
+                0
+            } else {
+                loops.len[l] as usize
+            };
+            let mut pts = [DVec3::ZERO; 12];
+            let mut nrm = [DVec3::ZERO; 12];
+            let mut m = 0;
+            for &q in &loops.edges[at..at + len] {
+                of_edge[q as usize] = l as u8;
+                let (g, a) = cell_edge(cell, q as usize);
+                if let Some(h) = find_edge(edges, self.node_key(g) * 3 + a as u64) {
+                    // Solved in cell units about the cell's corner, for conditioning.
+                    pts[m] = (h.point - lo) / self.h;
+                    nrm[m] = h.normal;
+                    m += 1;
+                }
+            }
+            at += len;
+            if m == 0 {
+                // No loop traced (cannot happen for a crossed cell): the cell's centre.
+                verts.push(((lo + 0.5 * self.h * DVec3::ONE).as_vec3(), false));
+                continue;
+            }
+            let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
+            // An edge whose corner lies in this cell while the third face crosses only the
+            // neighbours' edges (rank 2), or, with an exact field, a vertex off the surface:
+            // the crossings of the neighbouring cells are added, and their minimiser kept
+            // where all their planes meet in one corner inside this cell and it is no
+            // farther from the surface.
+            let off = |x: DVec3| {
+                self.field.map_or(0.0, |f| {
+                    let v = f.value((lo + self.h * x).as_vec3()) as f64 - self.iso as f64;
+                    if v.is_finite() {
+                        v.abs() / self.h
+                    } else {
+                        f64::INFINITY
+                    }
+                })
+            };
+            let before = off(x);
+            let rank = qef_rank(&nrm[..m], truncation);
+            let try_neighbours = match self.field {
+                Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
+                None => rank == 2 && !clamped,
+            };
+            if try_neighbours {
+                let (mut more_p, mut more_n) = (pts[..m].to_vec(), nrm[..m].to_vec());
+                for dz in -1..=2 {
+                    for dy in -1..=2 {
+                        for dx in -1..=2 {
+                            let g = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                            let o = [dx, dy, dz];
+                            for a in 0..3 {
+                                let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                                // The cell's own edges are in already.
+                                let own =
+                                    o[a] == 0 && (0..=1).contains(&o[b]) && (0..=1).contains(&o[c]);
+                                let in_range = (0..3).all(|i| {
+                                    let top = g[i] + (i == a) as i64;
+                                    g[i] >= r[i].0 && top <= r[i].1
+                                });
+                                if o[a] == 2 || own || !in_range {
+                                    continue;
+                                }
+                                if let Some(h) = find_edge(edges, self.node_key(g) * 3 + a as u64) {
+                                    more_p.push((h.point - lo) / self.h);
+                                    more_n.push(h.normal);
+                                }
+                            }
+                        }
+                    }
+                }
+                if qef_rank(&more_n, truncation) == 3 {
+                    let y = solve_qef_fixed(&more_p, &more_n, truncation, [None; 3]);
+                    let inside = (0..3).all(|a| (0.0..=1.0).contains(&y[a]));
+                    if inside
+                        && residual(&more_p, &more_n, y) < 1e-3
+                        && off(y) <= before.max(SURFACE_TOL)
+                    {
+                        x = y;
+                    }
+                }
+            }
+            verts.push(((lo + self.h * x).clamp(lo, hi).as_vec3(), clamped));
+        }
+        CellVerts {
+            verts,
+            of_edge,
+            several: loops.count > 1,
+        }
+    }
+}
+
 fn contour(
     dims: [usize; 3],
     origin: Vec3,
@@ -502,6 +725,7 @@ fn contour(
     sample: impl Fn(usize, usize, usize) -> f32 + Sync,
     field: Option<&dyn Field>,
     opts: &DualOptions,
+    job: &Job,
 ) -> Result<(TriMesh, DualStats), MeshingError> {
     if !opts.iso.is_finite() {
         return Err(MeshingError::BadIso(opts.iso));
@@ -525,30 +749,37 @@ fn contour(
         0.1
     };
     let r = [0, 1, 2].map(|a| lat.node_range(a));
-    // Pass 1: the crossed edges, slab by slab (sorted by key).
+    // Pass 1: the crossed edges, slab by slab (sorted by key). What the meshing will hold is
+    // counted as the slabs are made, against the memory budget: a surface too large (noise)
+    // stops the meshing once it has used the budget, not when the allocator gives up.
+    let budget = isokit_field::memory::budget();
+    let held = AtomicU64::new(0);
+    let slab_counter = job.counter("meshing (crossed edges)", (r[2].1 - r[2].0 + 1) as u64);
     let slabs: Vec<Vec<(Hermite, bool)>> = (r[2].0..=r[2].1)
         .into_par_iter()
         .map(|z| {
-            let mut out = Vec::new();
-            for y in r[1].0..=r[1].1 {
-                for x in r[0].0..=r[0].1 {
-                    let g = [x, y, z];
-                    let ins = lat.inside(g);
-                    for a in 0..3 {
-                        if g[a] + 1 > r[a].1 {
-                            continue;
-                        }
-                        let mut g1 = g;
-                        g1[a] += 1;
-                        if lat.inside(g1) != ins {
-                            out.push(lat.hermite(g, a));
-                        }
-                    }
-                }
+            if held.load(Ordering::Relaxed) > budget || job.is_cancelled() {
+                return Vec::new();
             }
+            let out = lat.slab_edges(z, &r);
+            held.fetch_add(out.len() as u64 * BYTES_PER_EDGE, Ordering::Relaxed);
+            slab_counter.advance(1);
             out
         })
         .collect();
+    job.check()?;
+    let held = held.into_inner();
+    if held > budget {
+        isokit_field::memory::check_within(
+            budget,
+            &format!(
+                "the dual-contoured mesh of the isosurface (of {} x {} x {} samples)",
+                dims[0], dims[1], dims[2]
+            ),
+            held as u128,
+            "mesh a coarser grid, or raise the budget",
+        )?;
+    }
     let unrefined = slabs.iter().flatten().filter(|h| h.1).count();
     let edges: Vec<Hermite> = slabs.into_iter().flatten().map(|h| h.0).collect();
     // The cells around each crossed edge (those inside the cell range).
@@ -591,138 +822,24 @@ fn contour(
             limit,
         });
     }
-    let find_edge = |key: u64| -> Option<&Hermite> {
-        edges
-            .binary_search_by_key(&key, |h| h.key)
-            .ok()
-            .map(|i| &edges[i])
-    };
-    // Pass 2: a vertex per surface component of each crossed cell (per marching-cubes loop
-    // of the cell, with the face decisions of `crate::meshing`).
-    struct CellVerts {
-        verts: Vec<(Vec3, bool)>,
-        /// Loop (local vertex) of each of the 12 cube edges.
-        of_edge: [u8; 12],
-        several: bool,
-    }
+    // Pass 2: a vertex per surface component of each crossed cell.
+    let cell_counter = job.counter("meshing (vertices)", cells.len() as u64);
     let per_cell: Vec<CellVerts> = cells
         .par_iter()
         .map(|&ck| {
-            let cell = decode(ck);
-            let mut values = [0f32; 8];
-            let mut mask = 0u8;
-            for (n, v) in values.iter_mut().enumerate() {
-                let g = [
-                    cell[0] + (n & 1) as i64,
-                    cell[1] + ((n >> 1) & 1) as i64,
-                    cell[2] + ((n >> 2) & 1) as i64,
-                ];
-                *v = lat.value(g);
-                if *v < lat.iso {
-                    mask |= 1 << n;
-                }
-            }
-            let loops = crate::meshing::cell_loops(&values, mask, lat.iso);
-            let lo = lat.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
-            let hi = lo + DVec3::splat(lat.h);
-            let mut of_edge = [0u8; 12];
-            let mut verts = Vec::with_capacity(loops.count);
-            let mut at = 0;
-            for l in 0..loops.count.max(1) {
-                let len = if loops.count == 0 {
-                    0
-                } else {
-                    loops.len[l] as usize
+            if job.is_cancelled() {
+                return CellVerts {
+                    verts: Vec::new(),
+                    of_edge: [0; 12],
+                    several: false,
                 };
-                let mut pts = [DVec3::ZERO; 12];
-                let mut nrm = [DVec3::ZERO; 12];
-                let mut m = 0;
-                for &q in &loops.edges[at..at + len] {
-                    of_edge[q as usize] = l as u8;
-                    let (g, a) = cell_edge(cell, q as usize);
-                    if let Some(h) = find_edge(lat.node_key(g) * 3 + a as u64) {
-                        // Solved in cell units about the cell's corner, for conditioning.
-                        pts[m] = (h.point - lo) / lat.h;
-                        nrm[m] = h.normal;
-                        m += 1;
-                    }
-                }
-                at += len;
-                if m == 0 {
-                    // No loop traced (cannot happen for a crossed cell): the cell's centre.
-                    verts.push(((lo + 0.5 * lat.h * DVec3::ONE).as_vec3(), false));
-                    continue;
-                }
-                let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
-                // An edge whose corner lies in this cell while the third face crosses only
-                // the neighbours' edges (rank 2), or, with an exact field, a vertex off the
-                // surface: the crossings of the neighbouring cells are added, and their
-                // minimiser kept where all their planes meet in one corner inside this cell
-                // and it is no farther from the surface.
-                let off = |x: DVec3| {
-                    lat.field.map_or(0.0, |f| {
-                        let v = f.value((lo + lat.h * x).as_vec3()) as f64 - lat.iso as f64;
-                        if v.is_finite() {
-                            v.abs() / lat.h
-                        } else {
-                            f64::INFINITY
-                        }
-                    })
-                };
-                let before = off(x);
-                let rank = qef_rank(&nrm[..m], truncation);
-                let try_neighbours = match lat.field {
-                    Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
-                    None => rank == 2 && !clamped,
-                };
-                if try_neighbours {
-                    let (mut more_p, mut more_n) = (pts[..m].to_vec(), nrm[..m].to_vec());
-                    for dz in -1..=2 {
-                        for dy in -1..=2 {
-                            for dx in -1..=2 {
-                                let g = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
-                                let o = [dx, dy, dz];
-                                for a in 0..3 {
-                                    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                                    // The cell's own edges are in already.
-                                    let own = o[a] == 0
-                                        && (0..=1).contains(&o[b])
-                                        && (0..=1).contains(&o[c]);
-                                    let in_range = (0..3).all(|i| {
-                                        let top = g[i] + (i == a) as i64;
-                                        g[i] >= r[i].0 && top <= r[i].1
-                                    });
-                                    if o[a] == 2 || own || !in_range {
-                                        continue;
-                                    }
-                                    if let Some(h) = find_edge(lat.node_key(g) * 3 + a as u64) {
-                                        more_p.push((h.point - lo) / lat.h);
-                                        more_n.push(h.normal);
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    if qef_rank(&more_n, truncation) == 3 {
-                        let y = solve_qef_fixed(&more_p, &more_n, truncation, [None; 3]);
-                        let inside = (0..3).all(|a| (0.0..=1.0).contains(&y[a]));
-                        if inside
-                            && residual(&more_p, &more_n, y) < 1e-3
-                            && off(y) <= before.max(SURFACE_TOL)
-                        {
-                            x = y;
-                        }
-                    }
-                }
-                verts.push(((lo + lat.h * x).clamp(lo, hi).as_vec3(), clamped));
             }
-            CellVerts {
-                verts,
-                of_edge,
-                several: loops.count > 1,
-            }
+            let c = lat.cell_vertices(decode(ck), &r, &edges, truncation);
+            cell_counter.advance(1);
+            c
         })
         .collect();
+    job.check()?;
     let mut first = Vec::with_capacity(per_cell.len() + 1);
     let mut total = 0usize;
     for c in &per_cell {
