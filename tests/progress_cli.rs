@@ -106,6 +106,16 @@ fn octree_and_mesh_report_their_stages() {
     let lines = progress_lines(&m, "meshing");
     assert!(!lines.is_empty() && lines.len() <= 11, "{m}");
     assert!(lines.last().unwrap().contains("100.0%"), "{lines:?}");
+    // Dual contouring: the crossed edges, then the cells' vertices.
+    let dual = run(
+        &["mesh", vol.as_str(), "-o", obj.as_str(), "--mesher", "dual"],
+        "0",
+    );
+    for stage in ["meshing (crossed edges)", "meshing (vertices)"] {
+        let lines = progress_lines(&dual, stage);
+        assert!(!lines.is_empty(), "{stage}: {dual}");
+        assert!(lines.last().unwrap().contains("100.0%"), "{lines:?}");
+    }
     assert!(
         progress_lines(
             &run(&["mesh", vol.as_str(), "-o", obj.as_str(), "-q"], "0"),

@@ -4,7 +4,7 @@
 use super::check_output;
 use anyhow::{Result, bail};
 use isokit_io::write_mesh;
-use isokit_levelset::dual::{DualOptions, mesh_dual_grid};
+use isokit_levelset::dual::{DualOptions, mesh_dual_grid_job};
 use isokit_levelset::meshing::{MeshOptions, mesh_grid_job};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -73,11 +73,8 @@ pub fn run(a: Args) -> Result<()> {
                 close_boundary: !a.open,
                 ..DualOptions::default()
             };
-            let (mesh, st) = mesh_dual_grid(&grid, None, &dual)?;
-            eprintln!(
-                "dual contouring: {} vertices clamped into their cells, {} cells crossed in more than one piece",
-                st.clamped, st.multi_component_cells
-            );
+            let (mesh, st) = mesh_dual_grid_job(&grid, None, &dual, &super::progress::job())?;
+            super::scene::print_dual_stats(st.clamped, st.multi_component_cells);
             mesh
         }
     };

@@ -63,6 +63,22 @@ pub enum MesherArg {
     Dual,
 }
 
+impl From<MesherArg> for Mesher {
+    fn from(m: MesherArg) -> Self {
+        match m {
+            MesherArg::Mc => Mesher::Mc,
+            MesherArg::Dual => Mesher::Dual,
+        }
+    }
+}
+
+/// Prints what dual contouring reports about its vertices.
+pub(super) fn print_dual_stats(clamped: usize, several: usize) {
+    eprintln!(
+        "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece"
+    );
+}
+
 const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
 const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
 
@@ -110,29 +126,24 @@ pub fn run(a: Args) -> Result<()> {
     }
     let t1 = Instant::now();
     let job = super::progress::job();
-    let mut dual: Option<(usize, usize)> = None;
+    let mut mesh_stats = None;
     let (stats, triangles) = if to_mesh {
         let mo = MeshOptions {
             sampling: opts,
             dense: a.dense,
-            mesher: match a.mesher {
-                MesherArg::Mc => Mesher::Mc,
-                MesherArg::Dual => Mesher::Dual,
-            },
+            mesher: a.mesher.into(),
         };
         let (mesh, st) = mesh_scene(&scene, &mo, &job)?;
         match vertex_colors(&scene, &mesh, st.sampling.spacing) {
             Some(colors) => write_mesh_colored(&a.output, &mesh, &colors)?,
             None => write_mesh(&a.output, &mesh)?,
         }
-        if let Some(c) = st.multi_component_cells {
-            eprintln!(
-                "dual contouring: {} vertices clamped into their cells, {c} cells crossed in more than one piece",
-                st.clamped_vertices.unwrap_or(0)
-            );
-            dual = Some((st.clamped_vertices.unwrap_or(0), c));
+        if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
+            print_dual_stats(clamped, several);
         }
-        (st.sampling, Some(st.triangles))
+        let out = (st.sampling.clone(), Some(st.triangles));
+        mesh_stats = Some(st);
+        out
     } else if a.dense {
         let (mut grid, stats) = scene.sample_dense(&opts)?;
         clamp_to_band(&mut grid, stats.band);
@@ -181,13 +192,14 @@ pub fn run(a: Args) -> Result<()> {
         j["total_seconds"] = total.into();
         j["lazy"] = (!a.dense).into();
         j["output"] = a.output.display().to_string().into();
-        if let Some(t) = triangles {
-            j["triangles"] = t.into();
-            j["mesher"] = if dual.is_some() { "dual" } else { "mc" }.into();
-        }
-        if let Some((clamped, several)) = dual {
-            j["clamped_vertices"] = clamped.into();
-            j["multi_component_cells"] = several.into();
+        if let Some(st) = &mesh_stats {
+            j["triangles"] = st.triangles.into();
+            j["mesher"] = serde_json::to_value(st.mesher)?;
+            if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells)
+            {
+                j["clamped_vertices"] = clamped.into();
+                j["multi_component_cells"] = several.into();
+            }
         }
         // The sampled lattice's extent (the shape's box padded by the band).
         let hi = Vec3::from(stats.origin)

@@ -2,8 +2,8 @@
 //! kept bricks (or over the dense grid, for the baseline).
 
 use crate::{SampleOptions, SampleStats, Scene, SceneError};
-use isokit_field::{Job, TriMesh};
-use isokit_levelset::dual::{DualOptions, DualStats, mesh_dual_brick_grid, mesh_dual_grid};
+use isokit_field::{BrickGrid, Grid, Job, TriMesh};
+use isokit_levelset::dual::{DualOptions, mesh_dual_brick_grid_job, mesh_dual_grid_job};
 use isokit_levelset::meshing::{mesh_brick_grid_job, mesh_grid_job};
 use serde::Serialize;
 use std::time::Instant;
@@ -22,6 +22,12 @@ pub enum Mesher {
     /// two segments belong to one component on both sides (rare; then an edge has four
     /// triangles).
     Dual,
+}
+
+/// What [`mesh_scene`] meshes: the lazily sampled band, or the dense baseline grid.
+enum Sampled {
+    Dense(Grid),
+    Band(BrickGrid),
 }
 
 /// Knobs of [`mesh_scene`].
@@ -73,39 +79,32 @@ pub fn mesh_scene(
     let err = |e: isokit_levelset::meshing::MeshingError| {
         SceneError::new(scene.name(), "", format!("meshing: {e}"))
     };
-    let mesh_opts = isokit_levelset::meshing::MeshOptions::default();
-    let dual_opts = DualOptions::default();
-    // Dual contouring takes its Hermite data from the exact field.
-    let field = Some(scene.field());
-    let mut dual: Option<DualStats> = None;
-    let (mesh, stats, t1) = if opts.dense {
+    // The band (or, for the baseline, the dense grid), then the mesher over it.
+    let (sampled, stats) = if opts.dense {
         let (grid, stats) = scene.sample_dense(&sampling)?;
-        job.check()
-            .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
-        let t1 = Instant::now();
-        let mesh = match opts.mesher {
-            Mesher::Mc => mesh_grid_job(&grid, &mesh_opts, job).map_err(err)?,
-            Mesher::Dual => {
-                let (m, d) = mesh_dual_grid(&grid, field, &dual_opts).map_err(err)?;
-                dual = Some(d);
-                m
-            }
-        };
-        (mesh, stats, t1)
+        (Sampled::Dense(grid), stats)
     } else {
         let (grid, stats) = scene.sample_job(&sampling, job)?;
-        job.check()
-            .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
-        let t1 = Instant::now();
-        let mesh = match opts.mesher {
-            Mesher::Mc => mesh_brick_grid_job(&grid, &mesh_opts, job).map_err(err)?,
-            Mesher::Dual => {
-                let (m, d) = mesh_dual_brick_grid(&grid, field, &dual_opts).map_err(err)?;
-                dual = Some(d);
-                m
-            }
-        };
-        (mesh, stats, t1)
+        (Sampled::Band(grid), stats)
+    };
+    job.check()
+        .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
+    let t1 = Instant::now();
+    let mc = isokit_levelset::meshing::MeshOptions::default();
+    let dual = DualOptions::default();
+    // Dual contouring takes its Hermite data from the exact field.
+    let field = Some(scene.field());
+    let (mesh, dual) = match (opts.mesher, &sampled) {
+        (Mesher::Mc, Sampled::Dense(g)) => (mesh_grid_job(g, &mc, job).map_err(err)?, None),
+        (Mesher::Mc, Sampled::Band(g)) => (mesh_brick_grid_job(g, &mc, job).map_err(err)?, None),
+        (Mesher::Dual, Sampled::Dense(g)) => {
+            let (m, d) = mesh_dual_grid_job(g, field, &dual, job).map_err(err)?;
+            (m, Some(d))
+        }
+        (Mesher::Dual, Sampled::Band(g)) => {
+            let (m, d) = mesh_dual_brick_grid_job(g, field, &dual, job).map_err(err)?;
+            (m, Some(d))
+        }
     };
     let triangles = mesh.triangles.len();
     Ok((
