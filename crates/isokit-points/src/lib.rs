@@ -24,7 +24,7 @@
 //! ```
 //! use isokit_points::{PointSdf, PointSdfOptions};
 //! use isokit_field::Field;
-//! use glam::Vec3;
+//! use glam::{DVec3, Vec3};
 //!
 //! let cloud = isokit_io::generate::torus_cloud(1.0, 0.3, 4000, 7);
 //! let sdf = PointSdf::new(&cloud.points, cloud.normals.as_ref().unwrap(),
@@ -218,7 +218,31 @@ pub use sdf::{
 pub use solve::SolveStats;
 pub use winding::{WindingNumber, WindingOptions, point_areas};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+
+/// Checks the normals (one per point, finite, non-zero) and returns them as unit f64
+/// vectors.
+pub(crate) fn unit_normals(points: &[Vec3], normals: &[Vec3]) -> Result<Vec<DVec3>, PointsError> {
+    if normals.len() != points.len() {
+        return Err(PointsError::NormalCount {
+            points: points.len(),
+            normals: normals.len(),
+        });
+    }
+    normals
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let n = n.as_dvec3();
+            let len = n.length();
+            if len.is_finite() && len > 1e-30 {
+                Ok(n / len)
+            } else {
+                Err(PointsError::BadNormal { index: i })
+            }
+        })
+        .collect()
+}
 
 /// Errors on an empty cloud or a non-finite coordinate.
 pub(crate) fn check_points(points: &[Vec3]) -> Result<(), PointsError> {

@@ -5,7 +5,7 @@ use crate::knn::Knn;
 use crate::normals::{NormalOptions, NormalReport, estimate_normals};
 use crate::solve::{Preconditioner, SolveStats, bicgstab, gmres, lsqr};
 use crate::winding::{WindingNumber, WindingOptions, areas_with};
-use crate::{PointsError, check_points};
+use crate::{PointsError, check_points, unit_normals};
 use glam::{DVec3, Vec3};
 use isokit_field::PointCloud;
 use isokit_field::{Aabb, Field};
@@ -244,12 +244,7 @@ impl PointSdf {
     ) -> Result<Self, PointsError> {
         let t0 = Instant::now();
         check_points(points)?;
-        if normals.len() != points.len() {
-            return Err(PointsError::NormalCount {
-                points: points.len(),
-                normals: normals.len(),
-            });
-        }
+        let nrm = unit_normals(points, normals)?;
         if opts.k == 0 {
             return Err(PointsError::Parameter("k must be at least 1".into()));
         }
@@ -271,15 +266,6 @@ impl PointSdf {
                     "Nie04 neighbours must be at least 1".into(),
                 ));
             }
-        }
-        let mut nrm = Vec::with_capacity(normals.len());
-        for (i, n) in normals.iter().enumerate() {
-            let n = n.as_dvec3();
-            let len = n.length();
-            if !(len.is_finite() && len > 1e-30) {
-                return Err(PointsError::BadNormal { index: i });
-            }
-            nrm.push(n / len);
         }
         // Remove exact duplicates: they would make rows of the system identical.
         let mut order: Vec<usize> = (0..points.len()).collect();

@@ -18,7 +18,7 @@
 //! winding number exceeds 1/2.
 
 use crate::knn::Knn;
-use crate::{PointsError, check_points};
+use crate::{PointsError, check_points, unit_normals};
 use glam::{DMat3, DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -91,29 +91,6 @@ pub struct WindingNumber {
     total_area: f64,
 }
 
-/// Checks the normals and returns them as unit f64 vectors.
-fn unit_normals(points: &[Vec3], normals: &[Vec3]) -> Result<Vec<DVec3>, PointsError> {
-    if normals.len() != points.len() {
-        return Err(PointsError::NormalCount {
-            points: points.len(),
-            normals: normals.len(),
-        });
-    }
-    normals
-        .iter()
-        .enumerate()
-        .map(|(i, n)| {
-            let n = n.as_dvec3();
-            let len = n.length();
-            if len.is_finite() && len > 1e-30 {
-                Ok(n / len)
-            } else {
-                Err(PointsError::BadNormal { index: i })
-            }
-        })
-        .collect()
-}
-
 /// Area of sample `i`'s Voronoi cell in its tangent plane, clipped by the bisectors of its
 /// neighbours `nb` (index, squared distance; the sample itself may be among them) projected
 /// onto that plane, within the square of half-side the farthest neighbour's distance.
@@ -125,12 +102,8 @@ fn voronoi_area(i: usize, pts: &[DVec3], nrm: &[DVec3], nb: &[(usize, f64)]) -> 
     if r <= 0.0 {
         return 0.0;
     }
-    // Tangent basis (Duff et al. 2017's branchless orthonormal basis).
-    let s = 1.0f64.copysign(n.z);
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    let u = DVec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
-    let v = DVec3::new(b, s + n.y * n.y * a, -n.y);
+    // Tangent basis (glam's is Duff et al. 2017's branchless orthonormal basis).
+    let (u, v) = n.any_orthonormal_pair();
     let mut poly = vec![
         DVec2::new(-r, -r),
         DVec2::new(r, -r),
