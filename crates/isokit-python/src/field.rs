@@ -569,17 +569,22 @@ impl Field {
         self.derived(py, g, band, None)
     }
 
-    /// The isosurface `f = iso` as a triangle mesh `(V, F)` (an `isokit.Mesh`): marching
-    /// cubes with the asymptotic decider, closed where it leaves the lattice unless
-    /// `close_boundary=False`. `progress` as for the other long calls (stage `meshing`).
-    #[pyo3(signature = (iso = 0.0, close_boundary = true, progress = None))]
+    /// The isosurface `f = iso` as a triangle mesh `(V, F)` (an `isokit.Mesh`), closed where
+    /// it leaves the lattice unless `close_boundary=False`. `mesher`: `"mc"` (marching cubes
+    /// with the asymptotic decider: watertight and 2-manifold) or `"dual"` (dual contouring,
+    /// Hermite data from the samples' central differences: sharper edges and corners).
+    /// `progress` as for the other long calls (stage `meshing`; dual contouring:
+    /// `meshing (crossed edges)`, then `meshing (vertices)`).
+    #[pyo3(signature = (iso = 0.0, close_boundary = true, mesher = "mc", progress = None))]
     fn mesh<'py>(
         &self,
         py: Python<'py>,
         iso: f32,
         close_boundary: bool,
+        mesher: &str,
         progress: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let mesher = crate::shape::parse_mesher(mesher)?;
         let mut grid = self.grid(py)?;
         let mut iso = iso;
         if self.inside == Inside::Above {
@@ -591,8 +596,20 @@ impl Field {
             iso,
             close_boundary,
         };
-        let mesh = run(py, progress, "mesh", |job| {
-            isokit_levelset::meshing::mesh_grid_job(&grid, &opts, job).map_err(value_err)
+        let mesh = run(py, progress, "mesh", |job| match mesher {
+            isokit_scene::Mesher::Mc => {
+                isokit_levelset::meshing::mesh_grid_job(&grid, &opts, job).map_err(value_err)
+            }
+            isokit_scene::Mesher::Dual => {
+                let dual = isokit_levelset::dual::DualOptions {
+                    iso,
+                    close_boundary,
+                    ..Default::default()
+                };
+                isokit_levelset::dual::mesh_dual_grid_job(&grid, None, &dual, job)
+                    .map(|(mesh, _)| mesh)
+                    .map_err(value_err)
+            }
         })?;
         crate::shape::mesh_tuple(py, &mesh, py.None().into_bound(py))
     }

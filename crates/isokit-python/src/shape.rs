@@ -319,6 +319,17 @@ fn finite(x: f64, name: &str) -> PyResult<f32> {
     }
 }
 
+/// `mesher="mc"|"dual"`.
+pub(crate) fn parse_mesher(s: &str) -> PyResult<isokit_scene::Mesher> {
+    match s {
+        "mc" => Ok(isokit_scene::Mesher::Mc),
+        "dual" => Ok(isokit_scene::Mesher::Dual),
+        _ => Err(PyValueError::new_err(format!(
+            "mesher = {s:?} is not one of \"mc\", \"dual\""
+        ))),
+    }
+}
+
 fn parse_enum<T: serde::de::DeserializeOwned>(s: &str, name: &str, choices: &str) -> PyResult<T> {
     serde_json::from_value(serde_json::Value::String(s.to_owned()))
         .map_err(|_| PyValueError::new_err(format!("{name} = {s:?} is not one of {choices}")))
@@ -744,8 +755,15 @@ impl Shape {
     /// triangles (an `isokit.Mesh` named tuple with `.to_trimesh()` and `.stats`). Marching
     /// cubes with the asymptotic decider on the lazily sampled band: watertight and
     /// consistently oriented. `res`, `band`, `bounds` as for `sample`; `dense` evaluates the
-    /// whole lattice (the baseline; the same mesh).
-    #[pyo3(signature = (res = None, band = None, bounds = None, dense = false, progress = None))]
+    /// whole lattice (the baseline; the same mesh). `mesher`: `"mc"` (marching cubes, the
+    /// default) or `"dual"` (dual contouring with Hermite data from the shape's exact field:
+    /// sharp edges and corners; closed and oriented, 2-manifold except in a rare ambiguous
+    /// configuration).
+    #[pyo3(signature = (res = None, band = None, bounds = None, dense = false, mesher = "mc", progress = None))]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one argument per Python keyword argument"
+    )]
     fn mesh<'py>(
         &self,
         py: Python<'py>,
@@ -753,13 +771,14 @@ impl Shape {
         band: Option<f32>,
         bounds: Option<&Bound<'py, PyAny>>,
         dense: bool,
+        mesher: &str,
         progress: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         self.solid("mesh")?;
         let opts = MeshOptions {
             sampling: self.sample_options(res, band, bounds_arg(bounds)?, None),
             dense,
-            ..MeshOptions::default()
+            mesher: parse_mesher(mesher)?,
         };
         let (mesh, stats) = run(py, progress, "mesh", |job| {
             let scene = self.scene()?;
@@ -1234,29 +1253,42 @@ pub fn _mesh_arrays(
     Ok(Shape::new(node))
 }
 
-fn parse_normals(s: &str) -> PyResult<Normals> {
-    parse_enum(s, "normals", "\"auto\", \"given\", \"estimate\"")
+/// A points node's knobs from the Python arguments.
+fn set_cloud_options(node: &mut Node, k: Option<usize>, normals: &str, sign: &str) -> PyResult<()> {
+    if let Node::Points(p) = node {
+        p.k = k;
+        p.normals = parse_enum(normals, "normals", "\"auto\", \"given\", \"estimate\"")?;
+        p.sign = parse_enum(
+            sign,
+            "sign",
+            "\"winding\", \"nearest\", \"winding_everywhere\"",
+        )?;
+    }
+    Ok(())
 }
 
-/// `isokit._points_path(path, k, normals)`.
+/// `isokit._points_path(path, k, normals, sign)`.
 #[pyfunction]
-pub fn _points_path(path: std::path::PathBuf, k: Option<usize>, normals: &str) -> PyResult<Shape> {
+pub fn _points_path(
+    path: std::path::PathBuf,
+    k: Option<usize>,
+    normals: &str,
+    sign: &str,
+) -> PyResult<Shape> {
     let mut node = Node::points(tree::absolute(&path.display().to_string(), Path::new(".")));
-    if let Node::Points(p) = &mut node {
-        p.k = k;
-        p.normals = parse_normals(normals)?;
-    }
+    set_cloud_options(&mut node, k, normals, sign)?;
     Ok(Shape::new(node))
 }
 
-/// `isokit._points_arrays(P, N, k, normals)`.
+/// `isokit._points_arrays(P, N, k, normals, sign)`.
 #[pyfunction]
-#[pyo3(signature = (p, n, k, normals))]
+#[pyo3(signature = (p, n, k, normals, sign))]
 pub fn _points_arrays(
     p: &Bound<'_, PyAny>,
     n: Option<&Bound<'_, PyAny>>,
     k: Option<usize>,
     normals: &str,
+    sign: &str,
 ) -> PyResult<Shape> {
     let pts = Points::extract(p, "P")?.to_vec3();
     if pts.is_empty() {
@@ -1285,10 +1317,7 @@ pub fn _points_arrays(
         points: pts,
         normals: normals_arr,
     });
-    if let Node::Points(pn) = &mut node {
-        pn.k = k;
-        pn.normals = parse_normals(normals)?;
-    }
+    set_cloud_options(&mut node, k, normals, sign)?;
     Ok(Shape::new(node))
 }
 

@@ -78,7 +78,9 @@ pub use file::{
 pub use isokit_field::{Cancelled, Job};
 pub use mesh::{MeshOptions, MeshStats, Mesher, mesh_scene, vertex_colors};
 pub use molecule::{MoleculeFrame, MoleculeSettings, MoleculeStats, molecule_camera};
-pub use node::{BandMethod, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData};
+pub use node::{
+    BandMethod, CloudSign, Filter, Inside, Memory, Node, Normals, SignMode, VolumeData,
+};
 pub use render::{
     Frame, FrameStats, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer,
     camera_for, scene_options, shading_for,
@@ -123,7 +125,8 @@ impl SceneError {
 pub struct SourceCache {
     pub(crate) meshes: HashMap<(PathBuf, u64), Arc<isokit_field::TriMesh>>,
     pub(crate) mesh_sdfs: HashMap<(u64, SignMode), Arc<isokit_kdtree::mesh::MeshSdf>>,
-    pub(crate) clouds: HashMap<(u64, Option<usize>, Normals), Arc<isokit_points::PointSdf>>,
+    pub(crate) clouds:
+        HashMap<(u64, Option<usize>, Normals, CloudSign), Arc<isokit_points::PointSdf>>,
     pub(crate) volumes: HashMap<(u64, Filter, u32, Inside), Arc<source::VolumeField>>,
 }
 

@@ -221,6 +221,22 @@ pub enum Normals {
     Estimate,
 }
 
+/// Where a cloud's field gets its sign far from the surface (see `isokit_points`, "The sign
+/// far from the surface").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CloudSign {
+    /// The fast winding number of the oriented cloud (Barill et al. 2018) where the nearest
+    /// samples disagree on the side, the closest sample's side elsewhere.
+    #[default]
+    Winding,
+    /// The side of the closest sample's tangent plane (Sigg 2006, Sec. 4.3.5): wrong beside
+    /// sharp edges and concave pockets, many spacings away.
+    Nearest,
+    /// The winding number wherever the far field counts.
+    WindingEverywhere,
+}
+
 /// A triangle mesh (OBJ, glTF/GLB, PLY, STL, OFF, or in memory) as an exact signed distance.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -253,6 +269,9 @@ pub struct PointsNode {
     /// Where the normals come from.
     #[serde(default)]
     pub normals: Normals,
+    /// Where the field gets its sign far from the surface (default `winding`).
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub sign: CloudSign,
     /// The cloud in memory (instead of `path`).
     #[serde(skip)]
     #[schemars(skip)]

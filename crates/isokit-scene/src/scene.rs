@@ -4,8 +4,8 @@
 
 use crate::file::{SceneFile, SceneFormat, parse};
 use crate::node::{
-    BandMethod, Filter as FilterNode, Inside, MeshNode, Node, Normals, OctreeNode, PointsNode,
-    Scale, SignMode, Smooth, TransformSpec, VolumeData, VolumeNode,
+    BandMethod, CloudSign, Filter as FilterNode, Inside, MeshNode, Node, Normals, OctreeNode,
+    PointsNode, Scale, SignMode, Smooth, TransformSpec, VolumeData, VolumeNode,
 };
 use crate::source::{
     BrickField, Counted, Counter, MeshField, PrismBackend, VolumeField, volume_lipschitz,
@@ -20,7 +20,7 @@ use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
 use isokit_levelset::csg::{Blend, Complement, DifferenceN, IntersectionN, Offset, Shell};
 use isokit_levelset::csg::{SmoothKind, SmoothN, UnionN};
 use isokit_levelset::morph::LinearMorph;
-use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions};
+use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions, SignRule};
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
@@ -1150,7 +1150,7 @@ impl Builder<'_> {
             }
             (None, None) => return Err(self.err(&path, "a point cloud needs a `path`")),
         };
-        let key = (stamp, p.k, p.normals);
+        let key = (stamp, p.k, p.normals, p.sign);
         let sdf = match self.cache.clouds.get(&key) {
             Some(s) => s.clone(),
             None => {
@@ -1160,7 +1160,14 @@ impl Builder<'_> {
                         NormalSource::Estimate(NormalOptions::default())
                     }
                 };
-                let mut opts = PointSdfOptions::default();
+                let mut opts = PointSdfOptions {
+                    sign: match p.sign {
+                        CloudSign::Winding => SignRule::Winding,
+                        CloudSign::Nearest => SignRule::Nearest,
+                        CloudSign::WindingEverywhere => SignRule::WindingEverywhere,
+                    },
+                    ..PointSdfOptions::default()
+                };
                 if let Some(k) = p.k {
                     opts.k = k;
                 }

@@ -47,6 +47,8 @@ pub enum SignArg {
     /// The winding number of the oriented cloud (Barill et al. 2018) where the nearest
     /// samples disagree on the side, the closest sample's side elsewhere.
     Winding,
+    /// The winding number wherever the far field counts.
+    WindingEverywhere,
 }
 
 /// Arguments of `isokit points`.
@@ -144,6 +146,7 @@ impl Args {
             sign: match self.sign {
                 SignArg::Nearest => SignRule::Nearest,
                 SignArg::Winding => SignRule::Winding,
+                SignArg::WindingEverywhere => SignRule::WindingEverywhere,
             },
             ..PointSdfOptions::default()
         };

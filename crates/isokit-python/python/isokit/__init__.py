@@ -390,7 +390,7 @@ def mesh(source, sign="auto", method="kdtree") -> Shape:
     return _isokit._mesh_arrays(_float_array(V, "V"), _np.asarray(F), sign, method)
 
 
-def points(source, k=None, normals="auto") -> Shape:
+def points(source, k=None, normals="auto", sign="winding") -> Shape:
     """A point cloud as a partition-of-unity distance field (Sigg 2006, Sec. 4.3).
 
     Parameters
@@ -403,15 +403,20 @@ def points(source, k=None, normals="auto") -> Shape:
     normals : {"auto", "given", "estimate"}
         The given normals when there are any, else estimated (PCA and
         minimum-spanning-tree orientation).
+    sign : {"winding", "nearest", "winding_everywhere"}
+        Where the field gets its sign far from the surface: the fast winding number of the
+        oriented cloud (Barill et al. 2018) where the nearest samples disagree on the side
+        (the default), the closest sample's tangent plane (wrong beside sharp edges and
+        concave pockets), or the winding number everywhere.
     """
     if _is_path(source):
-        return _existing(_isokit._points_path(_os.fsdecode(source), k, normals), source)
+        return _existing(_isokit._points_path(_os.fsdecode(source), k, normals, sign), source)
     if isinstance(source, tuple) and len(source) == 2:
         P, N = source
     else:
         P, N = source, None
     N = None if N is None else _float_array(N, "N")
-    return _isokit._points_arrays(_float_array(P, "P"), N, k, normals)
+    return _isokit._points_arrays(_float_array(P, "P"), N, k, normals, sign)
 
 
 def volume(source, origin=None, spacing=None, inside="below", iso=0.0, filter="trilinear") -> Shape:
