@@ -46,7 +46,11 @@
 //! (the rare case `crate::meshing` describes under *Triangulation*, found in random noise,
 //! not on smooth fields in the tests): the edge joining those two vertices then borders four
 //! quads. Vertices clamped into their cells can make quads fold, so triangles may intersect
-//! near features the lattice cannot resolve (this module does not test for it). Crossings
+//! near features the lattice cannot resolve, and two clamped vertices can coincide (a
+//! degenerate triangle): [`crate::intersect`] finds the folds exactly. Measured on 14 random
+//! CSG trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 2 trees gave 38
+//! intersecting pairs and 2 degenerate triangles among 50,200 triangles; the shipped scenes,
+//! a box and a box minus a cylinder none, two boxes one rotated 30° 3 pairs at resolution 64. Crossings
 //! refined on the field are exact to about f32 rounding; normals are the field's gradient
 //! (analytic or finite differences). Vertices are not shared across cells, so a vertex of
 //! one component never serves another.

@@ -12,6 +12,7 @@
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export (marching cubes).
 //! - [`dual`]: dual contouring with Hermite data, sharp edges and corners from exact fields.
+//! - [`intersect`]: exact self-intersection test of a triangle mesh (Shewchuk's predicates).
 //! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
 //! - [`deform`]: twist, bend, taper and elongate, each with its distance bound derived.
@@ -28,6 +29,7 @@ pub mod csg;
 pub mod deform;
 pub mod dual;
 pub mod evolve;
+pub mod intersect;
 pub mod meshing;
 pub mod morph;
 pub mod offset;
