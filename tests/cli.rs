@@ -135,6 +135,34 @@ fn info_reports_the_shipped_meshes() {
     let t = isokit(&["info", &data("torus.off")]);
     assert!(t.status.success());
     assert!(String::from_utf8_lossy(&t.stdout).contains("watertight"));
+    // Self-intersections, on request: none in a closed mesh; one pair in two crossing
+    // triangles.
+    for name in ["sphere.obj", "trefoil.ply"] {
+        let v = json(&isokit(&[
+            "info",
+            &data(name),
+            "--json",
+            "--self-intersections",
+        ]));
+        assert_eq!(v["self_intersections"], 0, "{name}");
+    }
+    let d = scratch("info-crossing");
+    let crossing = d.join("crossing.obj");
+    std::fs::write(
+        &crossing,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.2 0.2 -1\nv 0.2 0.2 1\nv 0.9 0.9 0\nf 1 2 3\nf 4 5 6\n",
+    )
+    .unwrap();
+    let c = crossing.to_str().unwrap();
+    let v = json(&isokit(&["info", c, "--json", "--self-intersections"]));
+    assert_eq!(v["self_intersections"], 1);
+    assert!(
+        json(&isokit(&["info", c, "--json"]))
+            .get("self_intersections")
+            .is_none()
+    );
+    let t = isokit(&["info", c, "--self-intersections"]);
+    assert!(String::from_utf8_lossy(&t.stdout).contains("self-intersections: 1 pairs"));
 }
 
 #[test]

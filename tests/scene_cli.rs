@@ -235,6 +235,12 @@ fn mesher_dual_meshes_the_shipped_scenes() {
         assert!(r.watertight && r.consistently_oriented, "{scene}: {r}");
         assert_eq!(r.degenerate_triangles, 0, "{scene}: {r}");
         assert_eq!(r.genus(), Some(genus), "{scene}");
+        let x = isokit_levelset::intersect::self_intersections(&mesh);
+        assert!(
+            x.pairs.is_empty(),
+            "{scene}: {} self-intersecting pairs",
+            x.pairs.len()
+        );
     }
     let vol = d.join("part.nrrd");
     let o = isokit(&[

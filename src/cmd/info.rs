@@ -18,6 +18,10 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Meshes: also count the pairs of triangles that intersect other than in shared
+    /// vertices and edges (exact predicates; `self_intersections` in --json).
+    #[arg(long)]
+    pub self_intersections: bool,
     #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
 }
@@ -55,7 +59,7 @@ pub fn run(a: Args) -> Result<()> {
         FileKind::Mesh => {
             let mesh = read_mesh(path)?;
             let r = mesh.validate();
-            let v = json!({
+            let mut v = json!({
                 "kind": "mesh",
                 "vertices": r.vertices,
                 "triangles": r.triangles,
@@ -72,7 +76,17 @@ pub fn run(a: Args) -> Result<()> {
                 "watertight": r.watertight,
                 "consistently_oriented": r.consistently_oriented,
             });
-            (format!("{}: mesh\n{r}", path.display()), v)
+            let mut text = format!("{}: mesh\n{r}", path.display());
+            if a.self_intersections {
+                let x = isokit_levelset::intersect::self_intersections(&mesh);
+                v["self_intersections"] = x.pairs.len().into();
+                text += &format!(
+                    "\nself-intersections: {} pairs of triangles ({} candidate pairs tested)",
+                    x.pairs.len(),
+                    x.candidates
+                );
+            }
+            (text, v)
         }
         FileKind::PointCloud => {
             let c = read_points(path)?;
