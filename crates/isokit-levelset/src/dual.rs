@@ -46,10 +46,11 @@
 //! (the rare case `crate::meshing` describes under *Triangulation*, found in random noise,
 //! not on smooth fields in the tests): the edge joining those two vertices then borders four
 //! quads. Vertices clamped into their cells can make quads fold, so triangles may intersect
-//! near features the lattice cannot resolve, and two clamped vertices can coincide (a
-//! degenerate triangle): [`crate::intersect`] finds the folds exactly. Measured on 14 random
-//! CSG trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 2 trees gave 38
-//! intersecting pairs and 2 degenerate triangles among 50,200 triangles; the shipped scenes,
+//! near features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
+//! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
+//! coincide and no quad collapses into a degenerate triangle). Measured on 14 random CSG
+//! trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 2 trees gave 19 intersecting
+//! pairs among 50,200 triangles, and no degenerate triangle; the shipped scenes,
 //! a box and a box minus a cylinder none, two boxes one rotated 30° 3 pairs at resolution 64. Crossings
 //! refined on the field are exact to about f32 rounding; normals are the field's gradient
 //! (analytic or finite differences). Vertices are not shared across cells, so a vertex of
@@ -623,7 +624,11 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         }
         let loops = crate::meshing::cell_loops(&values, mask, self.iso);
         let lo = self.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
-        let hi = lo + DVec3::splat(self.h);
+        // Vertices stay 1/1024 of a cell inside their cell (as marching cubes keeps its
+        // vertices off the nodes): two cells' vertices never coincide, even where both are
+        // clamped onto their common face, so no quad collapses into a degenerate triangle.
+        let inset = DVec3::splat(self.h / 1024.0);
+        let (lo_in, hi_in) = (lo + inset, lo + DVec3::splat(self.h) - inset);
         let mut of_edge = [0u8; 12];
         let mut verts = Vec::with_capacity(loops.count);
         let mut at = 0;
@@ -712,7 +717,10 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                     }
                 }
             }
-            verts.push(((lo + self.h * x).clamp(lo, hi).as_vec3(), clamped));
+            let v = (lo + self.h * x).clamp(lo_in, hi_in).as_vec3();
+            // f32 rounding must not put it back onto the cell's boundary.
+            let v = v.clamp(lo_in.as_vec3(), hi_in.as_vec3());
+            verts.push((v, clamped));
         }
         CellVerts {
             verts,

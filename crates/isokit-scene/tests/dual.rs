@@ -264,14 +264,14 @@ fn marching_cubes_on_a_box_on_the_lattice() {
 }
 
 /// Random CSG trees of primitives (unions, differences, smooth blends, offsets, shells, thin
-/// capsules and tori). Marching cubes: closed, oriented, no degenerate triangles, no
-/// self-intersections, on every tree. Dual contouring: closed and oriented by index on every
-/// tree; where the lattice cannot resolve a feature, vertices clamped into their cells can
-/// coincide (a degenerate triangle) or fold (a self-intersection): counted, and bounded.
+/// capsules and tori). Both meshers: closed, oriented, no degenerate triangles, on every
+/// tree; marching cubes: no self-intersections. Dual contouring: where the lattice cannot
+/// resolve a feature, vertices clamped into their cells can fold (a self-intersection):
+/// counted, and bounded.
 #[test]
-fn random_csg_trees_mesh_closed_and_dual_defects_are_counted() {
+fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
     let mut r = SplitMix64::new(2027);
-    let (mut meshed, mut trees_with, mut pairs, mut degenerate, mut triangles) = (0, 0, 0, 0, 0);
+    let (mut meshed, mut trees_with, mut pairs, mut triangles) = (0, 0, 0, 0);
     let cases = 16;
     for case in 0..cases {
         let tree = common::random_tree(&mut r, 3, &[]);
@@ -298,17 +298,16 @@ fn random_csg_trees_mesh_closed_and_dual_defects_are_counted() {
         let (dual, _) = mesh(&s, 40, Mesher::Dual);
         let v = dual.validate();
         assert!(
-            v.watertight && v.consistently_oriented,
+            v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
             "case {case} dual: {v}\n{tree}"
         );
         let x = self_intersections(&dual);
-        trees_with += (!x.pairs.is_empty() || v.degenerate_triangles > 0) as usize;
+        trees_with += !x.pairs.is_empty() as usize;
         pairs += x.pairs.len();
-        degenerate += v.degenerate_triangles;
         triangles += dual.triangles.len();
     }
     eprintln!(
-        "dual contouring on {meshed} random CSG trees (of {cases}) at res 40: {trees_with} trees with defects; {pairs} intersecting pairs and {degenerate} degenerate triangles among {triangles} triangles"
+        "dual contouring on {meshed} random CSG trees (of {cases}) at res 40: {trees_with} trees with self-intersections, {pairs} intersecting pairs among {triangles} triangles"
     );
     assert!(
         meshed >= cases / 2,
@@ -316,7 +315,7 @@ fn random_csg_trees_mesh_closed_and_dual_defects_are_counted() {
     );
     // A bound on how rare they are, not a guarantee (see `isokit_levelset::dual`).
     assert!(
-        (pairs + degenerate) * 200 < triangles,
-        "{pairs} pairs and {degenerate} degenerate among {triangles} triangles"
+        pairs * 500 < triangles,
+        "{pairs} pairs among {triangles} triangles"
     );
 }
