@@ -3,9 +3,7 @@
 use anyhow::Result;
 use isokit_field::Aabb;
 use isokit_io::lattice::{read_sidecar, sidecar_path};
-use isokit_io::{
-    FileKind, VolumeFormat, detect_kind, read_exr_info, read_mesh, read_png, read_points,
-};
+use isokit_io::{FileKind, VolumeFormat, detect_kind, read_exr_info, read_png, read_points};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -26,7 +24,7 @@ pub struct Args {
     pub volume: super::volume_args::VolumeIn,
 }
 
-fn bounds_json(b: &Aabb) -> Value {
+pub(super) fn bounds_json(b: &Aabb) -> Value {
     if b.is_empty() {
         Value::Null
     } else {
@@ -56,38 +54,7 @@ fn is_exr(path: &std::path::Path) -> bool {
 pub fn run(a: Args) -> Result<()> {
     let path = &a.file;
     let (text, value) = match detect_kind(path)? {
-        FileKind::Mesh => {
-            let mesh = read_mesh(path)?;
-            let r = mesh.validate();
-            let mut v = json!({
-                "kind": "mesh",
-                "vertices": r.vertices,
-                "triangles": r.triangles,
-                "bounds": bounds_json(&r.bounds),
-                "degenerate_triangles": r.degenerate_triangles,
-                "duplicate_triangles": r.duplicate_triangles,
-                "duplicate_vertices": r.duplicate_vertices,
-                "unreferenced_vertices": r.unreferenced_vertices,
-                "non_finite_vertices": r.non_finite_vertices,
-                "boundary_edges": r.boundary_edges,
-                "non_manifold_edges": r.non_manifold_edges,
-                "components": r.components,
-                "euler_characteristic": r.euler_characteristic,
-                "watertight": r.watertight,
-                "consistently_oriented": r.consistently_oriented,
-            });
-            let mut text = format!("{}: mesh\n{r}", path.display());
-            if a.self_intersections {
-                let x = isokit_levelset::intersect::self_intersections(&mesh);
-                v["self_intersections"] = x.pairs.len().into();
-                text += &format!(
-                    "\nself-intersections: {} pairs of triangles ({} candidate pairs tested)",
-                    x.pairs.len(),
-                    x.candidates
-                );
-            }
-            (text, v)
-        }
+        FileKind::Mesh => super::mesher_args::describe_mesh(path, a.self_intersections)?,
         FileKind::PointCloud => {
             let c = read_points(path)?;
             let b = Aabb::from_points(&c.points);

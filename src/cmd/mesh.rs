@@ -39,8 +39,8 @@ pub struct Args {
     /// `mc` (marching cubes: watertight and 2-manifold by construction) or `dual` (dual
     /// contouring with normals from the samples' central differences: sharper edges;
     /// 2-manifold except in a rare ambiguous configuration).
-    #[arg(long, value_enum, default_value_t = super::scene::MesherArg::Mc)]
-    pub mesher: super::scene::MesherArg,
+    #[arg(long, value_enum, default_value_t = super::mesher_args::MesherArg::Mc)]
+    pub mesher: super::mesher_args::MesherArg,
     #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
 }
@@ -66,15 +66,15 @@ pub fn run(a: Args) -> Result<()> {
         close_boundary: !a.open,
     };
     let mesh = match a.mesher {
-        super::scene::MesherArg::Mc => mesh_grid_job(&grid, &opts, &super::progress::job())?,
-        super::scene::MesherArg::Dual => {
+        super::mesher_args::MesherArg::Mc => mesh_grid_job(&grid, &opts, &super::progress::job())?,
+        super::mesher_args::MesherArg::Dual => {
             let dual = DualOptions {
                 iso,
                 close_boundary: !a.open,
                 ..DualOptions::default()
             };
             let (mesh, st) = mesh_dual_grid_job(&grid, None, &dual, &super::progress::job())?;
-            super::scene::print_dual_stats(st.clamped, st.multi_component_cells);
+            super::mesher_args::print_dual_stats(st.clamped, st.multi_component_cells);
             mesh
         }
     };

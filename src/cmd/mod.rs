@@ -11,6 +11,7 @@ pub mod demo;
 pub mod info;
 pub mod mesh;
 pub mod mesh_args;
+pub mod mesher_args;
 pub mod molecule;
 pub mod multiview_args;
 pub mod octree;

@@ -2,12 +2,11 @@
 //! [--stats]`: a scene file evaluated lazily to a band field or a mesh.
 
 use super::check_output;
+use super::mesher_args::MesherArg;
 use anyhow::{Result, bail};
 use glam::Vec3;
 use isokit_io::{Volume, write_mesh, write_mesh_colored};
-use isokit_scene::{
-    MeshOptions, Mesher, SampleOptions, Scene, clamp_to_band, mesh_scene, vertex_colors,
-};
+use isokit_scene::{MeshOptions, SampleOptions, Scene, clamp_to_band, mesh_scene, vertex_colors};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -52,31 +51,6 @@ pub struct Args {
     pub placement: super::volume_args::Placement,
     #[command(flatten)]
     pub out: super::volume_args::VolumeOut,
-}
-
-/// `--mesher` on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MesherArg {
-    /// Marching cubes.
-    Mc,
-    /// Dual contouring with Hermite data.
-    Dual,
-}
-
-impl From<MesherArg> for Mesher {
-    fn from(m: MesherArg) -> Self {
-        match m {
-            MesherArg::Mc => Mesher::Mc,
-            MesherArg::Dual => Mesher::Dual,
-        }
-    }
-}
-
-/// Prints what dual contouring reports about its vertices.
-pub(super) fn print_dual_stats(clamped: usize, several: usize) {
-    eprintln!(
-        "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece"
-    );
 }
 
 const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
@@ -139,7 +113,7 @@ pub fn run(a: Args) -> Result<()> {
             None => write_mesh(&a.output, &mesh)?,
         }
         if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
-            print_dual_stats(clamped, several);
+            super::mesher_args::print_dual_stats(clamped, several);
         }
         let out = (st.sampling.clone(), Some(st.triangles));
         mesh_stats = Some(st);
