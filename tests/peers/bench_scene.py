@@ -118,23 +118,29 @@ def part_a(exe, tmp, resolutions):
     return rows
 
 
+def csg_operands(tmp, segments):
+    """The torus and cylinder meshes of `segments` segments written to `tmp/a.off` and
+    `tmp/b.off` (f32 vertices, as isokit reads them); manifold3d's boolean of the same
+    triangles and its seconds. Returns (FA, FB, out, seconds)."""
+    VA, FA = mf_mesh(torus(segments))
+    VB, FB = mf_mesh(cylinder(segments))
+    VA, VB = VA.astype(np.float32).astype(float), VB.astype(np.float32).astype(float)
+    write_off(tmp / "a.off", VA, FA)
+    write_off(tmp / "b.off", VB, FB)
+    # manifold3d on the same triangles: build both manifolds, subtract, extract.
+    t = time.perf_counter()
+    ma = mf.Manifold(mf.Mesh(VA.astype(np.float32), FA.astype(np.uint32)))
+    mb = mf.Manifold(mf.Mesh(VB.astype(np.float32), FB.astype(np.uint32)))
+    out = mf_mesh(ma - mb)
+    return FA, FB, out, time.perf_counter() - t
+
+
 def part_b(exe, tmp, segment_list, resolutions):
     ref = mf_mesh(torus(1024) - cylinder(1024))
     v_ref = volume(*ref)
     rows = []
     for s in segment_list:
-        A, B = torus(s), cylinder(s)
-        VA, FA = mf_mesh(A)
-        VB, FB = mf_mesh(B)
-        VA, VB = VA.astype(np.float32).astype(float), VB.astype(np.float32).astype(float)
-        write_off(tmp / "a.off", VA, FA)
-        write_off(tmp / "b.off", VB, FB)
-        # manifold3d on the same triangles: build both manifolds, subtract, extract.
-        t = time.perf_counter()
-        ma = mf.Manifold(mf.Mesh(VA.astype(np.float32), FA.astype(np.uint32)))
-        mb = mf.Manifold(mf.Mesh(VB.astype(np.float32), FB.astype(np.uint32)))
-        out = mf_mesh(ma - mb)
-        secs = time.perf_counter() - t
+        FA, FB, out, secs = csg_operands(tmp, s)
         rows.append(dict(tool="manifold3d", segments=s, input_tris=len(FA) + len(FB), res="",
                          seconds=secs, hausdorff=hausdorff(out, ref),
                          vol_err=abs(volume(*out) - v_ref) / v_ref, triangles=len(out[1])))
