@@ -200,6 +200,7 @@ mod error;
 pub mod far;
 mod grid;
 pub mod knn;
+pub mod noise;
 pub mod normals;
 mod sdf;
 pub mod solve;

@@ -13,8 +13,8 @@ use isokit_field::{Aabb, Grid, Job, PointCloud, TriMesh};
 use isokit_scene::node::VolumeNode;
 use isokit_scene::primitives::{Param, PrimitiveKind};
 use isokit_scene::{
-    BandMethod, Filter, Inside, MeshOptions, Node, Normals, SampleOptions, Scene, SceneFile,
-    SignMode, SourceCache, VolumeData, band_to_grid, mesh_scene,
+    BandMethod, Filter, Inside, MeshOptions, Node, SampleOptions, Scene, SceneFile, SignMode,
+    SourceCache, VolumeData, band_to_grid, mesh_scene,
 };
 use numpy::prelude::*;
 use numpy::{PyReadonlyArray3, PyUntypedArray};

@@ -20,6 +20,7 @@ use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
 use isokit_levelset::csg::{Blend, Complement, DifferenceN, IntersectionN, Offset, Shell};
 use isokit_levelset::csg::{SmoothKind, SmoothN, UnionN};
 use isokit_levelset::morph::LinearMorph;
+use isokit_points::noise::estimate_noise;
 use isokit_points::{NormalOptions, NormalSource, PointSdf, PointSdfOptions, SignRule};
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
@@ -1168,8 +1169,14 @@ impl Builder<'_> {
                     },
                     ..PointSdfOptions::default()
                 };
-                if let Some(k) = p.k {
-                    opts.k = k;
+                match p.k {
+                    Some(k) => opts.k = k,
+                    // Chosen from the cloud's noise (`isokit_points::noise`).
+                    None => {
+                        let n = estimate_noise(&cloud.points)
+                            .map_err(|e| self.err(&path, format!("{what}: {e}")))?;
+                        (opts.k, opts.damping) = n.knobs((opts.k, opts.damping));
+                    }
                 }
                 let (sdf, _) = PointSdf::from_cloud(&cloud, normals, &opts)
                     .map_err(|e| self.err(&path, format!("{what}: {e}")))?;

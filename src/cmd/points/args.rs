@@ -1,8 +1,10 @@
 //! The arguments of `isokit points` and the library settings they make.
 
 use isokit_field::PointCloud;
+use isokit_points::noise::{NoiseEstimate, estimate_noise};
 use isokit_points::{
-    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, SignRule, Solver, Weighting,
+    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, PointsError, SignRule, Solver,
+    Weighting,
 };
 use std::path::PathBuf;
 
@@ -72,9 +74,10 @@ pub struct Args {
     /// 53%), at one extra evaluation per brick.
     #[arg(long, default_value_t = 4)]
     pub brick: usize,
-    /// Nearest samples per evaluation (partition of unity support).
-    #[arg(long, default_value_t = 16)]
-    pub k: usize,
+    /// Nearest samples per evaluation (partition of unity support) [default: chosen from
+    /// the cloud's noise estimate: 16, or 64 on a noisy cloud].
+    #[arg(long)]
+    pub k: Option<usize>,
     /// Nearest samples for the far-field statistics.
     #[arg(long, default_value_t = 64)]
     pub far_k: usize,
@@ -100,9 +103,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = SolverArg::Lsqr)]
     pub solver: SolverArg,
     /// Damping λ of the LSQR solve: small values interpolate the samples closely, large
-    /// ones (1 and more, with a larger `--k`) average noisy samples.
-    #[arg(long, default_value_t = isokit_points::DEFAULT_DAMPING)]
-    pub damping: f64,
+    /// ones (1 and more, with a larger `--k`) average noisy samples [default: chosen from
+    /// the cloud's noise estimate: 0.05, or 1 on a noisy cloud].
+    #[arg(long)]
+    pub damping: Option<f64>,
     /// Iteration limit of the solve.
     #[arg(long, default_value_t = PointSdfOptions::default().max_iter)]
     pub max_iter: usize,
@@ -114,8 +118,18 @@ pub struct Args {
 
 impl Args {
     /// The library's settings; `cloud` decides the default normals (given when it has
-    /// them, else estimated).
-    pub fn options(&self, cloud: &PointCloud) -> CloudGridOptions {
+    /// them, else estimated) and, with its noise estimate (returned when it was made), the
+    /// default `k` and damping.
+    pub fn options(
+        &self,
+        cloud: &PointCloud,
+    ) -> Result<(CloudGridOptions, Option<NoiseEstimate>), PointsError> {
+        let clean = (PointSdfOptions::default().k, isokit_points::DEFAULT_DAMPING);
+        let noise = match (self.k, self.damping) {
+            (Some(_), Some(_)) => None,
+            _ => Some(estimate_noise(&cloud.points)?),
+        };
+        let (auto_k, auto_damping) = noise.map_or(clean, |n| n.knobs(clean));
         let estimate = NormalOptions {
             k: self.normal_k,
             ..NormalOptions::default()
@@ -126,7 +140,7 @@ impl Args {
             None => NormalSource::for_cloud(cloud, estimate),
         };
         let field = PointSdfOptions {
-            k: self.k,
+            k: self.k.unwrap_or(auto_k),
             far_k: self.far_k,
             far_field: !self.no_far,
             weighting: match self.weights {
@@ -141,7 +155,7 @@ impl Args {
                 SolverArg::Gmres => Solver::Gmres,
                 SolverArg::Bicgstab => Solver::Bicgstab,
             },
-            damping: self.damping,
+            damping: self.damping.unwrap_or(auto_damping),
             max_iter: self.max_iter,
             sign: match self.sign {
                 SignArg::Nearest => SignRule::Nearest,
@@ -150,11 +164,12 @@ impl Args {
             },
             ..PointSdfOptions::default()
         };
-        CloudGridOptions {
+        let opts = CloudGridOptions {
             field,
             normals: Some(normals),
             band: self.band,
             brick: self.brick,
-        }
+        };
+        Ok((opts, noise))
     }
 }

@@ -26,10 +26,26 @@ pub fn run(a: Args) -> Result<()> {
     }
     let cloud = read_points(&a.cloud)?;
     let mut grid = a.lattice.grid(&a.cloud, cloud.bounds(), a.res)?;
-    let opts = a.options(&cloud);
+    let (opts, noise) = a
+        .options(&cloud)
+        .with_context(|| a.cloud.display().to_string())?;
     let field = opts.field;
     let st = cloud_to_grid(&cloud, &mut grid, &opts, &super::progress::job())
         .with_context(|| a.cloud.display().to_string())?;
+    if let Some(n) = noise {
+        eprintln!(
+            "noise estimate: deviation {:.3e} = {:.2} sample spacings ({}): k = {}, damping {} (--k and --damping override)",
+            n.deviation,
+            n.ratio(),
+            if n.ratio() > isokit_points::noise::NOISY_RATIO {
+                "noisy"
+            } else {
+                "clean"
+            },
+            field.k,
+            field.damping
+        );
+    }
     match &st.normals {
         Some(r) => eprintln!(
             "normals: estimated (k = {}): {} unreliable ({:.2}%, surface variation > {}), {} component(s), {} flipped by the orientation",

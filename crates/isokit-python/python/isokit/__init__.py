@@ -399,7 +399,8 @@ def points(source, k=None, normals="auto", sign="winding") -> Shape:
         A cloud file (PLY, XYZ), or points ``P`` ((n, 3) floats) with optional normals
         ``N`` ((n, 3) floats) held in memory.
     k : int, optional
-        Neighbours per evaluation (default: the library's).
+        Neighbours per evaluation (default: chosen from the cloud's noise estimate, with the
+        solve's damping: 16, or 64 and damping 1 on a noisy cloud).
     normals : {"auto", "given", "estimate"}
         The given normals when there are any, else estimated (PCA and
         minimum-spanning-tree orientation).
