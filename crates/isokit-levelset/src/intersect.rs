@@ -421,26 +421,9 @@ mod tests {
 
     #[test]
     fn a_closed_mesh_has_none_and_two_overlapping_copies_have_some() {
-        // An octahedron.
-        let p = vec![
-            v(1.0, 0.0, 0.0),
-            v(-1.0, 0.0, 0.0),
-            v(0.0, 1.0, 0.0),
-            v(0.0, -1.0, 0.0),
-            v(0.0, 0.0, 1.0),
-            v(0.0, 0.0, -1.0),
-        ];
-        let t = vec![
-            [0, 2, 4],
-            [2, 1, 4],
-            [1, 3, 4],
-            [3, 0, 4],
-            [2, 0, 5],
-            [1, 2, 5],
-            [3, 1, 5],
-            [0, 3, 5],
-        ];
-        let mut mesh = TriMesh::new(p, t);
+        // A closed, convex mesh.
+        let mut mesh = isokit_field::generate::icosphere(Vec3::ZERO, 1.0, 1);
+        let (nv, nt) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
         let r = self_intersections(&mesh);
         assert!(
             r.pairs.is_empty() && r.degenerate == 0 && r.candidates > 0,
@@ -452,16 +435,16 @@ mod tests {
             m.positions
                 .extend(mesh.positions.iter().map(|p| *p + v(dx, 0.0, 0.0)));
             m.triangles
-                .extend(mesh.triangles.iter().map(|t| t.map(|i| i + 6)));
+                .extend(mesh.triangles.iter().map(|t| t.map(|i| i + nv)));
             m
         };
         assert!(self_intersections(&two(3.0)).pairs.is_empty());
         let r = self_intersections(&two(0.5));
         assert!(!r.pairs.is_empty(), "{r:?}");
-        assert!(r.pairs.iter().all(|&[i, j]| i < 8 && j >= 8), "{r:?}");
+        assert!(r.pairs.iter().all(|&[i, j]| i < nt && j >= nt), "{r:?}");
         // Degenerate and out-of-range triangles are skipped, not tested.
         mesh.triangles.push([0, 0, 1]);
-        mesh.triangles.push([0, 1, 99]);
+        mesh.triangles.push([0, 1, nv + 99]);
         assert_eq!(self_intersections(&mesh).degenerate, 2);
     }
 }

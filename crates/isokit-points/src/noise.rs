@@ -17,7 +17,7 @@
 //! against 1.05–1.06 at 2%). So: above [`NOISY_RATIO`] the cloud is treated as noisy.
 
 use crate::knn::Knn;
-use crate::{PointsError, check_points};
+use crate::{PointSdfOptions, PointsError, check_points};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -50,12 +50,13 @@ impl NoiseEstimate {
     }
 
     /// `k` and damping for this noise level: [`NOISY_KNOBS`] above [`NOISY_RATIO`], else
-    /// `clean` (the library's defaults, for the callers).
-    pub fn knobs(&self, clean: (usize, f64)) -> (usize, f64) {
+    /// the defaults of [`PointSdfOptions`].
+    pub fn knobs(&self) -> (usize, f64) {
         if self.ratio() > NOISY_RATIO {
             NOISY_KNOBS
         } else {
-            clean
+            let d = PointSdfOptions::default();
+            (d.k, d.damping)
         }
     }
 }
@@ -126,7 +127,7 @@ mod tests {
         let sphere: Vec<Vec3> = (0..5000).map(|_| rng.unit_vector()).collect();
         let clean = estimate_noise(&sphere).unwrap();
         assert!(clean.ratio() < NOISY_RATIO, "{clean:?}");
-        assert_eq!(clean.knobs((16, 0.05)), (16, 0.05));
+        assert_eq!(clean.knobs(), (16, 0.05));
         let diag = 2.0 * 3f32.sqrt();
         let noisy: Vec<Vec3> = sphere
             .iter()
@@ -134,7 +135,7 @@ mod tests {
             .collect();
         let e = estimate_noise(&noisy).unwrap();
         assert!(e.ratio() > NOISY_RATIO, "{e:?}");
-        assert_eq!(e.knobs((16, 0.05)), NOISY_KNOBS);
+        assert_eq!(e.knobs(), NOISY_KNOBS);
         assert!(estimate_noise(&[]).is_err());
     }
 }

@@ -248,7 +248,7 @@ fn noisy_clouds() {
         let mut rng = SplitMix64::new(12);
         for q in p.iter_mut() {
             // Box–Muller for each axis.
-            let g = DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
+            let g = DVec3::new(rng.gaussian(), rng.gaussian(), rng.gaussian());
             *q += (g * sigma).as_vec3();
         }
         let est = estimate_normals(&p, &NormalOptions::default()).unwrap();
@@ -310,11 +310,6 @@ fn noisy_clouds() {
             default.rms
         );
     }
-}
-
-fn gauss(rng: &mut SplitMix64) -> f64 {
-    let (u1, u2) = (rng.next_f64().max(1e-300), rng.next_f64());
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// Density varying 20:1 along x on the trefoil: the field builds with every weighting and

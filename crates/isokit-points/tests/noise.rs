@@ -6,7 +6,7 @@
 use glam::{DVec3, Vec3};
 use isokit_field::rng::SplitMix64;
 use isokit_points::noise::estimate_noise;
-use isokit_points::{DEFAULT_DAMPING, PointSdf, PointSdfOptions};
+use isokit_points::{PointSdf, PointSdfOptions};
 use rayon::prelude::*;
 
 const MAJOR: f64 = 0.6;
@@ -17,31 +17,20 @@ fn torus_sdf(p: DVec3) -> f64 {
     (q * q + p.z * p.z).sqrt() - MINOR
 }
 
-/// `n` samples of the torus (uniform in its two angles, area-weighted by rejection) with
-/// exact normals, moved by Gaussian noise of deviation `sigma`.
+/// `n` samples of the torus with exact normals (`isokit_field::generate::torus_cloud`), moved
+/// by isotropic Gaussian noise of deviation `sigma`.
 fn torus_cloud(n: usize, sigma: f64, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-    let mut r = SplitMix64::new(seed);
-    let gauss = |r: &mut SplitMix64| {
-        let (u, v) = (r.next_f64().max(1e-300), r.next_f64());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    };
-    let (mut p, mut nrm) = (Vec::new(), Vec::new());
-    while p.len() < n {
-        let (u, v) = (
-            std::f64::consts::TAU * r.next_f64(),
-            std::f64::consts::TAU * r.next_f64(),
-        );
-        // Area element ∝ MAJOR + MINOR cos v.
-        if r.next_f64() * (MAJOR + MINOR) > MAJOR + MINOR * v.cos() {
-            continue;
-        }
-        let normal = DVec3::new(v.cos() * u.cos(), v.cos() * u.sin(), v.sin());
-        let centre = DVec3::new(MAJOR * u.cos(), MAJOR * u.sin(), 0.0);
-        let noise = DVec3::new(gauss(&mut r), gauss(&mut r), gauss(&mut r)) * sigma;
-        p.push((centre + MINOR * normal + noise).as_vec3());
-        nrm.push(normal.as_vec3());
-    }
-    (p, nrm)
+    let c = isokit_field::generate::torus_cloud(MAJOR as f32, MINOR as f32, n, seed);
+    let mut r = SplitMix64::new(seed + 1);
+    let p = c
+        .points
+        .iter()
+        .map(|q| {
+            let d = DVec3::new(r.gaussian(), r.gaussian(), r.gaussian());
+            (q.as_dvec3() + sigma * d).as_vec3()
+        })
+        .collect();
+    (p, c.normals.unwrap())
 }
 
 /// RMS error in spacings at the nodes of a 40-sample lattice over the torus within 2
@@ -73,7 +62,7 @@ fn check(noise: f64) {
     let diag = 2.0 * (2.0 * (MAJOR + MINOR).powi(2) + MINOR * MINOR).sqrt();
     let (p, n) = torus_cloud(12_000, noise * diag, 17);
     let est = estimate_noise(&p).unwrap();
-    let (k, damping) = est.knobs((PointSdfOptions::default().k, DEFAULT_DAMPING));
+    let (k, damping) = est.knobs();
     let auto = rms_error(&p, &n, k, damping);
     let mut best = (f64::INFINITY, 0, 0.0);
     for gk in [8, 16, 32, 64] {

@@ -55,19 +55,12 @@ fn sample(mesh: &TriMesh, n: usize, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
         .unzip()
 }
 
-/// Standard normal deviates (Box–Muller).
-fn gauss(rng: &mut SplitMix64) -> f64 {
-    let u = rng.next_f64().max(1e-300);
-    let v = rng.next_f64();
-    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-}
-
 /// Moves every sample by isotropic Gaussian noise of deviation `sigma` (normals kept).
 fn noisy(p: &[Vec3], sigma: f64, seed: u64) -> Vec<Vec3> {
     let mut rng = SplitMix64::new(seed);
     p.iter()
         .map(|q| {
-            let d = DVec3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
+            let d = DVec3::new(rng.gaussian(), rng.gaussian(), rng.gaussian());
             (q.as_dvec3() + sigma * d).as_vec3()
         })
         .collect()

@@ -1175,7 +1175,7 @@ impl Builder<'_> {
                     None => {
                         let n = estimate_noise(&cloud.points)
                             .map_err(|e| self.err(&path, format!("{what}: {e}")))?;
-                        (opts.k, opts.damping) = n.knobs((opts.k, opts.damping));
+                        (opts.k, opts.damping) = n.knobs();
                     }
                 }
                 let (sdf, _) = PointSdf::from_cloud(&cloud, normals, &opts)

@@ -124,12 +124,14 @@ impl Args {
         &self,
         cloud: &PointCloud,
     ) -> Result<(CloudGridOptions, Option<NoiseEstimate>), PointsError> {
-        let clean = (PointSdfOptions::default().k, isokit_points::DEFAULT_DAMPING);
-        let noise = match (self.k, self.damping) {
-            (Some(_), Some(_)) => None,
-            _ => Some(estimate_noise(&cloud.points)?),
+        let ((k, damping), noise) = match (self.k, self.damping) {
+            (Some(k), Some(d)) => ((k, d), None),
+            (k, d) => {
+                let n = estimate_noise(&cloud.points)?;
+                let (auto_k, auto_damping) = n.knobs();
+                ((k.unwrap_or(auto_k), d.unwrap_or(auto_damping)), Some(n))
+            }
         };
-        let (auto_k, auto_damping) = noise.map_or(clean, |n| n.knobs(clean));
         let estimate = NormalOptions {
             k: self.normal_k,
             ..NormalOptions::default()
@@ -140,7 +142,7 @@ impl Args {
             None => NormalSource::for_cloud(cloud, estimate),
         };
         let field = PointSdfOptions {
-            k: self.k.unwrap_or(auto_k),
+            k,
             far_k: self.far_k,
             far_field: !self.no_far,
             weighting: match self.weights {
@@ -155,7 +157,7 @@ impl Args {
                 SolverArg::Gmres => Solver::Gmres,
                 SolverArg::Bicgstab => Solver::Bicgstab,
             },
-            damping: self.damping.unwrap_or(auto_damping),
+            damping,
             max_iter: self.max_iter,
             sign: match self.sign {
                 SignArg::Nearest => SignRule::Nearest,
