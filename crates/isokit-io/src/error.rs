@@ -13,7 +13,7 @@ pub enum IoError {
     /// The operating system refused a read, write, rename, …. The message names the file;
     /// the operating system's words are the [`std::error::Error::source`] (print the chain,
     /// e.g. anyhow's `{:#}`, to see both; they are not repeated in this message).
-    #[error("{}", path.display())]
+    #[error("{}", crate::util::shown_path(path))]
     Io {
         /// The file concerned.
         path: PathBuf,
@@ -23,7 +23,7 @@ pub enum IoError {
     },
     /// The file's content does not follow its format (truncated, inconsistent header,
     /// out-of-range index, unparsable number, …).
-    #[error("{}: {msg}", path.display())]
+    #[error("{}: {msg}", crate::util::shown_path(path))]
     Malformed {
         /// The file concerned.
         path: PathBuf,
@@ -32,7 +32,7 @@ pub enum IoError {
     },
     /// The file is valid but uses a feature this crate does not read (e.g. a sparse glTF
     /// accessor, a rotated NRRD grid, a 4-D NIfTI series).
-    #[error("{}: unsupported: {what}", path.display())]
+    #[error("{}: unsupported: {what}", crate::util::shown_path(path))]
     Unsupported {
         /// The file concerned.
         path: PathBuf,
@@ -40,7 +40,10 @@ pub enum IoError {
         what: String,
     },
     /// The file name's extension names no format this operation handles.
-    #[error("{}: unrecognized file extension; expected {expected}", path.display())]
+    #[error(
+        "{}: unrecognized file extension; expected {expected}",
+        crate::util::shown_path(path)
+    )]
     UnknownFormat {
         /// The file concerned.
         path: PathBuf,
@@ -49,7 +52,7 @@ pub enum IoError {
     },
     /// The data handed to a writer cannot be written (wrong lengths, out-of-range indices,
     /// non-finite spacing, …). Nothing was written.
-    #[error("{}: cannot write: {msg}", path.display())]
+    #[error("{}: cannot write: {msg}", crate::util::shown_path(path))]
     InvalidInput {
         /// The file that was to be written.
         path: PathBuf,

@@ -6,6 +6,25 @@ use std::path::Path;
 
 use crate::IoError;
 
+/// A path as one line of text for a message: its control characters (a newline in a file
+/// name, which a hostile file's reference or a user's own name may hold) are written as
+/// escapes (`\n`, `\u{1b}`), so that an error naming it stays one line.
+pub fn shown_path(path: &Path) -> String {
+    let s = path.to_string_lossy();
+    if !s.chars().any(char::is_control) {
+        return s.into_owned();
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
 /// Reads a whole file; an operating-system failure becomes [`IoError::Io`] naming the file.
 ///
 /// A regular file's size is checked against the memory budget
@@ -19,7 +38,7 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
     let over = |bytes: u128| {
         isokit_field::memory::check_within(
             budget,
-            &format!("reading {}", path.display()),
+            &format!("reading {}", shown_path(path)),
             bytes,
             "read a smaller file, or raise the budget",
         )
@@ -49,7 +68,7 @@ pub(crate) fn read_referenced(
     file: &Path,
     exact: Option<u64>,
 ) -> Result<Vec<u8>, IoError> {
-    let bad = |why: String| IoError::malformed(from, format!("{what} {}: {why}", file.display()));
+    let bad = |why: String| IoError::malformed(from, format!("{what} {}: {why}", shown_path(file)));
     let meta = std::fs::metadata(file).map_err(|e| bad(format!("cannot be read: {e}")))?;
     if !meta.is_file() {
         return Err(bad("is not a regular file".into()));
@@ -67,7 +86,7 @@ pub(crate) fn read_referenced(
         )));
     }
     isokit_field::memory::check(
-        &format!("reading {}", file.display()),
+        &format!("reading {}", shown_path(file)),
         u128::from(n),
         "read a smaller file, or raise the budget",
     )

@@ -231,6 +231,10 @@ fn gltf_with_data_uri_and_external_buffer() {
         e.contains("scene.GLTF") && e.contains("cube data.bin"),
         "{e}"
     );
+    // A buffer name holding a newline (%0A) is shown escaped: the error stays one line.
+    std::fs::write(&p, gltf_json(Some("cube%0Adata.bin"), bin.len(), pl, il)).unwrap();
+    let e = read_mesh(&p).unwrap_err().to_string();
+    assert!(e.contains(r"cube\ndata.bin") && !e.contains('\n'), "{e:?}");
     hammer(
         json.as_bytes(),
         |b| read_mesh_bytes(b, MeshFormat::Gltf, "h.gltf"),

@@ -177,7 +177,7 @@ impl Scene {
     /// [`Scene::load`] reusing the built sources in `cache` whose files did not change
     /// (kd-trees, point-cloud solves, volumes), and adding the new ones to it.
     pub fn load_with(path: &Path, cache: &mut SourceCache) -> Result<Self, SceneError> {
-        let name = path.display().to_string();
+        let name = isokit_io::shown_path(path);
         let (file, _) = read_scene_file(path, &name, "")?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut stack = vec![canonical(path)];
@@ -590,10 +590,13 @@ impl Builder<'_> {
         let p = self.dir.join(file);
         self.deps.push(p.clone());
         if p.is_dir() {
-            return Err(self.err(node, format!("{} is a directory, not a file", p.display())));
+            return Err(self.err(
+                node,
+                format!("{} is a directory, not a file", isokit_io::shown_path(&p)),
+            ));
         }
         if !p.is_file() {
-            return Err(self.err(node, format!("no such file: {}", p.display())));
+            return Err(self.err(node, format!("no such file: {}", isokit_io::shown_path(&p))));
         }
         Ok(p)
     }
@@ -1086,7 +1089,7 @@ impl Builder<'_> {
                         mesh
                     }
                 };
-                (mesh, stamp, f.display().to_string())
+                (mesh, stamp, isokit_io::shown_path(&f))
             }
             (None, None) => return Err(self.err(&path, "a mesh needs a `path`")),
         };
@@ -1147,7 +1150,7 @@ impl Builder<'_> {
             (None, Some(file)) => {
                 let f = self.resolve(file, &path)?;
                 let cloud = isokit_io::read_points(&f).map_err(|e| self.err(&path, chain(&e)))?;
-                (Arc::new(cloud), file_stamp(&f), f.display().to_string())
+                (Arc::new(cloud), file_stamp(&f), isokit_io::shown_path(&f))
             }
             (None, None) => return Err(self.err(&path, "a point cloud needs a `path`")),
         };
@@ -1217,7 +1220,7 @@ impl Builder<'_> {
                 (
                     Arc::new(VolumeData::Grid(grid)),
                     file_stamp(&f),
-                    f.display().to_string(),
+                    isokit_io::shown_path(&f),
                 )
             }
             (None, None) => return Err(self.err(&path, "a volume needs a `path`")),
@@ -1350,11 +1353,11 @@ impl Builder<'_> {
             let cycle: Vec<String> = self.stack[i..]
                 .iter()
                 .chain(std::iter::once(&key))
-                .map(|p| p.display().to_string())
+                .map(|p| isokit_io::shown_path(p))
                 .collect();
             return Err(self.err(&path, format!("include cycle: {}", cycle.join(" -> "))));
         }
-        let name = f.display().to_string();
+        let name = isokit_io::shown_path(&f);
         let (inner, _) = read_scene_file(&f, &name, &path).map_err(|e| {
             if e.file == name && e.node.is_empty() {
                 self.err(&path, e.message)

@@ -235,7 +235,7 @@ fn a_mesh_is_queried_only_near_its_box() {
 fn malformed_scenes_name_the_file_the_node_and_the_problem() {
     let dir = Scratch::new("errors");
     let d = &dir.0;
-    let cases: [(&str, &[&str]); 10] = [
+    let cases: [(&str, &[&str]); 11] = [
         (
             r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"sphre": {"radius": 1}}]}}"#,
             &["t.json", "shape.union[1]", "unknown variant `sphre`"],
@@ -261,6 +261,11 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
             &["shape.mesh", "no such file", "missing.obj"],
         ),
         (
+            // A control character in a referenced name is shown escaped: one line.
+            r#"{"shape": {"mesh": {"path": "new\nline.obj"}}}"#,
+            &["shape.mesh", "no such file", r"new\nline.obj"],
+        ),
+        (
             r#"{"shape": {"sphere": {"radius": "big"}}}"#,
             &["shape.sphere.radius", "invalid type"],
         ),
@@ -282,6 +287,7 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
         for w in want {
             assert!(e.contains(w), "error {e:?} lacks {w:?}");
         }
+        assert!(!e.contains('\n'), "error {e:?} spans lines");
     }
     // Unbounded shapes need sampling bounds.
     let plane = json(r#"{"shape": {"plane": {"normal": [0, 0, 1]}}}"#);
