@@ -56,11 +56,10 @@ pub fn describe_mesh(path: &Path, self_intersections: bool) -> Result<(String, V
     let mut text = format!("{}: mesh\n{r}", path.display());
     if self_intersections {
         let x = isokit_levelset::intersect::self_intersections(&mesh);
-        v["self_intersections"] = x.pairs.len().into();
+        v["self_intersections"] = x.count.into();
         text += &format!(
             "\nself-intersections: {} pairs of triangles ({} candidate pairs tested)",
-            x.pairs.len(),
-            x.candidates
+            x.count, x.candidates
         );
     }
     Ok((text, v))

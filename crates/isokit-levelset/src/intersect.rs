@@ -15,20 +15,36 @@
 //! positions are equal, so an unwelded mesh is judged as its welded form.
 //!
 //! Pairs are found by hashing the triangles' bounding boxes into a uniform grid (cells about
-//! the mean triangle size, at least 1/32 of the largest); each pair is tested once, in the lowest cell the two boxes share.
-//! Degenerate triangles (all three vertices on one line, exactly) are skipped and counted.
+//! the mean triangle size, at least 1/32 of the largest, and coarsened until the grid holds at
+//! most [`MAX_CELLS_PER_TRIANGLE`] entries per triangle, so its memory is linear in the mesh
+//! whatever the mix of sizes); each pair is tested once, in the lowest cell the two boxes
+//! share. Degenerate triangles (all three vertices on one line, exactly) are skipped and
+//! counted. Every intersecting pair is counted; at most [`MAX_LISTED_PAIRS`] are listed (a
+//! pile of coincident triangles has quadratically many).
 
 use glam::Vec3;
 use isokit_field::TriMesh;
 use rayon::prelude::*;
 use robust::{Coord, Coord3D, orient2d, orient3d};
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// At most this many intersecting pairs are listed in [`SelfIntersections::pairs`]; all are
+/// counted in [`SelfIntersections::count`].
+pub const MAX_LISTED_PAIRS: usize = 1 << 20;
+
+/// The bucketing grid is coarsened until it holds at most this many (cell, triangle)
+/// entries per triangle on average.
+pub const MAX_CELLS_PER_TRIANGLE: u64 = 16;
 
 /// What [`self_intersections`] found.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SelfIntersections {
-    /// The intersecting pairs of triangle indices (`i < j`), sorted.
+    /// The intersecting pairs of triangle indices (`i < j`), sorted: all of them when
+    /// there are at most [`MAX_LISTED_PAIRS`], else that many (which ones is unspecified).
     pub pairs: Vec<[u32; 2]>,
+    /// How many pairs intersect (listed or not).
+    pub count: usize,
     /// Triangles skipped because their three vertices are collinear (or have an index out
     /// of range).
     pub degenerate: usize,
@@ -243,14 +259,28 @@ pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
         .fold(0.0, f64::max);
     // The largest triangle spans at most ~32 cells per axis, and there are never more than
     // ~2^20 cells per axis, whatever the triangles' sizes.
-    let cell = mean
+    let mut cell = mean
         .max(largest / 32.0)
         .max(extent / (1 << 20) as f64)
         .max(f64::MIN_POSITIVE);
-    let key = |p: Vec3| -> [i64; 3] {
+    let key_at = |cell: f64, p: Vec3| -> [i64; 3] {
         let q = (p - lo).as_dvec3() / cell;
         [q.x as i64, q.y as i64, q.z as i64]
     };
+    // Few large triangles among many small ones span many cells each: coarsen until the
+    // entries are bounded (each doubling divides a large triangle's count by about 8).
+    let entries = |cell: f64| -> u64 {
+        live.iter()
+            .map(|(_, a, b)| {
+                let (ka, kb) = (key_at(cell, *a), key_at(cell, *b));
+                (0..3).map(|i| (kb[i] - ka[i] + 1) as u64).product::<u64>()
+            })
+            .fold(0, u64::saturating_add)
+    };
+    while entries(cell) > MAX_CELLS_PER_TRIANGLE * live.len() as u64 {
+        cell *= 2.0;
+    }
+    let key = |p: Vec3| key_at(cell, p);
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     for (k, (_, a, b)) in live.iter().enumerate() {
         let (ka, kb) = (key(*a), key(*b));
@@ -263,11 +293,12 @@ pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
         }
     }
     let cells: Vec<([i64; 3], Vec<u32>)> = grid.into_iter().collect();
-    let results: Vec<(usize, Vec<[u32; 2]>)> = cells
+    let listed = AtomicUsize::new(0);
+    let results: Vec<(usize, usize, Vec<[u32; 2]>)> = cells
         .par_iter()
         .map(|(c, members)| {
             let mut found = Vec::new();
-            let mut tested = 0;
+            let (mut tested, mut count) = (0, 0);
             for (x, &i) in members.iter().enumerate() {
                 for &j in &members[x + 1..] {
                     let (ti, ai, bi) = live[i as usize];
@@ -285,18 +316,23 @@ pub fn self_intersections(mesh: &TriMesh) -> SelfIntersections {
                         continue;
                     };
                     if triangles_intersect(p, q) {
-                        found.push([ti.min(tj), ti.max(tj)]);
+                        count += 1;
+                        if listed.fetch_add(1, Ordering::Relaxed) < MAX_LISTED_PAIRS {
+                            found.push([ti.min(tj), ti.max(tj)]);
+                        }
                     }
                 }
             }
-            (tested, found)
+            (tested, count, found)
         })
         .collect();
     let candidates = results.iter().map(|r| r.0).sum();
-    let mut pairs: Vec<[u32; 2]> = results.into_iter().flat_map(|r| r.1).collect();
+    let count = results.iter().map(|r| r.1).sum();
+    let mut pairs: Vec<[u32; 2]> = results.into_iter().flat_map(|r| r.2).collect();
     pairs.sort_unstable();
     SelfIntersections {
         pairs,
+        count,
         degenerate,
         candidates,
     }
@@ -390,33 +426,49 @@ mod tests {
 
     #[test]
     fn the_grid_finds_every_pair_brute_force_finds() {
-        let mut rng = isokit_field::rng::SplitMix64::new(11);
-        let lo = Vec3::ZERO;
-        let hi = Vec3::ONE;
-        let mut p = Vec::new();
-        let mut t = Vec::new();
-        for i in 0..400u32 {
-            let c = rng.point_in(lo, hi);
-            // Mostly small triangles, a few large ones.
-            let r = if i % 50 == 0 { 0.5 } else { 0.05 };
-            for _ in 0..3 {
-                p.push(c + r * rng.unit_vector());
+        // Mostly small triangles and a few large ones; then a tenth large among tiny ones,
+        // which spans so many cells of the mean size that the grid is coarsened.
+        for (seed, large_every, small) in [(11, 50, 0.05), (12, 10, 0.005)] {
+            let mut rng = isokit_field::rng::SplitMix64::new(seed);
+            let mut p = Vec::new();
+            let mut t = Vec::new();
+            for i in 0..400u32 {
+                let c = rng.point_in(Vec3::ZERO, Vec3::ONE);
+                let r = if i % large_every == 0 { 0.5 } else { small };
+                for _ in 0..3 {
+                    p.push(c + r * rng.unit_vector());
+                }
+                t.push([3 * i, 3 * i + 1, 3 * i + 2]);
             }
-            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
-        }
-        let mesh = TriMesh::new(p, t);
-        let got = self_intersections(&mesh).pairs;
-        let tri = |i: usize| mesh.triangles[i].map(|k| mesh.positions[k as usize]);
-        let mut want = Vec::new();
-        for i in 0..mesh.triangles.len() {
-            for j in i + 1..mesh.triangles.len() {
-                if triangles_intersect(tri(i), tri(j)) {
-                    want.push([i as u32, j as u32]);
+            let mesh = TriMesh::new(p, t);
+            let got = self_intersections(&mesh);
+            let tri = |i: usize| mesh.triangles[i].map(|k| mesh.positions[k as usize]);
+            let mut want = Vec::new();
+            for i in 0..mesh.triangles.len() {
+                for j in i + 1..mesh.triangles.len() {
+                    if triangles_intersect(tri(i), tri(j)) {
+                        want.push([i as u32, j as u32]);
+                    }
                 }
             }
+            assert!(want.len() > 20, "{}", want.len());
+            assert_eq!(got.pairs, want);
+            assert_eq!(got.count, want.len());
         }
-        assert!(want.len() > 20, "{}", want.len());
-        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_pile_of_coincident_triangles_is_counted_and_listed_up_to_the_cap() {
+        let n = 1500u32;
+        let p = vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        let positions: Vec<Vec3> = (0..n).flat_map(|_| p.iter().copied()).collect();
+        let triangles = (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let r = self_intersections(&TriMesh::new(positions, triangles));
+        let all = (n as usize) * (n as usize - 1) / 2;
+        assert!(all > MAX_LISTED_PAIRS);
+        assert_eq!(r.count, all);
+        assert_eq!(r.pairs.len(), MAX_LISTED_PAIRS);
+        assert!(r.pairs.windows(2).all(|w| w[0] < w[1]));
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //! ```
 //! use isokit_points::{PointSdf, PointSdfOptions};
 //! use isokit_field::Field;
-//! use glam::{DVec3, Vec3};
+//! use glam::Vec3;
 //!
 //! let cloud = isokit_io::generate::torus_cloud(1.0, 0.3, 4000, 7);
 //! let sdf = PointSdf::new(&cloud.points, cloud.normals.as_ref().unwrap(),
