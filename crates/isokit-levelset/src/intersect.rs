@@ -460,7 +460,7 @@ mod tests {
     #[test]
     fn a_pile_of_coincident_triangles_is_counted_and_listed_up_to_the_cap() {
         let n = 1500u32;
-        let p = vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
+        let p = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
         let positions: Vec<Vec3> = (0..n).flat_map(|_| p.iter().copied()).collect();
         let triangles = (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
         let r = self_intersections(&TriMesh::new(positions, triangles));
