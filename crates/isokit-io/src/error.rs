@@ -23,7 +23,7 @@ pub enum IoError {
     },
     /// The file's content does not follow its format (truncated, inconsistent header,
     /// out-of-range index, unparsable number, …).
-    #[error("{}: {msg}", crate::util::shown_path(path))]
+    #[error("{}: {}", crate::util::shown_path(path), crate::util::shown_text(msg))]
     Malformed {
         /// The file concerned.
         path: PathBuf,
@@ -32,7 +32,11 @@ pub enum IoError {
     },
     /// The file is valid but uses a feature this crate does not read (e.g. a sparse glTF
     /// accessor, a rotated NRRD grid, a 4-D NIfTI series).
-    #[error("{}: unsupported: {what}", crate::util::shown_path(path))]
+    #[error(
+        "{}: unsupported: {}",
+        crate::util::shown_path(path),
+        crate::util::shown_text(what)
+    )]
     Unsupported {
         /// The file concerned.
         path: PathBuf,
@@ -52,7 +56,11 @@ pub enum IoError {
     },
     /// The data handed to a writer cannot be written (wrong lengths, out-of-range indices,
     /// non-finite spacing, …). Nothing was written.
-    #[error("{}: cannot write: {msg}", crate::util::shown_path(path))]
+    #[error(
+        "{}: cannot write: {}",
+        crate::util::shown_path(path),
+        crate::util::shown_text(msg)
+    )]
     InvalidInput {
         /// The file that was to be written.
         path: PathBuf,
@@ -70,7 +78,7 @@ pub enum IoError {
         spacing: [f32; 3],
     },
     /// A volume's fields are inconsistent (data length, spacing, origin).
-    #[error("invalid volume: {0}")]
+    #[error("invalid volume: {}", crate::util::shown_text(.0))]
     InvalidVolume(String),
     /// A grid could not be built (bad sizes, spacing, origin).
     #[error(transparent)]

@@ -90,7 +90,7 @@ pub use mesh::{
 };
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};
-pub use util::shown_path;
+pub use util::{shown_path, shown_text};
 pub use volume::{
     ISOTROPY_TOL, NrrdEncoding, Volume, VolumeFormat, read_volume, read_volume_bytes, write_nrrd,
     write_nrrd_raw, write_volume, write_volume_with,

@@ -6,13 +6,12 @@ use std::path::Path;
 
 use crate::IoError;
 
-/// A path as one line of text for a message: its control characters (a newline in a file
-/// name, which a hostile file's reference or a user's own name may hold) are written as
-/// escapes (`\n`, `\u{1b}`), so that an error naming it stays one line.
-pub fn shown_path(path: &Path) -> String {
-    let s = path.to_string_lossy();
+/// Text as one line for a message: its control characters (a newline that a hostile file
+/// put in a name, a key or a reference) are written as escapes (`\n`, `\u{1b}`), so that an
+/// error quoting it stays one line.
+pub fn shown_text(s: &str) -> std::borrow::Cow<'_, str> {
     if !s.chars().any(char::is_control) {
-        return s.into_owned();
+        return s.into();
     }
     s.chars()
         .map(|c| {
@@ -22,7 +21,13 @@ pub fn shown_path(path: &Path) -> String {
                 c.to_string()
             }
         })
-        .collect()
+        .collect::<String>()
+        .into()
+}
+
+/// A path as one line of text for a message ([`shown_text`] of its lossy UTF-8 form).
+pub fn shown_path(path: &Path) -> String {
+    shown_text(&path.to_string_lossy()).into_owned()
 }
 
 /// Reads a whole file; an operating-system failure becomes [`IoError::Io`] naming the file.

@@ -95,7 +95,13 @@ use std::sync::Arc;
 
 /// A scene that cannot be read or built: which file, which node, what is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}: {}{message}", if node.is_empty() { String::new() } else { format!("{node}: ") })]
+/// Its message is one line: control characters that a file put in a key or a name are shown
+/// escaped ([`isokit_io::shown_text`]).
+#[error("{}", isokit_io::shown_text(&if node.is_empty() {
+    format!("{file}: {message}")
+} else {
+    format!("{file}: {node}: {message}")
+}))]
 pub struct SceneError {
     /// The scene file (or the name given to [`Scene::from_text`]).
     pub file: String,

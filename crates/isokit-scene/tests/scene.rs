@@ -235,7 +235,7 @@ fn a_mesh_is_queried_only_near_its_box() {
 fn malformed_scenes_name_the_file_the_node_and_the_problem() {
     let dir = Scratch::new("errors");
     let d = &dir.0;
-    let cases: [(&str, &[&str]); 11] = [
+    let cases: [(&str, &[&str]); 12] = [
         (
             r#"{"shape": {"union": [{"sphere": {"radius": 1}}, {"sphre": {"radius": 1}}]}}"#,
             &["t.json", "shape.union[1]", "unknown variant `sphre`"],
@@ -264,6 +264,11 @@ fn malformed_scenes_name_the_file_the_node_and_the_problem() {
             // A control character in a referenced name is shown escaped: one line.
             r#"{"shape": {"mesh": {"path": "new\nline.obj"}}}"#,
             &["shape.mesh", "no such file", r"new\nline.obj"],
+        ),
+        (
+            // And in a key that is unknown.
+            r#"{"shape": {"sph\nere": {"radius": 1}}}"#,
+            &["shape", "unknown variant", r"sph\nere"],
         ),
         (
             r#"{"shape": {"sphere": {"radius": "big"}}}"#,
