@@ -321,13 +321,7 @@ fn finite(x: f64, name: &str) -> PyResult<f32> {
 
 /// `mesher="mc"|"dual"`.
 pub(crate) fn parse_mesher(s: &str) -> PyResult<isokit_scene::Mesher> {
-    match s {
-        "mc" => Ok(isokit_scene::Mesher::Mc),
-        "dual" => Ok(isokit_scene::Mesher::Dual),
-        _ => Err(PyValueError::new_err(format!(
-            "mesher = {s:?} is not one of \"mc\", \"dual\""
-        ))),
-    }
+    parse_enum(s, "mesher", "\"mc\", \"dual\"")
 }
 
 fn parse_enum<T: serde::de::DeserializeOwned>(s: &str, name: &str, choices: &str) -> PyResult<T> {

@@ -5,11 +5,11 @@ use crate::{SampleOptions, SampleStats, Scene, SceneError};
 use isokit_field::{BrickGrid, Grid, Job, TriMesh};
 use isokit_levelset::dual::{DualOptions, mesh_dual_brick_grid_job, mesh_dual_grid_job};
 use isokit_levelset::meshing::{mesh_brick_grid_job, mesh_grid_job};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Which isosurface mesher [`mesh_scene`] runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Mesher {
     /// Marching cubes with the asymptotic decider (`isokit_levelset::meshing`): watertight
