@@ -258,7 +258,13 @@ fn sign_rules_on_a_sharp_box() {
         q.max(glam::Vec3::ZERO).length() + q.max_element().min(0.0)
     };
     let mut wrong = Vec::new();
-    for sign in [None, Some("nearest"), Some("winding")] {
+    // The last spelled as in scene files (an alias of `winding-everywhere`).
+    for sign in [
+        None,
+        Some("nearest"),
+        Some("winding"),
+        Some("winding_everywhere"),
+    ] {
         let out = d.join(format!("box_{}.nrrd", sign.unwrap_or("default")));
         let mut args = vec![
             "points",
@@ -274,11 +280,11 @@ fn sign_rules_on_a_sharp_box() {
         let o = isokit(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{err}");
-        let name = sign.unwrap_or("winding");
+        let name = sign.unwrap_or("winding").replace('_', "-");
         assert!(err.contains(&format!("sign: {name})")), "{err}");
         assert_eq!(
             err.contains("winding number: sample areas"),
-            name == "winding"
+            name != "nearest"
         );
         let grid = isokit_io::read_volume(&out).unwrap().into_grid().unwrap();
         let h = grid.spacing();
@@ -296,7 +302,7 @@ fn sign_rules_on_a_sharp_box() {
         wrong[1] > 0,
         "the nearest-sample rule was expected to fail here"
     );
-    assert_eq!((wrong[0], wrong[2]), (0, 0));
+    assert_eq!((wrong[0], wrong[2], wrong[3]), (0, 0, 0));
     let o = isokit(&[
         "points",
         cloud.to_str().unwrap(),

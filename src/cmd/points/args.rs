@@ -49,7 +49,9 @@ pub enum SignArg {
     /// The winding number of the oriented cloud (Barill et al. 2018) where the nearest
     /// samples disagree on the side, the closest sample's side elsewhere.
     Winding,
-    /// The winding number wherever the far field counts.
+    /// The winding number wherever the far field counts (also spelled as in scene files,
+    /// `winding_everywhere`).
+    #[value(alias = "winding_everywhere")]
     WindingEverywhere,
 }
 
