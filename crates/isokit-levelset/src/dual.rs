@@ -50,11 +50,11 @@
 //! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
 //! coincide and no quad collapses into a degenerate triangle). Measured on 14 random CSG
 //! trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 2 trees gave 19 intersecting
-//! pairs among 50,200 triangles, and no degenerate triangle; the shipped scenes,
-//! a box and a box minus a cylinder none, two boxes one rotated 30° 3 pairs at resolution 64. Crossings
-//! refined on the field are exact to about f32 rounding; normals are the field's gradient
-//! (analytic or finite differences). Vertices are not shared across cells, so a vertex of
-//! one component never serves another.
+//! pairs among 50,200 triangles, and no degenerate triangle; the shipped scenes, a box and a
+//! box minus a cylinder gave none, two boxes (one rotated 30°) 3 pairs at resolution 64.
+//! Crossings refined on the field are exact to about f32 rounding; normals are the field's
+//! gradient (analytic or finite differences). Vertices are not shared across cells, so a
+//! vertex of one component never serves another.
 
 use glam::{DVec3, Vec3};
 use isokit_field::{BrickGrid, Field, Grid, Job, TriMesh};
