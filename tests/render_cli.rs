@@ -500,3 +500,96 @@ fn render_for_a_multiview_display() {
     ]);
     assert_clear_error(&out, "views");
 }
+
+#[test]
+fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
+    let dir = scratch("render-dvr");
+    // A sphere's signed distance on a 32³ lattice, inside glowing.
+    let n = 32;
+    let h = 2.0 / (n - 1) as f32;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|e| {
+            let p = glam::Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
+            (p * h - glam::Vec3::ONE).length() - 0.6
+        })
+        .collect();
+    let grid = isokit::field::Grid::from_data([n; 3], glam::Vec3::splat(-1.0), h, values).unwrap();
+    let vol = dir.join("ball.nrrd");
+    isokit::io::write_nrrd_raw(&vol, &isokit::io::Volume::from_grid(&grid)).unwrap();
+    let tf = dir.join("tf.json");
+    std::fs::write(
+        &tf,
+        r#"{"points": [[-0.05, 1, 0.5, 0.2, 3], [0, 0, 0, 0, 0]]}"#,
+    )
+    .unwrap();
+    for classification in ["post", "preintegrated"] {
+        let png = dir.join(format!("{classification}.png"));
+        let exr = dir.join(format!("{classification}.exr"));
+        let out = isokit_ok(&[
+            "render",
+            vol.to_str().unwrap(),
+            "--mode",
+            "dvr",
+            "--tf",
+            tf.to_str().unwrap(),
+            "--classification",
+            classification,
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--eye",
+            "0,0,4",
+            "-o",
+            png.to_str().unwrap(),
+            "--gbuffer",
+            exr.to_str().unwrap(),
+            "--stats",
+        ]);
+        let stats = json(&out);
+        assert_eq!(stats["mode"], "dvr");
+        assert_eq!(stats["classification"], classification);
+        assert!(png.is_file());
+        let g = isokit::io::read_exr(&exr).unwrap();
+        let (a, z) = (g.channel("A").unwrap(), g.channel("Z").unwrap());
+        for c in ["R", "G", "B"] {
+            assert!(g.channel(c).is_some(), "{c}");
+        }
+        // The centre's ray crosses 1.2 of the sphere at sigma 3: opacity 1 - exp(-3.6)
+        // (to the step's and the lattice's accuracy); the corner's misses it.
+        let centre = 12 * 24 + 12;
+        assert!(
+            (a[centre] - (1.0 - (-3.6f32).exp())).abs() < 0.03,
+            "{}",
+            a[centre]
+        );
+        assert!(a[0] == 0.0 && z[0].is_infinite());
+        // Opacity passes 0.5 about 0.23 inside the sphere's front at z = 0.6: from the eye
+        // at 4, near 3.4 + 0.23.
+        assert!((z[centre] - 3.63).abs() < 0.1, "{}", z[centre]);
+    }
+    // What --mode dvr needs and refuses, in one line each.
+    for (extra, want) in [
+        (vec![], "needs --tf"),
+        (
+            vec!["--tf", "no-such-preset"],
+            "neither a file nor a preset",
+        ),
+        (vec!["--tf", "ct-bone", "--step", "0"], "step = 0"),
+        (
+            vec!["--tf", "ct-bone", "--shading", "tone"],
+            "--shading is for --mode isosurface",
+        ),
+    ] {
+        let mut args = vec![
+            "render",
+            vol.to_str().unwrap(),
+            "--mode",
+            "dvr",
+            "-o",
+            "x.png",
+        ];
+        args.extend(extra);
+        assert_clear_error(&isokit(&args), want);
+    }
+}

@@ -93,6 +93,7 @@
 #![warn(missing_docs)]
 
 mod cache;
+pub mod dvr;
 mod error;
 mod flow;
 mod gbuffer;

@@ -7,6 +7,27 @@ use crate::cmd::multiview_args::MultiViewArgs;
 use crate::cmd::raycast_args::RaycastArgs;
 use std::path::PathBuf;
 
+/// What `isokit render` draws.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RenderMode {
+    /// The ray-cast isosurface, shaded.
+    #[default]
+    Isosurface,
+    /// Direct volume rendering with a transfer function (--tf), volumes only.
+    Dvr,
+}
+
+/// How `--mode dvr` classifies samples.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ClassificationArg {
+    /// Sample, then classify.
+    #[default]
+    Post,
+    /// Pre-integrated segments (Engel et al. 2001): thin features of the transfer function
+    /// between samples still show.
+    Preintegrated,
+}
+
 /// Arguments of `isokit render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -15,6 +36,21 @@ pub struct Args {
     /// Output image (.png).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// What to draw: the isosurface, or a direct volume rendering (volumes only).
+    #[arg(long, value_enum, default_value_t = RenderMode::Isosurface)]
+    pub mode: RenderMode,
+    /// --mode dvr: the transfer function, a JSON file `{"points": [[value, r, g, b,
+    /// sigma], ...]}` (linear-RGB emission, sigma the extinction per world unit) or a preset:
+    /// ct-bone, ct-skin (Hounsfield units), mri-brain (0–1 over the volume's range),
+    /// distance-shell (signed distances).
+    #[arg(long)]
+    pub tf: Option<String>,
+    /// --mode dvr: post-classification or pre-integration.
+    #[arg(long, value_enum, default_value_t = ClassificationArg::Post)]
+    pub classification: ClassificationArg,
+    /// --mode dvr: step along the ray in world units [default: one voxel].
+    #[arg(long)]
+    pub step: Option<f32>,
     /// Image width in pixels.
     #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
@@ -40,8 +76,9 @@ pub struct Args {
     /// error without one).
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     pub backend: Backend,
-    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A; the
-    /// camera as the header attributes worldToCamera and worldToNDC).
+    /// Also write the G-buffer as OpenEXR (channels P.X P.Y P.Z N.X N.Y N.Z Z K1 K2 A; with
+    /// --mode dvr R G B A Z; the camera as the header attributes worldToCamera and
+    /// worldToNDC).
     #[arg(long)]
     pub gbuffer: Option<PathBuf>,
     /// Render again whenever the input or a file it references changes (polling), keeping

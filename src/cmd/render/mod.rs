@@ -1,9 +1,11 @@
 //! `isokit render SCENE|VOLUME -o image.png [...]`: the isosurface ray cast into a G-buffer
 //! and shaded (`isokit_scene::Renderer`); `--watch` renders again whenever the input or a
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
-//! while ray casting (Sigg 2006, Sec. 6.4.3).
+//! while ray casting (Sigg 2006, Sec. 6.4.3). `--mode dvr` renders a volume directly with a
+//! transfer function instead (`dvr.rs`).
 
 mod args;
+mod dvr;
 mod summary;
 
 pub use args::Args;
@@ -11,7 +13,7 @@ pub use args::Args;
 use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_field::Job;
-use isokit_render::{Layout, Volume, check_image_size};
+use isokit_render::{Image, Layout, Volume, check_image_size};
 use isokit_scene::{Prepared, RenderSettings, RenderTarget, Renderer, Scene, SceneFormat};
 use std::path::{Path, PathBuf};
 
@@ -26,6 +28,9 @@ pub fn run(a: Args) -> Result<()> {
         check_output(g, &[".exr"])?;
     }
     let (width, height) = check_image_size(a.width, a.height)?;
+    if a.mode == args::RenderMode::Dvr {
+        return dvr::run(&a, width, height);
+    }
     if a.csg.csg.is_some() {
         if is_scene(&a.input) {
             bail!(
@@ -168,8 +173,7 @@ fn render_once(
     Ok(files)
 }
 
-/// The renderer, opened (with its note, once) at the first call: after the input was read
-/// and prepared (preparing needs no device), so that errors in the input come alone.
+/// The renderer, opened once at the first call, after the input was read and prepared.
 fn open<'r>(slot: &'r mut Option<Renderer>, a: &Args) -> Result<&'r mut Renderer> {
     if slot.is_none() {
         *slot = Some(super::args::open_renderer(a.backend)?);
@@ -186,12 +190,7 @@ fn warm(a: &Args, renderer: &mut Renderer, p: &Prepared<'_>, name: &str) -> Resu
 }
 
 /// With `--views-out`: each view of the multi-view display rendered alone.
-fn views(
-    a: &Args,
-    renderer: &mut Renderer,
-    p: &isokit_scene::Prepared<'_>,
-    name: &str,
-) -> Result<Vec<isokit_render::Image>> {
+fn views(a: &Args, renderer: &mut Renderer, p: &Prepared<'_>, name: &str) -> Result<Vec<Image>> {
     let Some(dir) = &a.multiview.views_out else {
         return Ok(Vec::new());
     };

@@ -1,0 +1,131 @@
+//! `isokit render VOLUME --mode dvr`: direct volume rendering with a transfer function
+//! (`isokit_render::dvr`, on the CPU), written as a PNG over black and, with `--gbuffer`, an
+//! EXR of the premultiplied colour `R G B`, the opacity `A` and `Z`, the distance along the
+//! ray where the opacity first passes 0.5.
+
+use super::Args;
+use super::args::{ClassificationArg, RenderMode};
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr};
+use std::path::Path;
+
+/// Renders `a.input` (a volume) in `dvr` mode.
+pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
+    debug_assert_eq!(a.mode, RenderMode::Dvr);
+    if super::is_scene(&a.input) {
+        bail!(
+            "--mode dvr renders volumes; sample the scene to one first (isokit scene {} -o volume.nrrd)",
+            a.input.display()
+        );
+    }
+    for (given, flag) in [
+        (a.watch, "--watch"),
+        (a.csg.csg.is_some(), "--csg"),
+        (a.samples > 1, "--samples"),
+        (a.multiview.multiview()?.0.is_some(), "--views"),
+        (a.shading.is_some(), "--shading"),
+        (a.iso.is_some(), "--iso"),
+        // No GPU twin of direct volume rendering yet.
+        (a.backend == crate::cmd::args::Backend::Gpu, "--backend gpu"),
+    ] {
+        if given {
+            bail!("{flag} is for --mode isosurface; --mode dvr does not take it");
+        }
+    }
+    let Some(tf_arg) = &a.tf else {
+        bail!(
+            "--mode dvr needs --tf FILE|PRESET (a JSON file {{\"points\": [[value, r, g, b, sigma], ...]}}, or one of {})",
+            isokit_render::dvr::TF_PRESETS.join(", ")
+        );
+    };
+    let grid = a.volume.read_grid(&a.input)?;
+    let (lo, hi) = grid
+        .data()
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let tf = if Path::new(tf_arg).is_file() {
+        let text = std::fs::read_to_string(tf_arg).with_context(|| format!("--tf {tf_arg}"))?;
+        TransferFunction::from_json(&text).with_context(|| format!("--tf {tf_arg}"))?
+    } else {
+        TransferFunction::preset(tf_arg, (lo, hi), grid.spacing())?
+    };
+    let camera = isokit_scene::camera_for(
+        a.camera.spec()?.as_ref(),
+        grid.bounds(),
+        a.camera.projection()?,
+        width,
+        height,
+    )?;
+    let opts = DvrOptions {
+        step: a.step,
+        classification: match a.classification {
+            ClassificationArg::Post => Classification::Post,
+            ClassificationArg::Preintegrated => Classification::Preintegrated,
+        },
+        ..DvrOptions::default()
+    };
+    let t = std::time::Instant::now();
+    let img = render_dvr(&grid, &camera, &tf, &opts)?;
+    let seconds = t.elapsed().as_secs_f64();
+    let rgba8: Vec<u8> = img
+        .over(Vec3::ZERO)
+        .iter()
+        .flat_map(|c| {
+            c.to_array()
+                .map(isokit_io::linear_to_srgb8)
+                .into_iter()
+                .chain([255])
+        })
+        .collect();
+    isokit_io::write_png(&a.output, width, height, &rgba8)?;
+    if let Some(g) = &a.gbuffer {
+        let channel = |i: usize| img.rgba.iter().map(|p| p[i]).collect::<Vec<f32>>();
+        let (r, gr, b, al) = (channel(0), channel(1), channel(2), channel(3));
+        let exr = isokit_render::exr_camera(&camera);
+        let channels: [(&str, &[f32]); 5] = [
+            ("R", &r),
+            ("G", &gr),
+            ("B", &b),
+            ("A", &al),
+            ("Z", &img.depth),
+        ];
+        isokit_io::write_exr_with_camera(
+            g,
+            width as usize,
+            height as usize,
+            &channels,
+            Some(&exr),
+        )?;
+    }
+    let d = grid.dims();
+    let step = opts.step.unwrap_or(grid.spacing());
+    let classification = format!("{:?}", opts.classification).to_lowercase();
+    eprintln!(
+        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({classification}, step {step}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
+        d[0],
+        d[1],
+        d[2],
+        img.samples,
+        img.skipped_blocks,
+        a.output.display()
+    );
+    if a.stats {
+        let v = serde_json::json!({
+            "mode": "dvr",
+            "classification": classification,
+            "step": step,
+            "samples": img.samples,
+            "skipped_blocks": img.skipped_blocks,
+            "seconds": seconds,
+            "width": width,
+            "height": height,
+            "output": a.output.display().to_string(),
+        });
+        println!("{v}");
+    }
+    Ok(())
+}
