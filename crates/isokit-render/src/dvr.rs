@@ -382,7 +382,8 @@ pub struct DvrImage {
     /// Premultiplied linear RGB and opacity per pixel, rows from the top.
     pub rgba: Vec<Vec4>,
     /// Distance along each ray where the opacity first passes 0.5 (infinite where it never
-    /// does).
+    /// does), located within its step by the step's own model: exactly for
+    /// post-classification's constant extinction, by bisection on a pre-integrated segment.
     pub depth: Vec<f32>,
     /// Samples of the volume taken.
     pub samples: u64,
@@ -443,6 +444,38 @@ impl Blocks {
             let lo = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * self.b as f32;
             (lo, lo + Vec3::splat(self.b as f32))
         })
+    }
+}
+
+/// How the extinction varies along one step, to find where in it the opacity reaches a
+/// value (the depth where a ray's opacity passes 0.5 lies between samples).
+enum Within {
+    /// Post-classification: the step's one sample's extinction throughout.
+    Constant(f32),
+    /// Pre-integration: the value linear from front to back.
+    Linear(f32, f32),
+}
+
+impl Within {
+    /// The distance into a step of length `len` at which its opacity reaches `alpha`.
+    fn opacity_at(&self, tf: &TransferFunction, len: f32, alpha: f32) -> f32 {
+        match *self {
+            Within::Constant(sigma) if sigma > 0.0 => (-(1.0 - alpha).ln() / sigma).min(len),
+            Within::Constant(_) => len,
+            Within::Linear(vf, vb) => {
+                // The opacity of the step's first part grows with its length: bisection.
+                let (mut lo, mut hi) = (0.0f32, 1.0f32);
+                for _ in 0..24 {
+                    let t = 0.5 * (lo + hi);
+                    if tf.segment(vf, vf + (vb - vf) * t, len * t, 4).w >= alpha {
+                        hi = t;
+                    } else {
+                        lo = t;
+                    }
+                }
+                hi * len
+            }
+        }
     }
 }
 
@@ -580,12 +613,13 @@ pub fn render_dvr(
                 }
                 let s1 = (s0 + step).min(t1);
                 let len = s1 - s0;
-                let seg = match &table {
+                // The step's colour and opacity, and what locates its opacity within it.
+                let (seg, inside) = match &table {
                     None => {
                         samples += 1;
                         let (e, sigma) = tf.eval(value(ray.at(0.5 * (s0 + s1))));
                         let alpha = 1.0 - (-sigma * len).exp();
-                        (e * alpha).extend(alpha)
+                        ((e * alpha).extend(alpha), Within::Constant(sigma))
                     }
                     Some(table) => {
                         let vf = front.unwrap_or_else(|| {
@@ -595,18 +629,19 @@ pub fn render_dvr(
                         let vb = value(ray.at(s1));
                         samples += 1;
                         front = Some(vb);
-                        if (len - table.len()).abs() <= 1e-6 * table.len() {
+                        let seg = if (len - table.len()).abs() <= 1e-6 * table.len() {
                             table.lookup(vf, vb)
                         } else {
                             tf.segment(vf, vb, len, 4)
-                        }
+                        };
+                        (seg, Within::Linear(vf, vb))
                     }
                 };
                 c += trans * seg.truncate();
-                let before = 1.0 - trans;
+                let before = trans;
                 trans *= 1.0 - seg.w;
-                if before < 0.5 && 1.0 - trans >= 0.5 {
-                    depth = s1;
+                if before > 0.5 && trans <= 0.5 {
+                    depth = s0 + inside.opacity_at(tf, len, 1.0 - 0.5 / before);
                 }
                 if 1.0 - trans >= opts.termination {
                     break;
