@@ -41,6 +41,9 @@ pub const SPLAT: &str = include_str!("../splat.wgsl");
 /// (entry points `shade_splat_filtered`, `shade_splat_loads`).
 pub const SPLAT_SHADE: &str = include_str!("../splat_shade.wgsl");
 
+/// `dvr.wgsl`: direct volume rendering, one ray per invocation (entry point `dvr`).
+pub const DVR: &str = include_str!("../dvr.wgsl");
+
 /// `prism_scan.wgsl`: prism scan conversion of one slab of slices (entry point `scan`).
 pub const PRISM_SCAN: &str = include_str!("../prism_scan.wgsl");
 
@@ -73,6 +76,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("flow.wgsl", FLOW),
     ("splat.wgsl", SPLAT),
     ("splat_shade.wgsl", SPLAT_SHADE),
+    ("dvr.wgsl", DVR),
     ("prism_scan.wgsl", PRISM_SCAN),
     ("common/curvature.wgsl", common::CURVATURE),
     ("common/shade_structs.wgsl", common::SHADE_STRUCTS),

@@ -188,6 +188,9 @@ pub struct GpuRenderer {
     /// The splatter's pipelines (`splat.wgsl`, `splat_shade.wgsl`; host code in
     /// `splat/gpu.rs`), compiled on first use.
     pub(crate) splat: std::sync::OnceLock<splat::SplatPipelines>,
+    /// Direct volume rendering, `dvr.wgsl` (host code in `dvr/gpu.rs`), compiled on first
+    /// use.
+    pub(crate) dvr: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 impl GpuRenderer {
@@ -210,6 +213,7 @@ impl GpuRenderer {
             max_rays: DEFAULT_MAX_RAYS_PER_DISPATCH,
             resident: None,
             splat: std::sync::OnceLock::new(),
+            dvr: std::sync::OnceLock::new(),
         })
     }
 
@@ -293,6 +297,7 @@ pub(crate) fn every_shader() -> Vec<ShaderSource> {
         splat::splat_shader(true),
         splat::splat_shader(false),
         splat::splat_shade_shader(),
+        crate::dvr::gpu::dvr_shader(),
     ]
 }
 

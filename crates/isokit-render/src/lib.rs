@@ -24,6 +24,7 @@
 //! | `shade.wgsl`, `common/shade_structs.wgsl`, `common/shade_functions.wgsl` | `shade/cpu.rs` ([`shade()`]) | `shade/gpu.rs` ([`gpu::GpuRenderer::shade`]) |
 //! | `flow.wgsl` | `flow/cpu.rs` ([`shade::flow_image`]) | `flow/gpu.rs` |
 //! | `splat.wgsl`, `splat_shade.wgsl` | `splat/cpu.rs` ([`splat`]), `quadric.rs` ([`quadric::intersect`]) | `splat/gpu.rs` ([`splat::gpu`], also [`gpu::splat`]) |
+//! | `dvr.wgsl` | `dvr/mod.rs` ([`dvr::render_dvr`]) | `dvr/gpu.rs` ([`gpu::GpuRenderer::render_dvr`]) |
 //!
 //! `gpu.rs` holds what the GPU host code shares (the device and pipelines, the constants
 //! prepended from Rust, the backend choice).

@@ -1,5 +1,6 @@
 //! `isokit render VOLUME --mode dvr`: direct volume rendering with a transfer function
-//! (`isokit_render::dvr`, on the CPU), written as a PNG over black and, with `--gbuffer`, an
+//! (`isokit_render::dvr`, the GPU twin or the CPU's as `--backend` says), written as a PNG
+//! over black and, with `--gbuffer`, an
 //! EXR of the premultiplied colour `R G B`, the opacity `A` and `Z`, the distance along the
 //! ray where the opacity first passes 0.5.
 
@@ -26,8 +27,6 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         (a.multiview.multiview()?.0.is_some(), "--views"),
         (a.shading.is_some(), "--shading"),
         (a.iso.is_some(), "--iso"),
-        // No GPU twin of direct volume rendering yet.
-        (a.backend == crate::cmd::args::Backend::Gpu, "--backend gpu"),
     ] {
         if given {
             bail!("{flag} is for --mode isosurface; --mode dvr does not take it");
@@ -40,13 +39,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         );
     };
     let grid = a.volume.read_grid(&a.input)?;
-    let (lo, hi) = grid
-        .data()
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| {
-            (l.min(v), h.max(v))
-        });
+    let (lo, hi) = isokit_render::dvr::value_range(&grid);
     let tf = if Path::new(tf_arg).is_file() {
         let text = std::fs::read_to_string(tf_arg).with_context(|| format!("--tf {tf_arg}"))?;
         TransferFunction::from_json(&text).with_context(|| format!("--tf {tf_arg}"))?
@@ -68,8 +61,13 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         },
         ..DvrOptions::default()
     };
+    let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
+    let backend = renderer.backend();
     let t = std::time::Instant::now();
-    let img = render_dvr(&grid, &camera, &tf, &opts)?;
+    let img = match renderer.gpu() {
+        Some(gpu) => gpu.render_dvr(&grid, &camera, &tf, &opts)?,
+        None => render_dvr(&grid, &camera, &tf, &opts)?,
+    };
     let seconds = t.elapsed().as_secs_f64();
     let rgba8: Vec<u8> = img
         .over(Vec3::ZERO)
@@ -105,7 +103,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let step = opts.step.unwrap_or(grid.spacing());
     let classification = format!("{:?}", opts.classification).to_lowercase();
     eprintln!(
-        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({classification}, step {step}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
+        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({classification}, step {step}, {backend}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
         d[0],
         d[1],
         d[2],
@@ -116,6 +114,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     if a.stats {
         let v = serde_json::json!({
             "mode": "dvr",
+            "backend": backend,
             "classification": classification,
             "step": step,
             "samples": img.samples,

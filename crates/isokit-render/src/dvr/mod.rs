@@ -1,8 +1,8 @@
 //! Direct volume rendering of a sampled scalar volume: emission–absorption along each ray
 //! with a 1D transfer function (dissertation 002 Sec. 2.5.3), post-classified or
 //! pre-integrated (Engel, Kraus and Ertl 2001, "High-Quality Pre-Integrated Volume Rendering
-//! Using Hardware-Accelerated Pixel Shading"). The CPU implementation; there is no GPU twin
-//! of this module yet.
+//! Using Hardware-Accelerated Pixel Shading"). This module is the CPU twin; the GPU's is
+//! [`gpu`] (`shaders/dvr.wgsl`, [`crate::gpu::GpuRenderer::render_dvr`]).
 //!
 //! ## The model
 //! A [`TransferFunction`] maps a value `v` to a linear-RGB emission `c(v)` and an extinction
@@ -40,6 +40,8 @@
 //!   is the same with and without skipping, to rounding.
 //! - **Early ray termination** once the opacity reaches `termination` (default 0.999): what
 //!   is left out is at most `1 − termination` of the brightest emission.
+
+pub mod gpu;
 
 use crate::RenderError;
 use glam::{Vec3, Vec4};
@@ -275,11 +277,11 @@ pub enum Classification {
 /// `n` values evenly spaced over `[lo, hi]` and interpolated bilinearly between them.
 #[derive(Clone, Debug)]
 pub struct PreintegrationTable {
-    lo: f32,
-    hi: f32,
-    n: usize,
+    pub(crate) lo: f32,
+    pub(crate) hi: f32,
+    pub(crate) n: usize,
     len: f32,
-    entries: Vec<Vec4>,
+    pub(crate) entries: Vec<Vec4>,
 }
 
 impl PreintegrationTable {
@@ -311,7 +313,7 @@ impl PreintegrationTable {
         let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
         let entries = (0..n * n)
             .into_par_iter()
-            .map(|e| tf.segment(value(e % n), value(e / n), len, 4))
+            .map(|e| tf.segment(value(e % n), value(e / n), len, gpu::SUB_STEPS as usize))
             .collect();
         Ok(Self {
             lo,
@@ -402,10 +404,10 @@ impl DvrImage {
 }
 
 /// Min/max of the samples of each block of `b³` cells (nodes included on both sides).
-struct Blocks {
-    b: usize,
-    counts: [usize; 3],
-    empty: Vec<bool>,
+pub(crate) struct Blocks {
+    pub(crate) b: usize,
+    pub(crate) counts: [usize; 3],
+    pub(crate) empty: Vec<bool>,
 }
 
 impl Blocks {
@@ -449,7 +451,7 @@ impl Blocks {
 
 /// How the extinction varies along one step, to find where in it the opacity reaches a
 /// value (the depth where a ray's opacity passes 0.5 lies between samples).
-enum Within {
+pub(crate) enum Within {
     /// Post-classification: the step's one sample's extinction throughout.
     Constant(f32),
     /// Pre-integration: the value linear from front to back.
@@ -467,7 +469,11 @@ impl Within {
                 let (mut lo, mut hi) = (0.0f32, 1.0f32);
                 for _ in 0..24 {
                     let t = 0.5 * (lo + hi);
-                    if tf.segment(vf, vf + (vb - vf) * t, len * t, 4).w >= alpha {
+                    if tf
+                        .segment(vf, vf + (vb - vf) * t, len * t, gpu::SUB_STEPS as usize)
+                        .w
+                        >= alpha
+                    {
                         hi = t;
                     } else {
                         lo = t;
@@ -479,22 +485,195 @@ impl Within {
     }
 }
 
-/// Where a ray enters and leaves a box (`None` when it misses).
-fn slab(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
-    let inv = d.recip();
+/// Where a ray enters and leaves a box (`None` when it misses). Direction components
+/// smaller than 1e-30 count as 1e-30 of their sign, so no infinity or NaN arises (WGSL
+/// gives none of them a defined meaning; the GPU twin does the same).
+pub(crate) fn slab(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+    let safe = |x: f32| {
+        if x.abs() < 1e-30 {
+            1e-30f32.copysign(x)
+        } else {
+            x
+        }
+    };
+    let inv = Vec3::new(1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z));
     let (a, b) = ((lo - o) * inv, (hi - o) * inv);
-    let t0 = a.min(b);
-    let t1 = a.max(b);
-    // NaN (a zero direction component on the slab's plane) counts as unbounded.
-    let t0 = [t0.x, t0.y, t0.z]
-        .into_iter()
-        .filter(|t| !t.is_nan())
-        .fold(0.0f32, f32::max);
-    let t1 = [t1.x, t1.y, t1.z]
-        .into_iter()
-        .filter(|t| !t.is_nan())
-        .fold(f32::INFINITY, f32::min);
+    let t0 = a.min(b).max_element().max(0.0);
+    let t1 = a.max(b).min_element();
     (t0 < t1).then_some((t0, t1))
+}
+
+/// What both twins trace with, prepared on the host: the checked step, the
+/// pre-integration table and the empty blocks.
+pub(crate) struct Prepared {
+    pub(crate) step: f32,
+    pub(crate) termination: f32,
+    pub(crate) table: Option<PreintegrationTable>,
+    pub(crate) blocks: Option<Blocks>,
+}
+
+/// Checks the knobs against the grid and builds the table and the blocks.
+pub(crate) fn prepare(
+    grid: &Grid,
+    tf: &TransferFunction,
+    opts: &DvrOptions,
+) -> Result<Prepared, RenderError> {
+    let step = opts.step.unwrap_or(grid.spacing());
+    if !(step.is_finite() && step > 0.0) {
+        return Err(RenderError::bad(
+            "step",
+            step,
+            "must be positive and finite",
+        ));
+    }
+    if !(0.0..=1.0).contains(&opts.termination) {
+        return Err(RenderError::bad(
+            "termination",
+            opts.termination,
+            "must be an opacity from 0 to 1",
+        ));
+    }
+    if grid.dims().iter().any(|&n| n < 2) {
+        return Err(RenderError::BadVolume {
+            dims: grid.dims(),
+            why: "needs at least 2 samples along each axis",
+        });
+    }
+    let b = grid.bounds();
+    if ((b.max - b.min).length() / step) as f64 > 1e7 {
+        return Err(RenderError::bad(
+            "step",
+            step,
+            "gives more than 10 million samples per ray; take a longer step",
+        ));
+    }
+    let table = match opts.classification {
+        Classification::Post => None,
+        Classification::Preintegrated => {
+            let (lo, hi) = value_range(grid);
+            Some(PreintegrationTable::new(tf, lo, hi, opts.table_size, step)?)
+        }
+    };
+    let blocks = (opts.block > 0).then(|| Blocks::new(grid, tf, opts.block));
+    Ok(Prepared {
+        step,
+        termination: opts.termination,
+        table,
+        blocks,
+    })
+}
+
+/// The finite samples' min and max (0 and 1 when there are none).
+pub fn value_range(grid: &Grid) -> (f32, f32) {
+    let (lo, hi) = grid
+        .data()
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    if lo <= hi { (lo, hi) } else { (0.0, 1.0) }
+}
+
+/// What one ray gives: premultiplied colour and opacity, the depth where the opacity
+/// passes 0.5, the samples taken and the blocks skipped.
+pub(crate) type RayResult = (Vec4, f32, u32, u32);
+
+/// One ray through the volume: the CPU twin of `trace_ray` in `shaders/dvr.wgsl`.
+pub(crate) fn trace_ray(
+    grid: &Grid,
+    tf: &TransferFunction,
+    p: &Prepared,
+    ray: isokit_field::Ray,
+) -> RayResult {
+    let b = grid.bounds();
+    let (h, step) = (grid.spacing(), p.step);
+    let value = |x: Vec3| trilinear(grid, grid.to_grid(x));
+    let Some((t0, t1)) = slab(ray.origin, ray.dir, b.min, b.max) else {
+        return (Vec4::ZERO, f32::INFINITY, 0, 0);
+    };
+    let (mut c, mut trans) = (Vec3::ZERO, 1.0f32);
+    let mut depth = f32::INFINITY;
+    let (mut samples, mut skipped) = (0u32, 0u32);
+    let n = ((t1 - t0) / step).ceil().max(1.0) as u32;
+    let mut k = 0u32;
+    // Pre-integration: the value at the front of the current segment, once known.
+    let mut front: Option<f32> = None;
+    while k < n {
+        let s0 = t0 + k as f32 * step;
+        if let Some(bl) = &p.blocks {
+            // Post-classification samples the step's middle; a pre-integrated segment
+            // needs both its ends in the empty block.
+            let probe = match p.table {
+                None => (s0 + step * 0.5).min(t1),
+                Some(_) => s0,
+            };
+            if let Some((lo, hi)) = bl.empty_at(grid.to_grid(ray.at(probe))) {
+                // Step over the block: to the step that holds its exit.
+                let o = grid.to_grid(ray.origin);
+                if let Some((_, exit)) = slab(o, ray.dir / h, lo, hi) {
+                    let next = ((exit - t0) / step).floor() as u32;
+                    if next > k {
+                        k = next;
+                        front = None;
+                        skipped += 1;
+                        continue;
+                    }
+                }
+            }
+        }
+        let s1 = (s0 + step).min(t1);
+        let len = s1 - s0;
+        // The step's colour and opacity, and what locates its opacity within it.
+        let (seg, inside) = match &p.table {
+            None => {
+                samples += 1;
+                let (e, sigma) = tf.eval(value(ray.at(0.5 * (s0 + s1))));
+                let alpha = 1.0 - (-sigma * len).exp();
+                ((e * alpha).extend(alpha), Within::Constant(sigma))
+            }
+            Some(table) => {
+                let vf = front.unwrap_or_else(|| {
+                    samples += 1;
+                    value(ray.at(s0))
+                });
+                let vb = value(ray.at(s1));
+                samples += 1;
+                front = Some(vb);
+                let seg = if (len - table.len()).abs() <= 1e-6 * table.len() {
+                    table.lookup(vf, vb)
+                } else {
+                    tf.segment(vf, vb, len, gpu::SUB_STEPS as usize)
+                };
+                (seg, Within::Linear(vf, vb))
+            }
+        };
+        c += trans * seg.truncate();
+        let before = trans;
+        trans *= 1.0 - seg.w;
+        if before > 0.5 && trans <= 0.5 {
+            depth = s0 + inside.opacity_at(tf, len, 1.0 - 0.5 / before);
+        }
+        if 1.0 - trans >= p.termination {
+            break;
+        }
+        k += 1;
+    }
+    (c.extend(1.0 - trans), depth, samples, skipped)
+}
+
+impl DvrImage {
+    /// From the rays' results, row by row.
+    pub(crate) fn from_rays(width: u32, height: u32, rays: &[RayResult]) -> Self {
+        Self {
+            width,
+            height,
+            rgba: rays.iter().map(|r| r.0).collect(),
+            depth: rays.iter().map(|r| r.1).collect(),
+            samples: rays.iter().map(|r| u64::from(r.2)).sum(),
+            skipped_blocks: rays.iter().map(|r| u64::from(r.3)).sum(),
+        }
+    }
 }
 
 /// Renders `grid` with the emission–absorption model and `tf` (see the [module](self)
@@ -524,139 +703,13 @@ pub fn render_dvr(
     opts: &DvrOptions,
 ) -> Result<DvrImage, RenderError> {
     let (width, height) = crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
-    let h = grid.spacing();
-    let step = opts.step.unwrap_or(h);
-    if !(step.is_finite() && step > 0.0) {
-        return Err(RenderError::bad(
-            "step",
-            step,
-            "must be positive and finite",
-        ));
-    }
-    if !(0.0..=1.0).contains(&opts.termination) {
-        return Err(RenderError::bad(
-            "termination",
-            opts.termination,
-            "must be an opacity from 0 to 1",
-        ));
-    }
-    if grid.dims().iter().any(|&n| n < 2) {
-        return Err(RenderError::BadVolume {
-            dims: grid.dims(),
-            why: "needs at least 2 samples along each axis",
-        });
-    }
-    let b = grid.bounds();
-    // Segments per ray, bounded by the volume's diagonal.
-    let per_ray = ((b.max - b.min).length() / step) as f64;
-    if per_ray > 1e7 {
-        return Err(RenderError::bad(
-            "step",
-            step,
-            "gives more than 10 million samples per ray; take a longer step",
-        ));
-    }
-    let table = match opts.classification {
-        Classification::Post => None,
-        Classification::Preintegrated => {
-            let (lo, hi) = grid
-                .data()
-                .iter()
-                .filter(|v| v.is_finite())
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), &v| {
-                    (l.min(v), h.max(v))
-                });
-            let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 1.0) };
-            Some(PreintegrationTable::new(tf, lo, hi, opts.table_size, step)?)
-        }
-    };
-    let blocks = (opts.block > 0).then(|| Blocks::new(grid, tf, opts.block));
-    let value = |p: Vec3| trilinear(grid, grid.to_grid(p));
-    let pixels: Vec<(Vec4, f32, u64, u64)> = (0..width * height)
+    let p = prepare(grid, tf, opts)?;
+    let rays: Vec<RayResult> = (0..width * height)
         .into_par_iter()
         .map(|pix| {
-            let (px, py) = (pix % width, pix / width);
-            let ray = camera.ray(px as f32 + 0.5, py as f32 + 0.5);
-            let Some((t0, t1)) = slab(ray.origin, ray.dir, b.min, b.max) else {
-                return (Vec4::ZERO, f32::INFINITY, 0, 0);
-            };
-            let (mut c, mut trans) = (Vec3::ZERO, 1.0f32);
-            let mut depth = f32::INFINITY;
-            let (mut samples, mut skipped) = (0u64, 0u64);
-            let n = ((t1 - t0) / step).ceil().max(1.0) as u64;
-            let mut k = 0u64;
-            // Pre-integration: the value at the front of the current segment.
-            let mut front: Option<f32> = None;
-            while k < n {
-                let s0 = t0 + k as f32 * step;
-                if let Some(bl) = &blocks {
-                    // Post-classification samples the step's middle; a pre-integrated
-                    // segment needs both its ends in the empty block.
-                    let probe = match table {
-                        None => (s0 + step * 0.5).min(t1),
-                        Some(_) => s0,
-                    };
-                    if let Some((lo, hi)) = bl.empty_at(grid.to_grid(ray.at(probe))) {
-                        // Step over the block: to the first step that starts beyond it.
-                        let o = grid.to_grid(ray.origin);
-                        let d = ray.dir / h;
-                        if let Some((_, exit)) = slab(o, d, lo, hi) {
-                            let next = ((exit - t0) / step).floor() as u64;
-                            if next > k {
-                                k = next;
-                                front = None;
-                                skipped += 1;
-                                continue;
-                            }
-                        }
-                    }
-                }
-                let s1 = (s0 + step).min(t1);
-                let len = s1 - s0;
-                // The step's colour and opacity, and what locates its opacity within it.
-                let (seg, inside) = match &table {
-                    None => {
-                        samples += 1;
-                        let (e, sigma) = tf.eval(value(ray.at(0.5 * (s0 + s1))));
-                        let alpha = 1.0 - (-sigma * len).exp();
-                        ((e * alpha).extend(alpha), Within::Constant(sigma))
-                    }
-                    Some(table) => {
-                        let vf = front.unwrap_or_else(|| {
-                            samples += 1;
-                            value(ray.at(s0))
-                        });
-                        let vb = value(ray.at(s1));
-                        samples += 1;
-                        front = Some(vb);
-                        let seg = if (len - table.len()).abs() <= 1e-6 * table.len() {
-                            table.lookup(vf, vb)
-                        } else {
-                            tf.segment(vf, vb, len, 4)
-                        };
-                        (seg, Within::Linear(vf, vb))
-                    }
-                };
-                c += trans * seg.truncate();
-                let before = trans;
-                trans *= 1.0 - seg.w;
-                if before > 0.5 && trans <= 0.5 {
-                    depth = s0 + inside.opacity_at(tf, len, 1.0 - 0.5 / before);
-                }
-                if 1.0 - trans >= opts.termination {
-                    break;
-                }
-                k += 1;
-            }
-            (c.extend(1.0 - trans), depth, samples, skipped)
+            let ray = camera.ray((pix % width) as f32 + 0.5, (pix / width) as f32 + 0.5);
+            trace_ray(grid, tf, &p, ray)
         })
         .collect();
-    Ok(DvrImage {
-        width,
-        height,
-        rgba: pixels.iter().map(|p| p.0).collect(),
-        depth: pixels.iter().map(|p| p.1).collect(),
-        samples: pixels.iter().map(|p| p.2).sum(),
-        skipped_blocks: pixels.iter().map(|p| p.3).sum(),
-    })
+    Ok(DvrImage::from_rays(width, height, &rays))
 }

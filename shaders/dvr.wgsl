@@ -1,0 +1,310 @@
+// Direct volume rendering (002 Sec. 2.5.3; pre-integration after Engel, Kraus and Ertl 2001):
+// emission and absorption along one ray per invocation through a 1D transfer function,
+// post-classified or with pre-integrated segments, empty blocks skipped, early termination.
+// Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS.
+// CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
+// alike); the rays, the pre-integration table and the empty-block flags come from the host.
+
+// Rust: dvr/gpu.rs DvrParams (96 bytes).
+struct DvrParams {
+    dims: vec3<u32>,
+    count: u32,          // rays
+    origin: vec3<f32>,   // world position of sample (0, 0, 0)
+    spacing: f32,
+    bmin: vec3<f32>,     // the volume's box
+    step: f32,
+    bmax: vec3<f32>,
+    termination: f32,
+    blocks: vec3<u32>,   // blocks per axis
+    block: u32,          // cells per block edge; 0: no skipping
+    n_tf: u32,           // transfer-function points
+    preintegrated: u32,  // 1: pre-integrated segments from the table
+    table_n: u32,
+    stride: u32,         // invocations per row of the dispatch grid
+    table_lo: f32,
+    table_hi: f32,
+    table_len: f32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> P: DvrParams;
+@group(0) @binding(1) var<storage, read> volume: array<f32>;       // x fastest
+@group(0) @binding(2) var<storage, read> tf: array<vec4<f32>>;     // per point: (value, sigma, 0, 0), (r, g, b, 0)
+@group(0) @binding(3) var<storage, read> table: array<vec4<f32>>;  // front + n · back
+@group(0) @binding(4) var<storage, read> empty: array<u32>;        // per block
+@group(0) @binding(5) var<storage, read> rays: array<vec4<f32>>;   // per ray: origin, dir
+@group(0) @binding(6) var<storage, read_write> out_rgba: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> out_extra: array<vec4<f32>>; // depth, samples, skipped, hit
+
+// isokit_field::Grid::get_clamped.
+fn sample_at(c: vec3<i32>) -> f32 {
+    let hi = vec3<i32>(P.dims) - vec3<i32>(1);
+    let q = clamp(c, vec3<i32>(0), hi);
+    return volume[u32(q.x) + P.dims.x * (u32(q.y) + P.dims.y * u32(q.z))];
+}
+
+fn lerp1(a: f32, b: f32, t: f32) -> f32 {
+    return a + t * (b - a);
+}
+
+// isokit_field::filter::trilinear at world position x (split and fetch).
+fn value_at(x: vec3<f32>) -> f32 {
+    let p = (x - P.origin) / P.spacing;
+    let f = floor(p);
+    let a = p - f;
+    let hi = vec3<f32>(P.dims) + vec3<f32>(1.0);
+    let c = vec3<i32>(min(max(f, vec3<f32>(-3.0)), hi));
+    let x00 = lerp1(sample_at(c), sample_at(c + vec3<i32>(1, 0, 0)), a.x);
+    let x10 = lerp1(sample_at(c + vec3<i32>(0, 1, 0)), sample_at(c + vec3<i32>(1, 1, 0)), a.x);
+    let x01 = lerp1(sample_at(c + vec3<i32>(0, 0, 1)), sample_at(c + vec3<i32>(1, 0, 1)), a.x);
+    let x11 = lerp1(sample_at(c + vec3<i32>(0, 1, 1)), sample_at(c + vec3<i32>(1, 1, 1)), a.x);
+    return lerp1(lerp1(x00, x10, a.y), lerp1(x01, x11, a.y), a.z);
+}
+
+fn tf_value(i: u32) -> f32 {
+    return tf[2u * i].x;
+}
+
+fn tf_sigma(i: u32) -> f32 {
+    return tf[2u * i].y;
+}
+
+fn tf_emission(i: u32) -> vec3<f32> {
+    return tf[2u * i + 1u].xyz;
+}
+
+// TransferFunction::eval: emission (xyz) and extinction (w) at v.
+fn tf_eval(v: f32) -> vec4<f32> {
+    var i = 0u;
+    while (i < P.n_tf && tf_value(i) <= v) {
+        i += 1u;
+    }
+    if (i == 0u) {
+        return vec4<f32>(tf_emission(0u), tf_sigma(0u));
+    }
+    if (i == P.n_tf) {
+        return vec4<f32>(tf_emission(i - 1u), tf_sigma(i - 1u));
+    }
+    let t = (v - tf_value(i - 1u)) / (tf_value(i) - tf_value(i - 1u));
+    let e = mix(tf_emission(i - 1u), tf_emission(i), t);
+    return vec4<f32>(e, tf_sigma(i - 1u) + (tf_sigma(i) - tf_sigma(i - 1u)) * t);
+}
+
+// One window [w0, w1] of TransferFunction::segment, composited onto (c, trans).
+fn segment_window(vf: f32, vb: f32, len: f32, w0: f32, w1: f32, acc: vec4<f32>) -> vec4<f32> {
+    var c = acc.xyz;
+    var trans = acc.w;
+    let n = SUB_STEPS;
+    for (var k = 0u; k < n; k += 1u) {
+        let t0 = w0 + (w1 - w0) * f32(k) / f32(n);
+        let t1 = w0 + (w1 - w0) * f32(k + 1u) / f32(n);
+        let depth = 0.5 * (tf_eval(vf + (vb - vf) * t0).w + tf_eval(vf + (vb - vf) * t1).w)
+            * (t1 - t0) * len;
+        if (depth <= 0.0) {
+            continue;
+        }
+        let alpha = 1.0 - exp(-depth);
+        c += trans * alpha * tf_eval(vf + (vb - vf) * (0.5 * (t0 + t1))).xyz;
+        trans *= 1.0 - alpha;
+    }
+    return vec4<f32>(c, trans);
+}
+
+// TransferFunction::segment: premultiplied colour and opacity of a segment of length len
+// along which the value goes linearly from vf to vb, through the transfer function's
+// pieces in ascending order of the segment parameter.
+fn segment(vf: f32, vb: f32, len: f32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    var prev = 0.0;
+    if (vb != vf) {
+        for (var m = 0u; m < P.n_tf; m += 1u) {
+            // Control points in ascending order of t: ascending values when vb > vf.
+            var q = m;
+            if (vb < vf) {
+                q = P.n_tf - 1u - m;
+            }
+            let t = (tf_value(q) - vf) / (vb - vf);
+            if (t > 0.0 && t < 1.0) {
+                acc = segment_window(vf, vb, len, prev, t, acc);
+                prev = t;
+            }
+        }
+    }
+    acc = segment_window(vf, vb, len, prev, 1.0, acc);
+    return vec4<f32>(acc.xyz, 1.0 - acc.w);
+}
+
+// PreintegrationTable::lookup.
+fn table_coord(v: f32) -> vec2<f32> {
+    let n = P.table_n;
+    let x = clamp((v - P.table_lo) / (P.table_hi - P.table_lo) * f32(n - 1u), 0.0, f32(n - 1u));
+    let i = min(u32(x), n - 2u);
+    return vec2<f32>(f32(i), x - f32(i));
+}
+
+fn table_entry(a: u32, b: u32) -> vec4<f32> {
+    return table[a + P.table_n * b];
+}
+
+fn table_lookup(vf: f32, vb: f32) -> vec4<f32> {
+    let cf = table_coord(vf);
+    let cb = table_coord(vb);
+    let i = u32(cf.x);
+    let j = u32(cb.x);
+    let r0 = mix(table_entry(i, j), table_entry(i + 1u, j), cf.y);
+    let r1 = mix(table_entry(i, j + 1u), table_entry(i + 1u, j + 1u), cf.y);
+    return mix(r0, r1, cb.y);
+}
+
+// slab: where a ray enters and leaves a box; x > y when it misses.
+fn safe_inv(x: f32) -> f32 {
+    if (abs(x) < 1e-30) {
+        return 1.0 / select(1e-30, -1e-30, x < 0.0);
+    }
+    return 1.0 / x;
+}
+
+fn slab(o: vec3<f32>, d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
+    let inv = vec3<f32>(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
+    let a = (lo - o) * inv;
+    let b = (hi - o) * inv;
+    let n = min(a, b);
+    let f = max(a, b);
+    let t0 = max(max(max(n.x, n.y), n.z), 0.0);
+    let t1 = min(min(f.x, f.y), f.z);
+    return vec2<f32>(t0, t1);
+}
+
+// Blocks::empty_at: the empty block holding grid point g (its lower corner, in blocks), or
+// a negative x when the block there is not empty.
+fn empty_block(g: vec3<f32>) -> vec3<f32> {
+    let cf = min(vec3<u32>(min(max(g, vec3<f32>(0.0)), vec3<f32>(1e9))) / P.block, P.blocks - vec3<u32>(1u));
+    let e = cf.x + P.blocks.x * (cf.y + P.blocks.y * cf.z);
+    if (empty[e] == 0u) {
+        return vec3<f32>(-1.0);
+    }
+    return vec3<f32>(cf);
+}
+
+// Within::opacity_at: the distance into a step of length len at which its opacity reaches
+// alpha; sigma >= 0 for a post-classified step, else the pre-integrated one from vf to vb.
+fn opacity_at(post: bool, sigma: f32, vf: f32, vb: f32, len: f32, alpha: f32) -> f32 {
+    if (post) {
+        if (sigma > 0.0) {
+            return min(-log(1.0 - alpha) / sigma, len);
+        }
+        return len;
+    }
+    var lo = 0.0;
+    var hi = 1.0;
+    for (var it = 0u; it < 24u; it += 1u) {
+        let t = 0.5 * (lo + hi);
+        if (segment(vf, vf + (vb - vf) * t, len * t).w >= alpha) {
+            hi = t;
+        } else {
+            lo = t;
+        }
+    }
+    return hi * len;
+}
+
+fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
+    let tt = slab(o, d, P.bmin, P.bmax);
+    let t0 = tt.x;
+    let t1 = tt.y;
+    if (!(t0 < t1)) {
+        out_rgba[ray_index] = vec4<f32>(0.0);
+        out_extra[ray_index] = vec4<f32>(0.0, 0.0, 0.0, 0.0);
+        return;
+    }
+    let step = P.step;
+    let h = P.spacing;
+    var c = vec3<f32>(0.0);
+    var trans = 1.0;
+    var depth = 0.0;
+    var hit = 0.0;
+    var samples = 0u;
+    var skipped = 0u;
+    let n = u32(max(ceil((t1 - t0) / step), 1.0));
+    var k = 0u;
+    var front = 0.0;
+    var have_front = false;
+    let pre = P.preintegrated == 1u;
+    while (k < n) {
+        let s0 = t0 + f32(k) * step;
+        if (P.block > 0u) {
+            var probe = s0;
+            if (!pre) {
+                probe = min(s0 + step * 0.5, t1);
+            }
+            let g = ((o + probe * d) - P.origin) / P.spacing;
+            let cell = empty_block(g);
+            if (cell.x >= 0.0) {
+                let lo = cell * f32(P.block);
+                let hi = lo + vec3<f32>(f32(P.block));
+                let go = (o - P.origin) / P.spacing;
+                let ex = slab(go, d / h, lo, hi);
+                if (ex.x < ex.y) {
+                    let next = u32(max(floor((ex.y - t0) / step), 0.0));
+                    if (next > k) {
+                        k = next;
+                        have_front = false;
+                        skipped += 1u;
+                        continue;
+                    }
+                }
+            }
+        }
+        let s1 = min(s0 + step, t1);
+        let len = s1 - s0;
+        var seg: vec4<f32>;
+        var sigma = 0.0;
+        var vf = 0.0;
+        var vb = 0.0;
+        if (!pre) {
+            samples += 1u;
+            let ev = tf_eval(value_at(o + (0.5 * (s0 + s1)) * d));
+            sigma = ev.w;
+            let alpha = 1.0 - exp(-sigma * len);
+            seg = vec4<f32>(ev.xyz * alpha, alpha);
+        } else {
+            if (have_front) {
+                vf = front;
+            } else {
+                samples += 1u;
+                vf = value_at(o + s0 * d);
+            }
+            vb = value_at(o + s1 * d);
+            samples += 1u;
+            front = vb;
+            have_front = true;
+            if (abs(len - P.table_len) <= 1e-6 * P.table_len) {
+                seg = table_lookup(vf, vb);
+            } else {
+                seg = segment(vf, vb, len);
+            }
+        }
+        c += trans * seg.xyz;
+        let before = trans;
+        trans *= 1.0 - seg.w;
+        if (before > 0.5 && trans <= 0.5) {
+            depth = s0 + opacity_at(!pre, sigma, vf, vb, len, 1.0 - 0.5 / before);
+            hit = 1.0;
+        }
+        if (1.0 - trans >= P.termination) {
+            break;
+        }
+        k += 1u;
+    }
+    out_rgba[ray_index] = vec4<f32>(c, 1.0 - trans);
+    out_extra[ray_index] = vec4<f32>(depth, f32(samples), f32(skipped), hit);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn dvr(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * P.stride;
+    if (i >= P.count) {
+        return;
+    }
+    trace_ray(rays[2u * i].xyz, rays[2u * i + 1u].xyz, i);
+}
