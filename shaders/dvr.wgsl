@@ -1,7 +1,8 @@
 // Direct volume rendering (002 Sec. 2.5.3; pre-integration after Engel, Kraus and Ertl 2001):
 // emission and absorption along one ray per invocation through a 1D transfer function,
 // post-classified or with pre-integrated segments, empty blocks skipped, early termination.
-// Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS.
+// Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS,
+// SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS.
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
 // alike); the rays, the pre-integration table and the empty-block flags come from the host.
 
@@ -24,7 +25,7 @@ struct DvrParams {
     table_lo: f32,
     table_hi: f32,
     table_len: f32,
-    pad: u32,
+    shade: u32,          // 1: Blinn-Phong shading by the gradient
 }
 
 @group(0) @binding(0) var<uniform> P: DvrParams;
@@ -208,6 +209,31 @@ fn opacity_at(post: bool, sigma: f32, vf: f32, vb: f32, len: f32, alpha: f32) ->
     return hi * len;
 }
 
+// gradient: central differences one spacing apart of the interpolated value.
+fn gradient(x: vec3<f32>) -> vec3<f32> {
+    let h = P.spacing;
+    let dx = value_at(x + vec3<f32>(1.0, 0.0, 0.0) * h) - value_at(x - vec3<f32>(1.0, 0.0, 0.0) * h);
+    let dy = value_at(x + vec3<f32>(0.0, 1.0, 0.0) * h) - value_at(x - vec3<f32>(0.0, 1.0, 0.0) * h);
+    let dz = value_at(x + vec3<f32>(0.0, 0.0, 1.0) * h) - value_at(x - vec3<f32>(0.0, 0.0, 1.0) * h);
+    return vec3<f32>(dx, dy, dz) / (2.0 * h);
+}
+
+// shade_sample: two-sided Blinn-Phong by a headlight.
+fn shade_sample(seg: vec4<f32>, g: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
+    let len = length(g);
+    if (!(len > 1e-20)) {
+        return seg;
+    }
+    let ndl = abs(dot(g, dir) / len);
+    var spec = ndl;
+    var p = 1u;
+    while (p < SHININESS) {
+        spec *= spec;
+        p *= 2u;
+    }
+    return vec4<f32>(seg.xyz * (SHADE_KA + SHADE_KD * ndl) + vec3<f32>(SHADE_KS * spec * seg.w), seg.w);
+}
+
 fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
     let tt = slab(o, d, P.bmin, P.bmax);
     let t0 = tt.x;
@@ -283,6 +309,9 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
             } else {
                 seg = segment(vf, vb, len);
             }
+        }
+        if (P.shade == 1u && seg.w > SHADE_MIN_OPACITY) {
+            seg = shade_sample(seg, gradient(o + (0.5 * (s0 + s1)) * d), d);
         }
         c += trans * seg.xyz;
         let before = trans;

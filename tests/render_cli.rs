@@ -522,10 +522,10 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
         r#"{"points": [[-0.05, 1, 0.5, 0.2, 3], [0, 0, 0, 0, 0]]}"#,
     )
     .unwrap();
-    for classification in ["post", "preintegrated"] {
+    for (classification, shading) in [("post", "emission"), ("preintegrated", "phong")] {
         let png = dir.join(format!("{classification}.png"));
         let exr = dir.join(format!("{classification}.exr"));
-        let out = isokit_ok(&[
+        let mut args = vec![
             "render",
             vol.to_str().unwrap(),
             "--mode",
@@ -545,10 +545,14 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
             "--gbuffer",
             exr.to_str().unwrap(),
             "--stats",
-        ]);
-        let stats = json(&out);
+        ];
+        if shading == "phong" {
+            args.extend(["--shading", "phong"]);
+        }
+        let stats = json(&isokit_ok(&args));
         assert_eq!(stats["mode"], "dvr");
         assert_eq!(stats["classification"], classification);
+        assert_eq!(stats["shading"], shading);
         assert!(png.is_file());
         let g = isokit::io::read_exr(&exr).unwrap();
         let (a, z) = (g.channel("A").unwrap(), g.channel("Z").unwrap());
@@ -578,7 +582,7 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
         (vec!["--tf", "ct-bone", "--step", "0"], "step = 0"),
         (
             vec!["--tf", "ct-bone", "--shading", "tone"],
-            "--shading is for --mode isosurface",
+            "shades with phong",
         ),
     ] {
         let mut args = vec![

@@ -395,12 +395,13 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
     let tf = smooth_tf();
     let h = grid.spacing();
     for classification in [Classification::Post, Classification::Preintegrated] {
-        for block in [0, 4] {
+        for (block, shade) in [(0, false), (4, true)] {
             // A step that does not divide the rays' lengths: partial last segments too.
             let opts = DvrOptions {
                 step: Some(0.7 * h),
                 classification,
                 block,
+                shade,
                 ..DvrOptions::default()
             };
             let cpu = render_dvr(&grid, &cam, &tf, &opts).unwrap();
@@ -420,7 +421,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
                 .map(|(a, b)| (a - b).abs() / h)
                 .fold(0.0f32, f32::max);
             eprintln!(
-                "{classification:?}, block {block}: max colour/opacity difference {d:.1e}, depth {dz:.1e} voxel, {mask} depth masks differ, samples {} / {}, skipped {} / {}",
+                "{classification:?}, block {block}, shaded {shade}: max colour/opacity difference {d:.1e}, depth {dz:.1e} voxel, {mask} depth masks differ, samples {} / {}, skipped {} / {}",
                 cpu.samples, gpu.samples, cpu.skipped_blocks, gpu.skipped_blocks
             );
             assert!(d < 1e-4, "{d}");
@@ -437,4 +438,58 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
         .render_dvr(&bad, &cam, &tf, &DvrOptions::default())
         .unwrap_err();
     assert!(e.to_string().contains("non-finite"), "{e}");
+}
+
+#[test]
+fn shading_by_the_gradient_lights_what_faces_the_eye() {
+    // A glowing shell just inside a sphere's surface, seen from the front: its normal faces
+    // the eye at the centre of the image and turns away towards the rim.
+    let n = 40;
+    let h = 2.0 / (n - 1) as f32;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|e| {
+            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
+            (p * h - Vec3::ONE).length() - 0.7
+        })
+        .collect();
+    let grid = Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap();
+    let tf = TransferFunction::preset("distance-shell", (-0.7, 1.0), h).unwrap();
+    let cam = Camera::look_at(
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        Projection::Orthographic { height: 1.8 },
+        33,
+        33,
+    )
+    .unwrap();
+    let render = |shade| {
+        let o = DvrOptions {
+            shade,
+            ..DvrOptions::default()
+        };
+        render_dvr(&grid, &cam, &tf, &o).unwrap().rgba
+    };
+    let (flat, lit) = (render(false), render(true));
+    // The centre, and a pixel 0.6 from the axis (the normal there 59° from the view).
+    let (centre, side) = (16 * 33 + 16, 16 * 33 + 16 + 11);
+    let gain = |i: usize| lit[i].x / flat[i].x;
+    eprintln!(
+        "shading gain: centre {:.2}, 0.6 off axis {:.2} (opacity {:.2}, {:.2})",
+        gain(centre),
+        gain(side),
+        lit[centre].w,
+        lit[side].w
+    );
+    assert!(flat[centre].w > 0.1 && flat[side].w > 0.1);
+    // Unlit the side (a longer path through the shell) is brighter; lit, the centre gains
+    // the most: diffuse 1 and the specular highlight against cos 59° and almost none.
+    assert!(
+        gain(centre) > 1.0 && gain(side) < 0.8,
+        "{} {}",
+        gain(centre),
+        gain(side)
+    );
+    // Opacity is not shaded.
+    assert!(lit.iter().zip(&flat).all(|(a, b)| a.w == b.w));
 }

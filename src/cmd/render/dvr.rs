@@ -25,13 +25,19 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         (a.csg.csg.is_some(), "--csg"),
         (a.samples > 1, "--samples"),
         (a.multiview.multiview()?.0.is_some(), "--views"),
-        (a.shading.is_some(), "--shading"),
         (a.iso.is_some(), "--iso"),
     ] {
         if given {
             bail!("{flag} is for --mode isosurface; --mode dvr does not take it");
         }
     }
+    let shade = match a.shading.as_deref() {
+        None => false,
+        Some("phong") => true,
+        Some(m) => {
+            bail!("--shading {m}: --mode dvr shades with phong (the gradient) or not at all")
+        }
+    };
     let Some(tf_arg) = &a.tf else {
         bail!(
             "--mode dvr needs --tf FILE|PRESET (a JSON file {{\"points\": [[value, r, g, b, sigma], ...]}}, or one of {})",
@@ -59,6 +65,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             ClassificationArg::Post => Classification::Post,
             ClassificationArg::Preintegrated => Classification::Preintegrated,
         },
+        shade,
         ..DvrOptions::default()
     };
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
@@ -115,6 +122,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         let v = serde_json::json!({
             "mode": "dvr",
             "backend": backend,
+            "shading": if shade { "phong" } else { "emission" },
             "classification": classification,
             "step": step,
             "samples": img.samples,

@@ -42,7 +42,7 @@ pub(crate) struct DvrParams {
     pub(crate) table_lo: f32,
     pub(crate) table_hi: f32,
     pub(crate) table_len: f32,
-    pub(crate) pad: u32,
+    pub(crate) shade: u32,
 }
 
 isokit_gpu::wgsl_layout!(DvrParams {
@@ -63,15 +63,22 @@ isokit_gpu::wgsl_layout!(DvrParams {
     table_lo: "f32",
     table_hi: "f32",
     table_len: "f32",
-    pad: "u32",
+    shade: "u32",
 });
 
-/// The direct volume rendering kernel, assembled: `WORKGROUP` and `SUB_STEPS` from Rust,
+/// The direct volume rendering kernel, assembled: `WORKGROUP`, `SUB_STEPS` and the shading
+/// constants from Rust,
 /// `dvr.wgsl` (entry point `dvr`).
 pub fn dvr_shader() -> ShaderSource {
+    let (ka, kd, ks, shininess) = super::SHADE_WEIGHTS;
     ShaderSource::new("dvr")
         .constant_u32("WORKGROUP", WORKGROUP)
         .constant_u32("SUB_STEPS", SUB_STEPS)
+        .constant_f32("SHADE_MIN_OPACITY", super::SHADE_MIN_OPACITY)
+        .constant_f32("SHADE_KA", ka)
+        .constant_f32("SHADE_KD", kd)
+        .constant_f32("SHADE_KS", ks)
+        .constant_u32("SHININESS", shininess)
         .piece(isokit_shaders::DVR)
 }
 
@@ -167,7 +174,7 @@ impl GpuRenderer {
             table_lo,
             table_hi,
             table_len,
-            pad: 0,
+            shade: u32::from(p.shade),
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let (_inputs, rgba, extra, bind) = scoped(gpu, "allocating the dvr buffers", || {
