@@ -347,6 +347,95 @@ impl PreintegrationTable {
     }
 }
 
+/// Colour and opacity of segments of any length up to `max_len`: the 3D table over (front
+/// value, back value, length) that segments of varying length need (rays through
+/// tetrahedral cells, Engel et al. 2001 Sec. 4), `n × n × m` entries with the lengths
+/// evenly spaced from 0 to `max_len`, interpolated trilinearly.
+#[derive(Clone, Debug)]
+pub struct PreintegrationTable3 {
+    lo: f32,
+    hi: f32,
+    n: usize,
+    m: usize,
+    max_len: f32,
+    entries: Vec<Vec4>,
+}
+
+impl PreintegrationTable3 {
+    /// The table of `tf` over values `[lo, hi]` (`n` per axis, 2 to 1024) and lengths
+    /// `[0, max_len]` (`m`, 2 to 1024); refused beyond 2^26 entries.
+    pub fn new(
+        tf: &TransferFunction,
+        lo: f32,
+        hi: f32,
+        n: usize,
+        m: usize,
+        max_len: f32,
+    ) -> Result<Self, RenderError> {
+        if !(2..=1024).contains(&n) || !(2..=1024).contains(&m) || n * n * m > 1 << 26 {
+            return Err(RenderError::bad(
+                "3D pre-integration table size",
+                format!("{n} x {n} x {m}"),
+                "needs 2 to 1024 entries per axis and at most 2^26 in all",
+            ));
+        }
+        if !(lo.is_finite() && hi.is_finite() && max_len.is_finite() && max_len > 0.0) {
+            return Err(RenderError::bad(
+                "3D pre-integration range or length",
+                format!("[{lo}, {hi}], {max_len}"),
+                "must be finite, the length positive",
+            ));
+        }
+        let hi = if hi > lo { hi } else { lo + 1.0 };
+        let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
+        let entries = (0..n * n * m)
+            .into_par_iter()
+            .map(|e| {
+                let len = max_len * (e / (n * n)) as f32 / (m - 1) as f32;
+                if len == 0.0 {
+                    return Vec4::ZERO;
+                }
+                let (f, b) = (e % n, (e / n) % n);
+                tf.segment(value(f), value(b), len, gpu::SUB_STEPS as usize)
+            })
+            .collect();
+        Ok(Self {
+            lo,
+            hi,
+            n,
+            m,
+            max_len,
+            entries,
+        })
+    }
+
+    /// Premultiplied colour and opacity of a segment from `vf` to `vb` of length `len`
+    /// (values clamped to the range, lengths to `[0, max_len]`).
+    pub fn lookup(&self, vf: f32, vb: f32, len: f32) -> Vec4 {
+        let coord = |x: f32, n: usize| {
+            let x = if x.is_nan() {
+                0.0
+            } else {
+                x.clamp(0.0, (n - 1) as f32)
+            };
+            let i = (x as usize).min(n - 2);
+            (i, x - i as f32)
+        };
+        let scale = (self.n - 1) as f32 / (self.hi - self.lo);
+        let (i, fi) = coord((vf - self.lo) * scale, self.n);
+        let (j, fj) = coord((vb - self.lo) * scale, self.n);
+        let (k, fk) = coord(len / self.max_len * (self.m - 1) as f32, self.m);
+        let n = self.n;
+        let e = |a: usize, b: usize, c: usize| self.entries[a + n * (b + n * c)];
+        let plane = |c: usize| {
+            let r0 = e(i, j, c).lerp(e(i + 1, j, c), fi);
+            let r1 = e(i, j + 1, c).lerp(e(i + 1, j + 1, c), fi);
+            r0.lerp(r1, fj)
+        };
+        plane(k).lerp(plane(k + 1), fk)
+    }
+}
+
 /// Knobs of [`render_dvr`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DvrOptions {
