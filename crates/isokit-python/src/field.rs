@@ -648,6 +648,89 @@ impl Field {
         render::render_grid(py, grid, &args, progress)
     }
 
+    /// Renders the field directly, not an isosurface: emission and absorption along each
+    /// ray through a transfer function (`isokit render --mode dvr`). `tf`: a preset name
+    /// (`"ct-bone"`, `"ct-skin"`, `"mri-brain"`, `"distance-shell"`), the path of a JSON
+    /// file, or a dict `{"points": [[value, r, g, b, sigma], ...]}` (linear-RGB emission,
+    /// `sigma` the extinction per world unit). `classification`: `"post"` or
+    /// `"preintegrated"`; `step` in world units (default one voxel); `shading`: `None`
+    /// (emission only) or `"phong"` (by the gradient). `camera`, `projection`, `backend` as
+    /// for `render`. The frame's `gbuffer` holds `R G B` (premultiplied), `A` (opacity) and
+    /// `Z` (where the opacity passes 0.5; infinite where it never does).
+    #[pyo3(signature = (tf, width = 512, height = 512, classification = "post", step = None, shading = None, camera = None, backend = "auto", projection = "perspective"))]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one argument per Python keyword argument"
+    )]
+    fn render_volume(
+        &self,
+        py: Python<'_>,
+        tf: &Bound<'_, PyAny>,
+        width: u32,
+        height: u32,
+        classification: &str,
+        step: Option<f32>,
+        shading: Option<&str>,
+        camera: Option<&Bound<'_, PyAny>>,
+        backend: &str,
+        projection: &str,
+    ) -> PyResult<Frame> {
+        use isokit_render::dvr::{Classification, DvrOptions, TransferFunction};
+        let grid = self.grid(py)?;
+        let tf = if tf.cast::<pyo3::types::PyDict>().is_ok() {
+            let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
+            TransferFunction::from_json(&text)
+        } else {
+            let path: PathBuf = tf.extract().map_err(|_| {
+                PyTypeError::new_err(
+                    "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
+                )
+            })?;
+            if path.is_file() {
+                let text = isokit_io::reader::read_file(&path)
+                    .map_err(io_err)
+                    .and_then(|b| String::from_utf8(b).map_err(value_err))?;
+                TransferFunction::from_json(&text)
+            } else {
+                let (lo, hi) = isokit_render::dvr::value_range(&grid);
+                TransferFunction::preset(&path.to_string_lossy(), (lo, hi), grid.spacing())
+            }
+        }
+        .map_err(value_err)?;
+        let classification = match classification {
+            "post" => Classification::Post,
+            "preintegrated" => Classification::Preintegrated,
+            c => {
+                return Err(PyValueError::new_err(format!(
+                    "classification = {c:?} is not one of \"post\", \"preintegrated\""
+                )));
+            }
+        };
+        let shade = match shading {
+            None => false,
+            Some("phong") => true,
+            Some(m) => {
+                return Err(PyValueError::new_err(format!(
+                    "shading = {m:?}: a volume rendering shades with \"phong\" or not at all (None)"
+                )));
+            }
+        };
+        let args = render::VolumeRenderArgs {
+            size: (width, height),
+            tf,
+            options: DvrOptions {
+                step,
+                classification,
+                shade,
+                ..DvrOptions::default()
+            },
+            camera,
+            projection,
+            backend,
+        };
+        render::render_volume_grid(py, &grid, &args)
+    }
+
     /// A PNG of the field's isosurface (320×240, CPU), for Jupyter.
     fn _repr_png_<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyBytes>> {
         let q = crate::quiet(py);

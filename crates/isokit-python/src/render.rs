@@ -198,9 +198,21 @@ impl RenderArgs {
 #[pyclass(frozen, module = "isokit", name = "Frame")]
 pub struct Frame {
     image: Image,
-    gbuffer: GBuffer,
+    gbuffer: Planes,
     stats: serde_json::Value,
     notes: Vec<String>,
+}
+
+/// What a frame holds beside its image: an isosurface's G-buffer, or a direct volume
+/// rendering's planes (`R G B` premultiplied, `A` opacity, `Z` the depth where the opacity
+/// passes 0.5).
+enum Planes {
+    Surface(GBuffer),
+    Volume {
+        width: u32,
+        height: u32,
+        channels: Vec<(&'static str, Vec<f32>)>,
+    },
 }
 
 impl Frame {
@@ -239,14 +251,22 @@ impl Frame {
     /// The G-buffer: a dict of float32 `(H, W)` arrays keyed by the EXR channel names.
     #[getter]
     fn gbuffer<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let (w, h) = (
-            self.gbuffer.width() as usize,
-            self.gbuffer.height() as usize,
-        );
         let d = PyDict::new(py);
-        for (name, plane) in GBUFFER_CHANNELS.iter().zip(self.gbuffer.channels()) {
-            let a = Array2::from_shape_vec((h, w), plane).map_err(value_err)?;
-            d.set_item(*name, PyArray2::from_owned_array(py, a))?;
+        let (w, h, planes): (u32, u32, Vec<(&str, Vec<f32>)>) = match &self.gbuffer {
+            Planes::Surface(g) => (
+                g.width(),
+                g.height(),
+                GBUFFER_CHANNELS.iter().copied().zip(g.channels()).collect(),
+            ),
+            Planes::Volume {
+                width,
+                height,
+                channels,
+            } => (*width, *height, channels.clone()),
+        };
+        for (name, plane) in planes {
+            let a = Array2::from_shape_vec((h as usize, w as usize), plane).map_err(value_err)?;
+            d.set_item(name, PyArray2::from_owned_array(py, a))?;
         }
         Ok(d)
     }
@@ -306,7 +326,19 @@ impl Frame {
 
     /// Writes the G-buffer as OpenEXR (the channels of `gbuffer`).
     fn save_gbuffer(&self, path: PathBuf) -> PyResult<()> {
-        guarded(|| self.gbuffer.write_exr(Path::new(&path)).map_err(value_err))
+        guarded(|| match &self.gbuffer {
+            Planes::Surface(g) => g.write_exr(Path::new(&path)).map_err(value_err),
+            Planes::Volume {
+                width,
+                height,
+                channels,
+            } => {
+                let refs: Vec<(&str, &[f32])> =
+                    channels.iter().map(|(n, v)| (*n, v.as_slice())).collect();
+                isokit_io::write_exr(Path::new(&path), *width as usize, *height as usize, &refs)
+                    .map_err(io_err)
+            }
+        })
     }
 
     /// The image as PNG bytes, for Jupyter.
@@ -332,7 +364,7 @@ pub fn render_shape(
     Ok(Frame {
         stats: serde_json::to_value(&frame.stats).unwrap_or_default(),
         image: frame.image,
-        gbuffer: frame.gbuffer,
+        gbuffer: Planes::Surface(frame.gbuffer),
         notes: frame.notes,
     })
 }
@@ -354,7 +386,7 @@ pub fn render_grid(
     Ok(Frame {
         stats: serde_json::to_value(&frame.stats).unwrap_or_default(),
         image: frame.image,
-        gbuffer: frame.gbuffer,
+        gbuffer: Planes::Surface(frame.gbuffer),
         notes: frame.notes,
     })
 }
@@ -450,7 +482,7 @@ impl Molecule {
         Ok(Frame {
             stats: serde_json::to_value(&frame.stats).unwrap_or_default(),
             image: frame.image,
-            gbuffer: frame.frame.gbuffer,
+            gbuffer: Planes::Surface(frame.frame.gbuffer),
             notes: Vec::new(),
         })
     }
@@ -470,5 +502,102 @@ pub fn molecule(py: Python<'_>, path: PathBuf) -> PyResult<Molecule> {
     Ok(Molecule {
         mol,
         path: path.display().to_string(),
+    })
+}
+
+/// The arguments of a direct volume rendering (`Field.render_volume`).
+pub struct VolumeRenderArgs<'a> {
+    /// Image size.
+    pub size: (u32, u32),
+    /// The transfer function.
+    pub tf: isokit_render::dvr::TransferFunction,
+    /// Step, classification, shading.
+    pub options: isokit_render::dvr::DvrOptions,
+    /// The camera given, if any, and the projection.
+    pub camera: Option<&'a Bound<'a, PyAny>>,
+    /// `"perspective"` or `"orthographic"`.
+    pub projection: &'a str,
+    /// `"auto"`, `"cpu"` or `"gpu"`.
+    pub backend: &'a str,
+}
+
+/// Renders `grid` directly with a transfer function (`isokit_render::dvr`, the GPU twin
+/// or the CPU's as `backend` says).
+pub fn render_volume_grid(
+    py: Python<'_>,
+    grid: &isokit_field::Grid,
+    a: &VolumeRenderArgs<'_>,
+) -> PyResult<Frame> {
+    let args = RenderArgs::parse(
+        a.size.0,
+        a.size.1,
+        None,
+        a.camera,
+        a.backend,
+        None,
+        None,
+        a.projection,
+        None,
+    )?;
+    let s = &args.settings;
+    let camera = isokit_scene::camera_for(
+        s.camera.as_ref(),
+        grid.bounds(),
+        s.projection,
+        s.width,
+        s.height,
+    )
+    .map_err(value_err)?;
+    let t = std::time::Instant::now();
+    let (tf, opts, choice) = (&a.tf, &a.options, args.backend);
+    let (img, backend) = py.detach(|| {
+        guarded(|| {
+            with_renderer(choice, |r| {
+                let backend = r.backend();
+                let img = match r.gpu() {
+                    Some(g) => g.render_dvr(grid, &camera, tf, opts),
+                    None => isokit_render::dvr::render_dvr(grid, &camera, tf, opts),
+                };
+                Ok((img.map_err(value_err)?, backend))
+            })
+        })
+    })?;
+    let seconds = t.elapsed().as_secs_f64();
+    let pixels = img
+        .over(glam::Vec3::ZERO)
+        .iter()
+        .map(|c| [c.x, c.y, c.z, 1.0])
+        .collect();
+    let plane = |i: usize| img.rgba.iter().map(|p| p[i]).collect::<Vec<f32>>();
+    let channels = vec![
+        ("R", plane(0)),
+        ("G", plane(1)),
+        ("B", plane(2)),
+        ("A", plane(3)),
+        ("Z", img.depth.clone()),
+    ];
+    let stats = serde_json::json!({
+        "mode": "dvr",
+        "backend": backend,
+        "classification": format!("{:?}", a.options.classification).to_lowercase(),
+        "shading": if a.options.shade { "phong" } else { "emission" },
+        "step": a.options.step.unwrap_or(grid.spacing()),
+        "samples": img.samples,
+        "skipped_blocks": img.skipped_blocks,
+        "seconds": seconds,
+    });
+    Ok(Frame {
+        image: Image {
+            width: img.width,
+            height: img.height,
+            pixels,
+        },
+        gbuffer: Planes::Volume {
+            width: img.width,
+            height: img.height,
+            channels,
+        },
+        stats,
+        notes: Vec::new(),
     })
 }

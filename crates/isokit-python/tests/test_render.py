@@ -74,3 +74,51 @@ def test_molecule():
     assert fr.image.shape == (48, 64, 4) and fr.gbuffer["A"].any()
     with pytest.raises(ValueError, match="style"):
         m.render(style="ribbons")
+
+
+def _ball(n=32, r=0.6):
+    g = np.linspace(-1.0, 1.0, n)
+    z, y, x = np.meshgrid(g, g, g, indexing="ij")
+    d = np.sqrt(x * x + y * y + z * z) - r
+    return isokit.Field(d.astype(np.float32), origin=(-1, -1, -1), spacing=2.0 / (n - 1))
+
+
+def test_render_volume_directly_with_a_transfer_function(tmp_path):
+    f = _ball()
+    tf = {"points": [[-0.05, 1, 0.5, 0.2, 3], [0, 0, 0, 0, 0]]}
+    cam = {"eye": [0, 0, 4], "target": [0, 0, 0]}
+    frames = {}
+    for cls in ["post", "preintegrated"]:
+        fr = f.render_volume(tf, width=24, height=24, classification=cls, camera=cam, backend="cpu")
+        frames[cls] = fr
+        g = fr.gbuffer
+        assert sorted(g) == ["A", "B", "G", "R", "Z"]
+        # The centre's ray crosses 1.2 of the sphere at sigma 3.
+        assert abs(g["A"][12, 12] - (1 - np.exp(-3.6))) < 0.03
+        assert g["A"][0, 0] == 0 and np.isinf(g["Z"][0, 0])
+        assert abs(g["Z"][12, 12] - 3.63) < 0.1
+        assert fr.stats["mode"] == "dvr" and fr.stats["classification"] == cls
+        assert fr.image.shape == (24, 24, 4)
+    # Shading keeps the opacity and lights the centre, which faces the eye.
+    lit = f.render_volume(tf, width=24, height=24, shading="phong", camera=cam, backend="cpu")
+    assert np.array_equal(lit.gbuffer["A"], frames["post"].gbuffer["A"])
+    assert lit.stats["shading"] == "phong"
+    # A JSON file and a preset do as well.
+    p = tmp_path / "tf.json"
+    p.write_text('{"points": [[-0.05, 1, 0.5, 0.2, 3], [0, 0, 0, 0, 0]]}')
+    same = f.render_volume(p, width=24, height=24, camera=cam, backend="cpu")
+    assert np.array_equal(same.gbuffer["R"], frames["post"].gbuffer["R"])
+    assert f.render_volume("distance-shell", width=16, height=16, backend="cpu").gbuffer["A"].max() > 0.5
+    same.save_gbuffer(tmp_path / "v.exr")
+    assert (tmp_path / "v.exr").stat().st_size > 0
+    for bad, err in [
+        ({"points": [[0, 1, 1]]}, ValueError),
+        ("no-such-preset", ValueError),
+        (3, TypeError),
+    ]:
+        with pytest.raises(err):
+            f.render_volume(bad, width=8, height=8, backend="cpu")
+    with pytest.raises(ValueError, match="classification"):
+        f.render_volume(tf, classification="pre", width=8, height=8)
+    with pytest.raises(ValueError, match="phong"):
+        f.render_volume(tf, shading="tone", width=8, height=8)

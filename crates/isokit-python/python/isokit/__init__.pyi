@@ -160,6 +160,18 @@ class Field:
         background: Sequence[float] | None = None,
         progress: Progress = None,
     ) -> Frame: ...
+    def render_volume(
+        self,
+        tf: PathLike | dict[str, Any],
+        width: int = 512,
+        height: int = 512,
+        classification: Literal["post", "preintegrated"] = "post",
+        step: float | None = None,
+        shading: Literal["phong"] | None = None,
+        camera: CameraLike | None = None,
+        backend: Backend = "auto",
+        projection: Literal["perspective", "orthographic"] = "perspective",
+    ) -> Frame: ...
     def _repr_png_(self) -> bytes: ...
 
 class Param:
