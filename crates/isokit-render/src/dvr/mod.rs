@@ -273,6 +273,28 @@ pub enum Classification {
     Preintegrated,
 }
 
+/// Checks a pre-integration table's value range and segment length; the upper end used
+/// (`lo + 1` for an empty range).
+fn table_range(what: &'static str, lo: f32, hi: f32, len: f32) -> Result<f32, RenderError> {
+    if !(lo.is_finite() && hi.is_finite() && len.is_finite() && len > 0.0) {
+        return Err(RenderError::bad(
+            what,
+            format!("[{lo}, {hi}], {len}"),
+            "must be finite, the length positive",
+        ));
+    }
+    Ok(if hi > lo { hi } else { lo + 1.0 })
+}
+
+/// The cell and fraction of table coordinate `x` along an axis of `n` entries (clamped;
+/// NaN reads entry 0).
+fn table_cell(x: f32, n: usize) -> (usize, f32) {
+    let x = x.clamp(0.0, (n - 1) as f32);
+    let x = if x.is_nan() { 0.0 } else { x };
+    let i = (x as usize).min(n - 2);
+    (i, x - i as f32)
+}
+
 /// Colour and opacity of segments of one length, tabulated over (front, back) values on
 /// `n` values evenly spaced over `[lo, hi]` and interpolated bilinearly between them.
 #[derive(Clone, Debug)]
@@ -302,14 +324,7 @@ impl PreintegrationTable {
                 "must be 2 to 4096",
             ));
         }
-        if !(lo.is_finite() && hi.is_finite() && len.is_finite() && len > 0.0) {
-            return Err(RenderError::bad(
-                "pre-integration range or length",
-                format!("[{lo}, {hi}], {len}"),
-                "must be finite, the length positive",
-            ));
-        }
-        let hi = if hi > lo { hi } else { lo + 1.0 };
+        let hi = table_range("pre-integration range or length", lo, hi, len)?;
         let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
         let entries = (0..n * n)
             .into_par_iter()
@@ -332,13 +347,7 @@ impl PreintegrationTable {
     /// Premultiplied colour and opacity of a segment from `vf` to `vb` (clamped to the range).
     pub fn lookup(&self, vf: f32, vb: f32) -> Vec4 {
         let n = self.n;
-        let coord = |v: f32| {
-            let x =
-                ((v - self.lo) / (self.hi - self.lo) * (n - 1) as f32).clamp(0.0, (n - 1) as f32);
-            let x = if x.is_nan() { 0.0 } else { x };
-            let i = (x as usize).min(n - 2);
-            (i, x - i as f32)
-        };
+        let coord = |v: f32| table_cell((v - self.lo) / (self.hi - self.lo) * (n - 1) as f32, n);
         let ((i, fx), (j, fy)) = (coord(vf), coord(vb));
         let e = |a: usize, b: usize| self.entries[a + n * b];
         let r0 = e(i, j).lerp(e(i + 1, j), fx);
@@ -379,14 +388,7 @@ impl PreintegrationTable3 {
                 "needs 2 to 1024 entries per axis and at most 2^26 in all",
             ));
         }
-        if !(lo.is_finite() && hi.is_finite() && max_len.is_finite() && max_len > 0.0) {
-            return Err(RenderError::bad(
-                "3D pre-integration range or length",
-                format!("[{lo}, {hi}], {max_len}"),
-                "must be finite, the length positive",
-            ));
-        }
-        let hi = if hi > lo { hi } else { lo + 1.0 };
+        let hi = table_range("3D pre-integration range or length", lo, hi, max_len)?;
         let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
         let entries = (0..n * n * m)
             .into_par_iter()
@@ -412,15 +414,7 @@ impl PreintegrationTable3 {
     /// Premultiplied colour and opacity of a segment from `vf` to `vb` of length `len`
     /// (values clamped to the range, lengths to `[0, max_len]`).
     pub fn lookup(&self, vf: f32, vb: f32, len: f32) -> Vec4 {
-        let coord = |x: f32, n: usize| {
-            let x = if x.is_nan() {
-                0.0
-            } else {
-                x.clamp(0.0, (n - 1) as f32)
-            };
-            let i = (x as usize).min(n - 2);
-            (i, x - i as f32)
-        };
+        let coord = table_cell;
         let scale = (self.n - 1) as f32 / (self.hi - self.lo);
         let (i, fi) = coord((vf - self.lo) * scale, self.n);
         let (j, fj) = coord((vb - self.lo) * scale, self.n);
