@@ -274,6 +274,11 @@ fn transfer_functions_and_knobs_are_checked() {
         assert!(tf.points().iter().any(|p| p.sigma > 0.0), "{name}");
     }
     assert!(TransferFunction::preset("ct-bones", (0.0, 1.0), 0.01).is_err());
+    let many = format!(
+        r#"{{"points": [{}]}}"#,
+        vec!["[0, 1, 1, 1, 1]"; 5000].join(", ")
+    );
+    assert!(TransferFunction::from_json(&many).is_err());
     for bad in [
         "",
         "{}",

@@ -27,17 +27,17 @@
 //!   so a thin spike of the transfer function between two samples still shows. Each table
 //!   entry integrates its segment through the transfer function's control points (exact
 //!   optical depth on each linear piece, self-attenuation by sub-steps), which costs
-//!   O(n² · pieces) for n² entries; Engel et al.'s integral-function tables neglect the
-//!   self-attenuation within a segment and Lum et al.'s incremental O(n²) method
-//!   approximates it, neither is used here.
+//!   O(n² · pieces) for n² entries. Engel et al.'s integral-function tables neglect the
+//!   attenuation within a segment; the incremental O(n²) construction of Lum, Wilson and Ma
+//!   2004 is not implemented here.
 //!
-//! ## Speed-ups that change no pixel
+//! ## Speed-ups
 //! - **Empty-space skipping**: blocks of `block³` cells whose min/max value range the
 //!   transfer function gives no extinction anywhere are stepped over. The trilinear
 //!   interpolant inside a block stays within its nodes' range, so no skipped sample could
 //!   have contributed; samples keep their positions on the ray's step lattice (and a
 //!   pre-integrated segment entering a non-empty block gets its front value), so the image
-//!   is the same with and without skipping, to rounding.
+//!   is the same with and without skipping, to rounding (tested: no pixel changes).
 //! - **Early ray termination** once the opacity reaches `termination` (default 0.999): what
 //!   is left out is at most `1 − termination` of the brightest emission.
 
@@ -66,18 +66,22 @@ pub struct TransferFunction {
     points: Vec<TfPoint>,
 }
 
+/// The most control points a [`TransferFunction`] takes (every evaluation and table entry
+/// walks them).
+pub const MAX_TF_POINTS: usize = 4096;
+
 /// The presets of [`TransferFunction::preset`].
 pub const TF_PRESETS: &[&str] = &["ct-bone", "ct-skin", "mri-brain", "distance-shell"];
 
 impl TransferFunction {
-    /// From control points, sorted here; at least one, finite values and emissions,
-    /// non-negative finite extinctions.
+    /// From control points, sorted here: 1 to [`MAX_TF_POINTS`], finite values and
+    /// emissions, non-negative finite extinctions.
     pub fn new(mut points: Vec<TfPoint>) -> Result<Self, RenderError> {
-        if points.is_empty() {
+        if points.is_empty() || points.len() > MAX_TF_POINTS {
             return Err(RenderError::bad(
                 "transfer function",
-                "no points",
-                "needs at least one control point",
+                format!("{} points", points.len()),
+                "needs 1 to 4096 control points",
             ));
         }
         for p in &points {
