@@ -47,7 +47,9 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let grid = a.volume.read_grid(&a.input)?;
     let (lo, hi) = isokit_render::dvr::value_range(&grid);
     let tf = if Path::new(tf_arg).is_file() {
-        let text = std::fs::read_to_string(tf_arg).with_context(|| format!("--tf {tf_arg}"))?;
+        // Read within the memory budget, as every input is.
+        let bytes = isokit_io::reader::read_file(Path::new(tf_arg))?;
+        let text = String::from_utf8(bytes).with_context(|| format!("--tf {tf_arg}: not UTF-8"))?;
         TransferFunction::from_json(&text).with_context(|| format!("--tf {tf_arg}"))?
     } else {
         TransferFunction::preset(tf_arg, (lo, hi), grid.spacing())?
