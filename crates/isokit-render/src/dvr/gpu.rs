@@ -1,13 +1,13 @@
 //! The host code of `shaders/dvr.wgsl`: direct volume rendering on the GPU
 //! ([`GpuRenderer::render_dvr`]); the CPU twin is `dvr/mod.rs` ([`super::render_dvr`]).
 //!
-//! The host prepares what both twins share ([`super::prepare`]: the checked step, the
-//! pre-integration table, the empty-block flags) and the rays (one origin and direction per
-//! pixel, from the camera exactly as the CPU twin makes them); the kernel traces each ray as
-//! `trace_ray` does. The volume goes to the GPU as a storage buffer of f32 (x fastest), the
-//! transfer function as two `vec4<f32>` per control point. The GPU computes in f32 where the
-//! CPU twin integrates partial segments in f64, and its compiler may fuse multiply-adds, so
-//! the two agree to rounding (`tests/gpu.rs` measures it), not bit for bit.
+//! The host prepares what both twins share (`prepare` in the parent module: the checked
+//! step, the pre-integration table, the empty-block flags) and the rays (one origin and
+//! direction per pixel, from the camera exactly as the CPU twin makes them); the kernel
+//! traces each ray as `trace_ray` does. The volume goes to the GPU as a storage buffer of f32
+//! (x fastest), the transfer function as two `vec4<f32>` per control point. The GPU computes
+//! in f32 where the CPU twin integrates partial segments in f64, and its compiler may fuse
+//! multiply-adds, so the two agree to rounding (`tests/dvr.rs` measures it), not bit for bit.
 
 use super::{DvrImage, DvrOptions, RayResult, TransferFunction, prepare};
 use crate::RenderError;
