@@ -686,15 +686,7 @@ impl Field {
                     "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
                 )
             })?;
-            if path.is_file() {
-                let text = isokit_io::reader::read_file(&path)
-                    .map_err(io_err)
-                    .and_then(|b| String::from_utf8(b).map_err(value_err))?;
-                TransferFunction::from_json(&text)
-            } else {
-                let (lo, hi) = isokit_render::dvr::value_range(&grid);
-                TransferFunction::preset(&path.to_string_lossy(), (lo, hi), grid.spacing())
-            }
+            TransferFunction::load(&path.to_string_lossy(), &grid)
         }
         .map_err(value_err)?;
         let classification = match classification {

@@ -208,11 +208,7 @@ pub struct Frame {
 /// passes 0.5).
 enum Planes {
     Surface(GBuffer),
-    Volume {
-        width: u32,
-        height: u32,
-        channels: Vec<(&'static str, Vec<f32>)>,
-    },
+    Volume(Box<isokit_render::dvr::DvrImage>, isokit_field::Camera),
 }
 
 impl Frame {
@@ -258,11 +254,7 @@ impl Frame {
                 g.height(),
                 GBUFFER_CHANNELS.iter().copied().zip(g.channels()).collect(),
             ),
-            Planes::Volume {
-                width,
-                height,
-                channels,
-            } => (*width, *height, channels.clone()),
+            Planes::Volume(img, _) => (img.width, img.height, img.channels()),
         };
         for (name, plane) in planes {
             let a = Array2::from_shape_vec((h as usize, w as usize), plane).map_err(value_err)?;
@@ -328,15 +320,8 @@ impl Frame {
     fn save_gbuffer(&self, path: PathBuf) -> PyResult<()> {
         guarded(|| match &self.gbuffer {
             Planes::Surface(g) => g.write_exr(Path::new(&path)).map_err(value_err),
-            Planes::Volume {
-                width,
-                height,
-                channels,
-            } => {
-                let refs: Vec<(&str, &[f32])> =
-                    channels.iter().map(|(n, v)| (*n, v.as_slice())).collect();
-                isokit_io::write_exr(Path::new(&path), *width as usize, *height as usize, &refs)
-                    .map_err(io_err)
+            Planes::Volume(img, camera) => {
+                img.write_exr(Path::new(&path), camera).map_err(value_err)
             }
         })
     }
@@ -563,41 +548,10 @@ pub fn render_volume_grid(
         })
     })?;
     let seconds = t.elapsed().as_secs_f64();
-    let pixels = img
-        .over(glam::Vec3::ZERO)
-        .iter()
-        .map(|c| [c.x, c.y, c.z, 1.0])
-        .collect();
-    let plane = |i: usize| img.rgba.iter().map(|p| p[i]).collect::<Vec<f32>>();
-    let channels = vec![
-        ("R", plane(0)),
-        ("G", plane(1)),
-        ("B", plane(2)),
-        ("A", plane(3)),
-        ("Z", img.depth.clone()),
-    ];
-    let stats = serde_json::json!({
-        "mode": "dvr",
-        "backend": backend,
-        "classification": format!("{:?}", a.options.classification).to_lowercase(),
-        "shading": if a.options.shade { "phong" } else { "emission" },
-        "step": a.options.step.unwrap_or(grid.spacing()),
-        "samples": img.samples,
-        "skipped_blocks": img.skipped_blocks,
-        "seconds": seconds,
-    });
     Ok(Frame {
-        image: Image {
-            width: img.width,
-            height: img.height,
-            pixels,
-        },
-        gbuffer: Planes::Volume {
-            width: img.width,
-            height: img.height,
-            channels,
-        },
-        stats,
+        image: img.to_image(glam::Vec3::ZERO),
+        stats: img.stats(backend, seconds),
+        gbuffer: Planes::Volume(Box::new(img), camera),
         notes: Vec::new(),
     })
 }

@@ -9,7 +9,6 @@ use super::args::{ClassificationArg, RenderMode};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr};
-use std::path::Path;
 
 /// Renders `a.input` (a volume) in `dvr` mode.
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
@@ -45,15 +44,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         );
     };
     let grid = a.volume.read_grid(&a.input)?;
-    let (lo, hi) = isokit_render::dvr::value_range(&grid);
-    let tf = if Path::new(tf_arg).is_file() {
-        // Read within the memory budget, as every input is.
-        let bytes = isokit_io::reader::read_file(Path::new(tf_arg))?;
-        let text = String::from_utf8(bytes).with_context(|| format!("--tf {tf_arg}: not UTF-8"))?;
-        TransferFunction::from_json(&text).with_context(|| format!("--tf {tf_arg}"))?
-    } else {
-        TransferFunction::preset(tf_arg, (lo, hi), grid.spacing())?
-    };
+    let tf = TransferFunction::load(tf_arg, &grid).with_context(|| format!("--tf {tf_arg}"))?;
     let camera = isokit_scene::camera_for(
         a.camera.spec()?.as_ref(),
         grid.bounds(),
@@ -78,62 +69,26 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         None => render_dvr(&grid, &camera, &tf, &opts)?,
     };
     let seconds = t.elapsed().as_secs_f64();
-    let rgba8: Vec<u8> = img
-        .over(Vec3::ZERO)
-        .iter()
-        .flat_map(|c| {
-            c.to_array()
-                .map(isokit_io::linear_to_srgb8)
-                .into_iter()
-                .chain([255])
-        })
-        .collect();
-    isokit_io::write_png(&a.output, width, height, &rgba8)?;
+    img.to_image(Vec3::ZERO).write_png(&a.output)?;
     if let Some(g) = &a.gbuffer {
-        let channel = |i: usize| img.rgba.iter().map(|p| p[i]).collect::<Vec<f32>>();
-        let (r, gr, b, al) = (channel(0), channel(1), channel(2), channel(3));
-        let exr = isokit_render::exr_camera(&camera);
-        let channels: [(&str, &[f32]); 5] = [
-            ("R", &r),
-            ("G", &gr),
-            ("B", &b),
-            ("A", &al),
-            ("Z", &img.depth),
-        ];
-        isokit_io::write_exr_with_camera(
-            g,
-            width as usize,
-            height as usize,
-            &channels,
-            Some(&exr),
-        )?;
+        img.write_exr(g, &camera)?;
     }
     let d = grid.dims();
-    let step = opts.step.unwrap_or(grid.spacing());
-    let classification = format!("{:?}", opts.classification).to_lowercase();
+    let (lo, hi) = isokit_render::dvr::value_range(&grid);
     eprintln!(
-        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({classification}, step {step}, {backend}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
+        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({}, step {}, {backend}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
         d[0],
         d[1],
         d[2],
+        img.classification.name(),
+        img.step,
         img.samples,
         img.skipped_blocks,
         a.output.display()
     );
     if a.stats {
-        let v = serde_json::json!({
-            "mode": "dvr",
-            "backend": backend,
-            "shading": if shade { "phong" } else { "emission" },
-            "classification": classification,
-            "step": step,
-            "samples": img.samples,
-            "skipped_blocks": img.skipped_blocks,
-            "seconds": seconds,
-            "width": width,
-            "height": height,
-            "output": a.output.display().to_string(),
-        });
+        let mut v = img.stats(backend, seconds);
+        v["output"] = a.output.display().to_string().into();
         println!("{v}");
     }
     Ok(())

@@ -203,7 +203,7 @@ impl GpuRenderer {
                 (Vec4::from_array(*c), depth, x[1] as u32, x[2] as u32)
             })
             .collect();
-        Ok(DvrImage::from_rays(width, height, &rays))
+        Ok(DvrImage::from_rays(width, height, &p, &rays))
     }
 }
 

@@ -143,6 +143,25 @@ impl TransferFunction {
         Self::new(points)
     }
 
+    /// What a user names for `grid`: the path of a JSON file ([`TransferFunction::from_json`],
+    /// read within the memory budget) or else a preset ([`TransferFunction::preset`] over the
+    /// grid's value range and spacing).
+    pub fn load(spec: &str, grid: &Grid) -> Result<Self, RenderError> {
+        let path = std::path::Path::new(spec);
+        if path.is_file() {
+            let bytes = isokit_io::reader::read_file(path)?;
+            let text = String::from_utf8(bytes).map_err(|_| {
+                RenderError::bad(
+                    "transfer function",
+                    spec,
+                    "is a file that is not UTF-8 text",
+                )
+            })?;
+            return Self::from_json(&text);
+        }
+        Self::preset(spec, value_range(grid), grid.spacing())
+    }
+
     /// A preset by name ([`TF_PRESETS`]). `ct-bone` and `ct-skin` are in Hounsfield units;
     /// the others are defined on values normalized to 0–1 over `range` (the volume's min and
     /// max), except `distance-shell`, which is on signed distances: a glowing shell from
@@ -275,6 +294,16 @@ pub enum Classification {
     Post,
     /// Segments between samples from a pre-integrated table.
     Preintegrated,
+}
+
+impl Classification {
+    /// `post` or `preintegrated`, as the command line and Python spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Classification::Post => "post",
+            Classification::Preintegrated => "preintegrated",
+        }
+    }
 }
 
 /// Checks a pre-integration table's value range and segment length; the upper end used
@@ -482,7 +511,16 @@ pub struct DvrImage {
     pub samples: u64,
     /// Blocks stepped over as empty.
     pub skipped_blocks: u64,
+    /// The step taken, world units.
+    pub step: f32,
+    /// How the samples were classified.
+    pub classification: Classification,
+    /// Whether the samples were shaded by the gradient.
+    pub shaded: bool,
 }
+
+/// The channels of [`DvrImage::channels`], in order.
+pub const DVR_CHANNELS: [&str; 5] = ["R", "G", "B", "A", "Z"];
 
 impl DvrImage {
     /// Composited over an opaque `background` (linear RGB).
@@ -491,6 +529,55 @@ impl DvrImage {
             .iter()
             .map(|p| p.truncate() + (1.0 - p.w) * background)
             .collect()
+    }
+
+    /// The opaque image over `background` (linear RGB), for PNG output.
+    pub fn to_image(&self, background: Vec3) -> crate::Image {
+        crate::Image {
+            width: self.width,
+            height: self.height,
+            pixels: self
+                .over(background)
+                .iter()
+                .map(|c| c.extend(1.0).to_array())
+                .collect(),
+        }
+    }
+
+    /// The planes [`DVR_CHANNELS`]: premultiplied `R G B`, opacity `A` and depth `Z`.
+    pub fn channels(&self) -> Vec<(&'static str, Vec<f32>)> {
+        let plane = |i: usize| self.rgba.iter().map(|p| p[i]).collect();
+        let mut out: Vec<(&'static str, Vec<f32>)> =
+            (0..4).map(|i| (DVR_CHANNELS[i], plane(i))).collect();
+        out.push(("Z", self.depth.clone()));
+        out
+    }
+
+    /// Writes [`DvrImage::channels`] as OpenEXR with the camera's matrices (as the
+    /// isosurface G-buffer's).
+    pub fn write_exr(&self, path: &std::path::Path, camera: &Camera) -> Result<(), RenderError> {
+        let channels = self.channels();
+        let refs: Vec<(&str, &[f32])> = channels.iter().map(|(n, v)| (*n, v.as_slice())).collect();
+        let (w, h) = (self.width as usize, self.height as usize);
+        isokit_io::write_exr_with_camera(path, w, h, &refs, Some(&crate::exr_camera(camera)))?;
+        Ok(())
+    }
+
+    /// What the rendering did, as the `--stats` object of `isokit render --mode dvr` (and
+    /// Python's `Frame.stats`): `backend` and `seconds` are the caller's.
+    pub fn stats(&self, backend: &str, seconds: f64) -> serde_json::Value {
+        serde_json::json!({
+            "mode": "dvr",
+            "backend": backend,
+            "classification": self.classification.name(),
+            "shading": if self.shaded { "phong" } else { "emission" },
+            "step": self.step,
+            "samples": self.samples,
+            "skipped_blocks": self.skipped_blocks,
+            "seconds": seconds,
+            "width": self.width,
+            "height": self.height,
+        })
     }
 }
 
@@ -799,7 +886,7 @@ pub(crate) fn trace_ray(
 
 impl DvrImage {
     /// From the rays' results, row by row.
-    pub(crate) fn from_rays(width: u32, height: u32, rays: &[RayResult]) -> Self {
+    pub(crate) fn from_rays(width: u32, height: u32, p: &Prepared, rays: &[RayResult]) -> Self {
         Self {
             width,
             height,
@@ -807,6 +894,13 @@ impl DvrImage {
             depth: rays.iter().map(|r| r.1).collect(),
             samples: rays.iter().map(|r| u64::from(r.2)).sum(),
             skipped_blocks: rays.iter().map(|r| u64::from(r.3)).sum(),
+            step: p.step,
+            classification: if p.table.is_some() {
+                Classification::Preintegrated
+            } else {
+                Classification::Post
+            },
+            shaded: p.shade,
         }
     }
 }
@@ -846,5 +940,5 @@ pub fn render_dvr(
             trace_ray(grid, tf, &p, ray)
         })
         .collect();
-    Ok(DvrImage::from_rays(width, height, &rays))
+    Ok(DvrImage::from_rays(width, height, &p, &rays))
 }
