@@ -196,7 +196,7 @@ def main():
             "frames after a warm-up; VTK's 8-bit read-back):",
             "",
             "| step (voxels) | VTK s | VTK error | isokit post s | post error | isokit pre s "
-            "| pre error | mean |VTK - isokit post| |",
+            "| pre error | mean \\|VTK - isokit post\\| |",
             "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
         ]
         for r in vtk_rows:
