@@ -27,7 +27,7 @@ struct RayState {
     t: f32,
     first_block: u32,
     samples: u32,
-    pad0: u32,
+    clear: f32,
     pad1: u32,
 }
 
@@ -50,6 +50,12 @@ var<private> samples: u32;
 
 fn residual(f: f32) -> f32 {
     return (f - U.iso) * U.inside_sign;
+}
+
+// rho within the block range widened by RANGE_MARGIN (raycast/cpu.rs: range_holds_iso).
+fn range_holds_iso(range: vec2<f32>) -> bool {
+    let eps = RANGE_MARGIN * max(abs(range.x), abs(range.y));
+    return range.x - eps <= U.iso && U.iso <= range.y + eps;
 }
 
 // Which blocks are active (raycast/cpu.rs: block_active) the host decides: their skip
@@ -603,46 +609,65 @@ fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segmen
     return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
 }
 
-// Sphere tracing of [t0, t1] by the block's slope bound, steps of at least 1 / (r0 · fine)
-// (raycast/cpu.rs: march_sphere).
-fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32) -> Segment {
-    var t = t0;
-    var r = residual_at(ray, t0);
-    if (r < 0.0) {
-        if (first_block) {
-            return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
-        }
-        // Inside at the entry of a later block: the crossing lies at its face
-        // (raycast/cpu.rs: entry_crossing).
-        if ((U.flags & FLAG_CAPS) != 0u) {
-            return Segment(SEG_CROSSING, t0, 0.0, t0, r);
-        }
-    }
-    let len = t1 - t0;
-    if (!(len > 0.0)) {
-        return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
-    }
+// Sphere tracing of [t0, t1] by the block's slope bound: a sample clears r / slope of the ray
+// and the next lies the fine step 1 / (r0 · fine) beyond; `clear` is a lower bound on the
+// residual at t0 carried from the block before (0: none). An empty segment returns in `ra`
+// the bound it leaves at t1 (raycast/cpu.rs: march_sphere).
+fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32, clear: f32) -> Segment {
     let min_step = 1.0 / (U.r0 * f32(U.fine));
-    let max_steps = u32(ceil(len / min_step)) + 1u;
-    for (var n = 0u; n < max_steps; n++) {
-        var step = r / slope;
-        if (!(step >= min_step)) {
-            step = min_step;
+    var t = t0;
+    var r = 0.0;
+    var carried = false;
+    if (!first_block && clear > 0.0) {
+        let lead = clear / slope;
+        if (t0 + lead >= t1) {
+            return Segment(SEG_EMPTY, 0.0, clear - slope * (t1 - t0), 0.0, 0.0);
         }
-        let tn = t + step;
-        if (tn >= t1) {
-            if (step > min_step && r >= 0.0) {
-                return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
+        let tn = t0 + lead + min_step;
+        let probe = select(t1, tn, tn < t1);
+        let rn = residual_at(ray, probe);
+        if (rn >= 0.0) {
+            if (probe == t1) {
+                return Segment(SEG_EMPTY, 0.0, rn, 0.0, 0.0);
             }
-            let rn = residual_at(ray, t1);
-            if (r >= 0.0 && rn < 0.0) {
-                return Segment(SEG_CROSSING, t, r, t1, rn);
+            t = tn;
+            r = rn;
+            carried = true;
+        }
+    }
+    if (!carried) {
+        r = residual_at(ray, t0);
+        if (r < 0.0) {
+            if (first_block) {
+                return Segment(SEG_CAP, 0.0, 0.0, 0.0, 0.0);
             }
+            // Inside at the entry of a later block: the crossing lies at its face
+            // (raycast/cpu.rs: entry_crossing).
+            if ((U.flags & FLAG_CAPS) != 0u) {
+                return Segment(SEG_CROSSING, t0, 0.0, t0, r);
+            }
+        }
+        let len = t1 - t0;
+        if (!(len > 0.0)) {
             return Segment(SEG_EMPTY, 0.0, 0.0, 0.0, 0.0);
         }
+    }
+    let max_steps = u32(ceil((t1 - t0) / min_step)) + 1u;
+    for (var n = 0u; n < max_steps; n++) {
+        // What the sample clears; nothing for an inside or NaN residual.
+        let sphere = r / slope;
+        let cleared = select(0.0, sphere, sphere > 0.0);
+        if (cleared > 0.0 && t + cleared >= t1) {
+            return Segment(SEG_EMPTY, 0.0, r - slope * (t1 - t), 0.0, 0.0);
+        }
+        let tf = t + cleared + min_step;
+        let tn = select(t1, tf, tf < t1);
         let rn = residual_at(ray, tn);
         if (r >= 0.0 && rn < 0.0) {
             return Segment(SEG_CROSSING, t, r, tn, rn);
+        }
+        if (tn == t1) {
+            return Segment(SEG_EMPTY, 0.0, select(0.0, rn, rn > 0.0), 0.0, 0.0);
         }
         t = tn;
         r = rn;
@@ -789,7 +814,7 @@ struct Traced {
 }
 
 fn finished(p: GPixel) -> Traced {
-    return Traced(true, p, RayState(vec3<i32>(0), 0.0, 0u, 0u, 0u, 0u));
+    return Traced(true, p, RayState(vec3<i32>(0), 0.0, 0u, 0u, 0.0, 0u));
 }
 
 // Traces the ray of subpixel `sub` of pixel (px, py) from its start or from `resume`
@@ -807,10 +832,14 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
     var cell: vec3<i32>;
     var t_in: f32;
     var first_block: bool;
+    // A lower bound on the residual at t_in (raycast/cpu.rs: trace_pixel).
+    var clear = 0.0;
+    var after_excluded = false;
     if (resumed) {
         cell = resume.cell;
         t_in = resume.t;
         first_block = resume.first_block != 0u;
+        clear = resume.clear;
     } else {
         let p = o + bx.t0 * d;
         let c = vec3<i32>(floor(p / f32(U.block)));
@@ -829,6 +858,9 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
         var bexit = Exit(0.0, 0u);
         var have_exit = false;
         if (info.w == 0.0) {
+            if (after_excluded) {
+                clear = 0.0;
+            }
             bexit = block_exit(cell, o, d, inv);
             have_exit = true;
             let t1 = min(bexit.t, t_exit);
@@ -836,7 +868,7 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
             let slot = reference[brick];
             if (slot == NOT_RESIDENT) {
                 atomicAdd(&counters[P.requests + brick], 1u);
-                let state = RayState(cell, t_in, select(0u, 1u, first_block), 0u, 0u, 0u);
+                let state = RayState(cell, t_in, select(0u, 1u, first_block), 0u, clear, 0u);
                 return Traced(false, miss_pixel(), state);
             }
             atomicStore(&counters[P.used + brick], 1u);
@@ -846,8 +878,10 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
             if (t1 > t_in || caps) {
                 if (sphere) {
                     let slope = ray_slope(d, info);
-                    seg = march_sphere(ray, t_in, max(t1, t_in), caps, slope);
+                    seg = march_sphere(ray, t_in, max(t1, t_in), caps, slope, clear);
+                    clear = seg.ra;
                 } else {
+                    clear = 0.0;
                     seg = march_segment(ray, t_in, max(t1, t_in), caps);
                 }
             }
@@ -866,6 +900,7 @@ fn trace_pixel(px: u32, py: u32, sub: u32, resumed: bool, resume: RayState) -> T
         }
         first_block = false;
         let k = i32(info.w);
+        after_excluded = k >= 2 || !range_holds_iso(block_range[idx]);
         var t_out: f32;
         var axis: u32;
         var next = cell;
@@ -903,7 +938,7 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     var ray = k;
-    var resume = RayState(vec3<i32>(0), 0.0, 1u, 0u, 0u, 0u);
+    var resume = RayState(vec3<i32>(0), 0.0, 1u, 0u, 0.0, 0u);
     let resumed = P.fresh == 0u;
     if (resumed) {
         ray = lists[P.src + k];

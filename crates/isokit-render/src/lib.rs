@@ -110,6 +110,7 @@ mod volume;
 /// The ray caster's per-pixel kernel, the CPU twin of `shaders/raycast.wgsl` (the module
 /// `raycast/cpu.rs`).
 pub use raycast::cpu as kernel;
+pub use raycast::start::StartRaster;
 
 pub use cache::{BrickCache, CacheStats, DEFAULT_CACHE_BYTES, HALF_RESOLUTION, NOT_RESIDENT};
 pub use error::{BYTES_PER_PIXEL, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, RenderError, check_image_size};

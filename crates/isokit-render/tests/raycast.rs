@@ -931,6 +931,7 @@ fn trace_data_is_flat() {
         block_info: &[],
         requests: &req,
         used: &used,
+        start: None,
     };
     let u = uniforms(
         &v,

@@ -261,6 +261,9 @@ pub struct TraceData<'a> {
     pub requests: &'a [AtomicU32],
     /// Per brick: set to 1 when a ray sampled it in this pass (for LRU).
     pub used: &'a [AtomicU32],
+    /// Where each pixel's walk may start ([`crate::StartRaster`]): CPU only; `None` walks
+    /// from the box entry, as the WGSL twin does. The image is the same either way.
+    pub start: Option<&'a crate::StartRaster>,
 }
 
 /// Where a suspended ray resumes: the block it waits for and the ray parameter where it
@@ -273,6 +276,9 @@ pub struct Resume {
     pub t: f32,
     /// True when no block has been processed yet (the cap test is still due).
     pub first: bool,
+    /// A lower bound on the residual where the ray enters the block (0: none known), carried
+    /// from the blocks before it ([`march_sphere`]).
+    pub clear: f32,
 }
 
 /// One pixel of the G-buffer.
@@ -380,9 +386,12 @@ pub fn residual(u: &Uniforms, f: f32) -> f32 {
 /// else when ρ lies in the range widened by [`RANGE_MARGIN`].
 #[inline]
 pub fn block_active(u: &Uniforms, range: [f32; 2]) -> bool {
-    if u.flags & FLAG_SKIP_EMPTY == 0 {
-        return true;
-    }
+    u.flags & FLAG_SKIP_EMPTY == 0 || range_holds_iso(u, range)
+}
+
+/// True when ρ lies in the range widened by [`RANGE_MARGIN`]: the block may hold the surface.
+#[inline]
+pub fn range_holds_iso(u: &Uniforms, range: [f32; 2]) -> bool {
     let eps = RANGE_MARGIN * range[0].abs().max(range[1].abs());
     range[0] - eps <= u.iso && u.iso <= range[1] + eps
 }
@@ -535,6 +544,54 @@ pub fn jump(
     (t, e, IVec3::from_array(next))
 }
 
+/// The block the walk by [`block_exit`] is in at ray parameter `t` (inside the volume's
+/// box): per axis, the block entered by the last plane `x_a = m · block` whose [`plane_t`]
+/// lies before `t`, found from the position's block and corrected by the planes' own times
+/// (as [`jump`] finds the block it enters). Where `t` is no plane's time this is the block of
+/// the walk bit for bit, whatever path the walk took to it.
+#[inline]
+pub fn cell_at(u: &Uniforms, t: f32, o: Vec3, d: Vec3, inv: Vec3, bd: IVec3) -> IVec3 {
+    let rb = 1.0 / u.block as f32;
+    let mut c = [0i32; 3];
+    for (a, ca) in c.iter_mut().enumerate() {
+        let top = bd[a] - 1;
+        // Inside the box the position is >= 0 up to rounding: the cast truncates.
+        let mut g = (((o[a] + t * d[a]) * rb).max(0.0) as i32).clamp(0, top);
+        if d[a] != 0.0 {
+            let crossed = |m: i32| plane_t(u, m, o[a], inv[a]) < t;
+            if d[a] > 0.0 {
+                // Crossing plane m enters block m.
+                while g > 0 && !crossed(g) {
+                    g -= 1;
+                }
+                while g < top && crossed(g + 1) {
+                    g += 1;
+                }
+            } else {
+                // Crossing plane m enters block m − 1.
+                while g < top && !crossed(g + 1) {
+                    g += 1;
+                }
+                while g > 0 && crossed(g) {
+                    g -= 1;
+                }
+            }
+        }
+        *ca = g;
+    }
+    IVec3::from_array(c)
+}
+
+/// Whether the walk samples block `idx`: its skip distance is 0 where [`TraceData::block_info`]
+/// holds one (computed by [`block_active`] for these ranges), else [`block_active`].
+#[inline]
+fn block_is_active(u: &Uniforms, data: &TraceData<'_>, idx: usize) -> bool {
+    match data.block_info.get(idx) {
+        Some(i) => i[3] == 0.0,
+        None => block_active(u, data.block_range[idx]),
+    }
+}
+
 /// Linear index of block `cell`.
 #[inline]
 pub fn block_index(u: &Uniforms, cell: IVec3) -> usize {
@@ -542,10 +599,17 @@ pub fn block_index(u: &Uniforms, cell: IVec3) -> usize {
     cell.x as usize + bx as usize * (cell.y as usize + by as usize * cell.z as usize)
 }
 
+/// `log2(brick / block)`: both are powers of two, so a block's brick coordinate is its own
+/// shifted right by this (block coordinates inside the volume are never negative).
+#[inline]
+pub fn blocks_per_brick_log2(u: &Uniforms) -> i32 {
+    (u.brick.trailing_zeros() - u.block.trailing_zeros()) as i32
+}
+
 /// Linear index of the brick holding block `cell`.
 #[inline]
 pub fn brick_of_block(u: &Uniforms, cell: IVec3) -> usize {
-    let c = cell / (u.brick / u.block) as i32;
+    let c = cell >> blocks_per_brick_log2(u);
     let [bx, by, _] = u.brick_dims;
     c.x as usize + bx as usize * (c.y as usize + by as usize * c.z as usize)
 }
@@ -1038,7 +1102,7 @@ impl SegmentRay {
             slot,
             lo,
             hi: (lo + IVec3::splat(b)).min(top),
-            first: cell / (u.brick / u.block) as i32 * u.brick as i32 - IVec3::ONE,
+            first: (cell >> blocks_per_brick_log2(u)) * u.brick as i32 - IVec3::ONE,
             t0,
             p0: o + t0 * d,
         }
@@ -1310,16 +1374,25 @@ pub fn march_segment(
 }
 
 /// Sphere tracing (Hart 1996) of the segment `[t0, t1]` of a block for the first crossing
-/// from outside to inside, by the reconstruction's Lipschitz bound: from a sample with
-/// residual `r ≥ 0` the next lies `r / slope` further (`slope` from [`ray_slope`]), which
-/// no crossing can lie before where the bound holds; at least `min_step = 1 / (r0 · fine)`
-/// further, so every inside run of that length holds a sample, as in the fine rate of
-/// [`march_segment`]. A step that reaches `t1` ends the segment without a sample there
-/// (the bound says the rest is outside); the next block starts with its own. `first` asks
-/// for the cap test on the first sample, as [`march_segment`].
+/// from outside to inside, by the reconstruction's Lipschitz bound: a sample with residual
+/// `r ≥ 0` clears `r / slope` of the ray after it (`slope` from [`ray_slope`]: no crossing
+/// lies there where the bound holds), and the next sample lies the fine step
+/// `min_step = 1 / (r0 · fine)` beyond what is cleared. Every inside run of at least
+/// `min_step` then holds a sample, as in the fine rate of [`march_segment`]: it starts past
+/// the cleared part, within `min_step` before the next sample. Where the cleared part
+/// reaches `t1` the segment ends without a sample there; where the next sample would lie
+/// past `t1`, it lies at `t1`. `first` asks for the cap test on the first sample, as
+/// [`march_segment`].
+///
+/// `clear` is a lower bound on the residual at `t0` carried from the block before (0: none):
+/// the search then starts from what it clears instead of a sample at `t0`, falling back to
+/// that sample where the first one lies inside (the crossing needs an outside end).
+/// Returns, with [`Segment::Empty`], the bound the segment leaves at `t1` for the next block:
+/// `r − slope · (t1 − t)` after the last sample `(t, r)` where the cleared part reaches
+/// `t1`, the residual itself where `t1` was sampled, else 0.
 #[expect(
     clippy::too_many_arguments,
-    reason = "the segment, its bound and the counter, as the shader passes them"
+    reason = "the segment, its bounds and the counter, as the shader passes them"
 )]
 pub fn march_sphere(
     u: &Uniforms,
@@ -1329,53 +1402,61 @@ pub fn march_sphere(
     t1: f32,
     first: bool,
     slope: f32,
+    clear: f32,
     samples: &mut u32,
-) -> Segment {
-    let mut t = t0;
-    let (mut r, len) = match segment_start(u, pool, ray, t0, t1, first, samples) {
-        Ok(start) => start,
-        Err(end) => return end,
-    };
+) -> (Segment, f32) {
     let min_step = 1.0 / (u.r0 * u.fine as f32);
-    // Every step is at least `min_step` long (a bound on the loop, as in the shader).
-    let max_steps = (len / min_step).ceil() as u32 + 1;
-    for _ in 0..max_steps {
-        // At least the fine step, also for a NaN residual (NaN fails the comparison).
-        let sphere_step = r / slope;
-        let step = if sphere_step >= min_step {
-            sphere_step
-        } else {
-            min_step
-        };
-        let tn = t + step;
-        if tn >= t1 {
-            if step > min_step && r >= 0.0 {
-                // The bound keeps the rest of the segment outside.
-                return Segment::Empty;
-            }
-            let rn = ray.residual_at(u, pool, t1, samples);
-            if r >= 0.0 && rn < 0.0 {
-                return Segment::Crossing {
-                    ta: t,
-                    ra: r,
-                    tb: t1,
-                    rb: rn,
-                };
-            }
-            return Segment::Empty;
+    let mut carried = None;
+    if !first && clear > 0.0 {
+        let lead = clear / slope;
+        if t0 + lead >= t1 {
+            return (Segment::Empty, clear - slope * (t1 - t0));
         }
+        let tn = t0 + lead + min_step;
+        let probe = if tn < t1 { tn } else { t1 };
+        let rn = ray.residual_at(u, pool, probe, samples);
+        if rn >= 0.0 {
+            if probe == t1 {
+                return (Segment::Empty, rn);
+            }
+            carried = Some((tn, rn));
+        }
+    }
+    let (mut t, mut r) = match carried {
+        Some(start) => start,
+        None => match segment_start(u, pool, ray, t0, t1, first, samples) {
+            Ok((r, _)) => (t0, r),
+            Err(end) => return (end, 0.0),
+        },
+    };
+    // Every step is at least `min_step` long (a bound on the loop, as in the shader).
+    let max_steps = ((t1 - t0) / min_step).ceil() as u32 + 1;
+    for _ in 0..max_steps {
+        // What the sample clears; nothing for an inside or NaN residual (NaN fails `>`).
+        let sphere = r / slope;
+        let cleared = if sphere > 0.0 { sphere } else { 0.0 };
+        if cleared > 0.0 && t + cleared >= t1 {
+            // The bound keeps the rest of the segment outside.
+            return (Segment::Empty, r - slope * (t1 - t));
+        }
+        let tn = t + cleared + min_step;
+        let tn = if tn < t1 { tn } else { t1 };
         let rn = ray.residual_at(u, pool, tn, samples);
         if r >= 0.0 && rn < 0.0 {
-            return Segment::Crossing {
+            let crossing = Segment::Crossing {
                 ta: t,
                 ra: r,
                 tb: tn,
                 rb: rn,
             };
+            return (crossing, 0.0);
+        }
+        if tn == t1 {
+            return (Segment::Empty, if rn > 0.0 { rn } else { 0.0 });
         }
         (t, r) = (tn, rn);
     }
-    Segment::Empty
+    (Segment::Empty, 0.0)
 }
 
 /// The root of the linear interpolant between `(ta, ra)` and `(tb, rb)` (Eq. 6.4), or the
@@ -1542,6 +1623,15 @@ pub fn trace_pixel(
         sample: GSample::default(),
         samples,
     };
+    let caps_on = u.flags & FLAG_CAPS != 0;
+    // The smallest parameter at which this ray can reach an active block (CPU only).
+    let near = match (resume, data.start) {
+        (None, Some(s)) => s.near(px, py),
+        _ => f32::NEG_INFINITY,
+    };
+    if near == f32::INFINITY && !caps_on {
+        return miss(samples);
+    }
     let (ro, d) = subpixel_ray(u, px, py, sub);
     let o = (ro - v3(u.origin)) / u.spacing;
     let Some((t_enter, t_exit, entry_axis)) = ray_box(u, o, d) else {
@@ -1552,6 +1642,12 @@ pub fn trace_pixel(
         u.block_dims[1] as i32,
         u.block_dims[2] as i32,
     );
+    // A lower bound on the residual at `t_in` (0: none), carried from one searched block to
+    // the next ([`march_sphere`]). None after a block whose range excludes ρ, whether or not
+    // it was skipped, so that skipping, where the walk starts ([`crate::StartRaster`]) and
+    // jumps ([`jump`], over such blocks only) change no sample.
+    let mut clear = resume.map_or(0.0, |r| r.clear);
+    let mut after_excluded = false;
     let (mut cell, mut t_in, mut first) = match resume {
         Some(r) => (IVec3::from_array(r.cell), r.t, r.first),
         None => {
@@ -1560,13 +1656,34 @@ pub fn trace_pixel(
             (c.clamp(IVec3::ZERO, bd - 1), t_enter, true)
         }
     };
+    let inv = inverse_direction(d);
+    if near > t_in {
+        // Nothing active before `near`: the entry block's cap test (as the walk's first step
+        // over an inactive block makes it), then the walk starts in the block at `near`.
+        let idx = block_index(u, cell);
+        if !block_is_active(u, data, idx) {
+            let range = data.block_range[idx];
+            if first && caps_on && residual(u, range[0]) < 0.0 && residual(u, range[1]) < 0.0 {
+                return PixelResult::Done {
+                    sample: cap_sample(u, o, d, t_in, entry_axis),
+                    samples,
+                };
+            }
+            if near >= t_exit {
+                return miss(samples);
+            }
+            let c = cell_at(u, near, o, d, inv, bd);
+            if !block_is_active(u, data, block_index(u, c)) {
+                (cell, t_in, first) = (c, near, false);
+            }
+        }
+    }
     let step = IVec3::new(
         if d.x > 0.0 { 1 } else { -1 },
         if d.y > 0.0 { 1 } else { -1 },
         if d.z > 0.0 { 1 } else { -1 },
     );
     let sphere = u.flags & FLAG_SPHERE != 0 && !data.block_info.is_empty();
-    let inv = inverse_direction(d);
     // Each step moves one block coordinate monotonically: at most the sum of the dims.
     let max_steps = u.block_dims.iter().sum::<u32>() + 3;
     for _ in 0..max_steps {
@@ -1580,6 +1697,9 @@ pub fn trace_pixel(
         };
         let mut exit = None;
         if active {
+            if after_excluded {
+                clear = 0.0;
+            }
             let (t_out, axis) = block_exit_inv(u, cell, o, d, inv);
             exit = Some((t_out, axis));
             let t1 = t_out.min(t_exit);
@@ -1592,22 +1712,40 @@ pub fn trace_pixel(
                         cell: cell.to_array(),
                         t: t_in,
                         first,
+                        clear,
                     },
                     samples,
                 };
             }
-            data.used[brick].store(1, Ordering::Relaxed);
+            // Read before writing: both threads store into the same few cache lines.
+            if data.used[brick].load(Ordering::Relaxed) == 0 {
+                data.used[brick].store(1, Ordering::Relaxed);
+            }
             let ray = SegmentRay::new(u, o, d, cell, slot, t_in);
             let caps = first && u.flags & FLAG_CAPS != 0;
             // A segment of zero length (the ray crosses a block edge or corner) holds no
             // crossing; only the cap test needs its sample.
             let seg = if !(t1 > t_in || caps) {
+                // The bound at `t_in` holds at `t1` too.
                 Segment::Empty
             } else if let (true, Some(info)) = (sphere, info) {
                 let slope = ray_slope(u, d, info);
                 let t1 = t1.max(t_in);
-                march_sphere(u, data.pool, &ray, t_in, t1, caps, slope, &mut samples)
+                let (seg, left) = march_sphere(
+                    u,
+                    data.pool,
+                    &ray,
+                    t_in,
+                    t1,
+                    caps,
+                    slope,
+                    clear,
+                    &mut samples,
+                );
+                clear = left;
+                seg
             } else {
+                clear = 0.0;
                 march_segment(u, data.pool, &ray, t_in, t1.max(t_in), caps, &mut samples)
             };
             match seg {
@@ -1639,6 +1777,7 @@ pub fn trace_pixel(
         }
         first = false;
         let k = info.map_or(0, |i| i[3] as i32);
+        after_excluded = k >= 2 || !range_holds_iso(u, data.block_range[idx]);
         let (t_out, axis, next) = if k >= 2 {
             // Every block within k − 1 of this one is inactive: cross them at once.
             jump(u, cell, k, o, d, inv, bd)

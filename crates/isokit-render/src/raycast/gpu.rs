@@ -45,7 +45,7 @@ isokit_gpu::wgsl_layout!(Params {
     used: "u32",
 });
 
-/// Size of `RayState` in `raycast.wgsl` (cell, t, first flag, samples, padding).
+/// Size of `RayState` in `raycast.wgsl` (cell, t, first flag, samples, carried bound, padding).
 pub(crate) const RAY_STATE_BYTES: usize = 32;
 
 /// Bricks copied to the GPU per staging batch.

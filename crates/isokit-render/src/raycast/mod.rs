@@ -4,8 +4,11 @@
 //! - [`render`]: options, uniforms and the passes over the image that both twins share, and
 //!   the CPU's passes (rayon over pixels);
 //! - [`gpu`]: the kernel's host code (assembly, buffers, the pass loop on the GPU), public
-//!   through [`crate::gpu`].
+//!   through [`crate::gpu`];
+//! - [`start`]: where each ray's walk may start, the active blocks projected onto tiles of
+//!   the image (CPU only; the image is the same with or without it).
 
 pub mod cpu;
 pub(crate) mod gpu;
 pub(crate) mod render;
+pub mod start;

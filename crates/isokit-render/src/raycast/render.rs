@@ -5,7 +5,7 @@ use crate::kernel::{
     self, COMBINE_NONE, FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_CURVATURE, FLAG_SECANT,
     FLAG_SKIP_EMPTY, FLAG_SPHERE, GSample, ID_CAP, PixelResult, Resume, TraceData, Uniforms,
 };
-use crate::{BrickCache, GBuffer, RenderError, Volume, check_image_size};
+use crate::{BrickCache, GBuffer, RenderError, StartRaster, Volume, check_image_size};
 use glam::IVec3;
 use isokit_field::curvature::Inside;
 use isokit_field::{Camera, Projection};
@@ -162,6 +162,11 @@ pub struct RenderOptions {
     /// vector orthogonal to the normal): enough for Phong and the other modes that read no
     /// curvature, and cheaper.
     pub curvature: bool,
+    /// Start each ray of the CPU twin where the projected boxes of the active blocks say it
+    /// can first meet one ([`StartRaster`], default true). Off, rays walk from where they
+    /// enter the volume, as the GPU twin's do: the image is the same bit for bit, only
+    /// slower (a knob for measuring it).
+    pub start_raster: bool,
 }
 
 impl Default for RenderOptions {
@@ -183,6 +188,7 @@ impl Default for RenderOptions {
             search: Search::Sphere,
             lipschitz: None,
             curvature: true,
+            start_raster: true,
         }
     }
 }
@@ -464,7 +470,7 @@ pub fn render_multiview(
     mv: &MultiView,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, None)?;
-    trace_frame(volume, cache, camera, u, opts.cache_policy)
+    trace_frame(volume, cache, camera, u, opts)
 }
 
 /// One view of a multi-view display rendered alone (every pixel from that view's eye): the
@@ -478,7 +484,7 @@ pub fn render_view(
     view: u32,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, Some(view))?;
-    trace_frame(volume, cache, camera, u, opts.cache_policy)
+    trace_frame(volume, cache, camera, u, opts)
 }
 
 /// What one rendering did.
@@ -562,7 +568,7 @@ pub fn render(
     opts: &RenderOptions,
 ) -> Result<Frame, RenderError> {
     let u = uniforms(volume, camera, opts)?;
-    trace_frame(volume, cache, camera, u, opts.cache_policy)
+    trace_frame(volume, cache, camera, u, opts)
 }
 
 /// The host's first steps of a frame, shared by the CPU and GPU twins: which bricks hold an
@@ -791,9 +797,10 @@ fn trace_frame(
     cache: &mut BrickCache,
     camera: &Camera,
     u: Uniforms,
-    policy: CachePolicy,
+    opts: &RenderOptions,
 ) -> Result<Frame, RenderError> {
     let t0 = Instant::now();
+    let policy = opts.cache_policy;
     cache.bind(volume);
     let before = cache.stats();
     let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
@@ -805,6 +812,10 @@ fn trace_frame(
     // stores stay the same.
     cache.block_info(volume, ranges, &u);
     let refuted = lipschitz_refuted(&u, ranges, cache.current_block_info());
+    let start = opts
+        .start_raster
+        .then(|| StartRaster::build(&u, ranges, cache.current_block_info()))
+        .flatten();
 
     // 3–4. Passes. The first traces every ray, each writing its own pixel; later ones the
     // rays that waited for a brick.
@@ -823,6 +834,7 @@ fn trace_frame(
             block_info: cache.current_block_info(),
             requests: &requests,
             used: &used,
+            start: start.as_ref(),
         };
         (0..n as u32)
             .into_par_iter()
@@ -866,6 +878,7 @@ fn trace_frame(
             block_info: cache.current_block_info(),
             requests: &requests,
             used: &used,
+            start: start.as_ref(),
         };
         let results: Vec<(u32, PixelResult)> = pending
             .par_iter()

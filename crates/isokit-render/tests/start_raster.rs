@@ -1,0 +1,157 @@
+//! Where the CPU twin's rays start ([`StartRaster`]: the active blocks projected onto tiles
+//! of the image). It only removes blocks the walk visits in front of the first active one,
+//! so every pixel of the G-buffer is the same with and without it, bit for bit; and its
+//! distances never exceed a hit's depth, nor does a tile it marks empty hold a hit.
+//! CPU-only: the GPU twin walks from the box entry.
+
+use glam::Vec3;
+use isokit_field::Camera;
+use isokit_render::{
+    BrickCache, Combine, Inside, RenderOptions, StartRaster, Volume, render, uniforms,
+};
+
+mod common;
+use common::*;
+
+/// Cameras that exercise the raster: far and near perspective views, an eye inside the
+/// volume (blocks beside and behind the eye's plane), a view along an axis, orthographic.
+fn cameras(w: u32, h: u32) -> Vec<(&'static str, Camera)> {
+    vec![
+        ("far", perspective(Vec3::new(1.9, 1.3, 3.6), w, h)),
+        ("near", perspective(Vec3::new(0.4, 0.3, 1.6), w, h)),
+        ("inside", perspective(Vec3::new(0.15, -0.1, 0.85), w, h)),
+        ("axis", perspective(Vec3::new(0.0, 0.0, 3.0), w, h)),
+        (
+            "ortho",
+            orthographic(Vec3::new(2.0, 1.0, 2.5), Vec3::ZERO, 2.2, w, h),
+        ),
+    ]
+}
+
+fn volumes() -> Vec<(&'static str, Volume)> {
+    let (a, b) = csg_pair();
+    vec![
+        ("sphere", volume(sphere_grid(64))),
+        ("two spheres", volume(two_spheres())),
+        (
+            "union",
+            volume(a.clone())
+                .with_operand(b.clone(), Combine::Union)
+                .unwrap(),
+        ),
+        (
+            "difference",
+            volume(a).with_operand(b, Combine::Difference).unwrap(),
+        ),
+    ]
+}
+
+fn frame(
+    v: &Volume,
+    cam: &Camera,
+    opts: &RenderOptions,
+    bricks: Option<usize>,
+) -> isokit_render::Frame {
+    let mut cache = match bricks {
+        Some(n) => BrickCache::new(v, n).unwrap(),
+        None => BrickCache::for_volume(v),
+    };
+    render(v, &mut cache, cam, opts).unwrap()
+}
+
+#[test]
+fn the_start_raster_changes_no_pixel() {
+    let base = RenderOptions::default();
+    let variants = [
+        ("default", base),
+        (
+            "no caps",
+            RenderOptions {
+                caps: false,
+                ..base
+            },
+        ),
+        (
+            "inside above",
+            RenderOptions {
+                inside: Inside::Above,
+                ..base
+            },
+        ),
+        ("iso 0.3", RenderOptions { iso: 0.3, ..base }),
+    ];
+    let mut compared = 0;
+    for (vn, v) in volumes() {
+        for (cn, cam) in cameras(72, 56) {
+            for (on, opts) in &variants {
+                for bricks in [None, Some(2)] {
+                    let off = RenderOptions {
+                        start_raster: false,
+                        ..*opts
+                    };
+                    let with = frame(&v, &cam, opts, bricks);
+                    let without = frame(&v, &cam, &off, bricks);
+                    assert_eq!(
+                        with.gbuffer.pixels(),
+                        without.gbuffer.pixels(),
+                        "{vn}, {cn}, {on}, cache {bricks:?}"
+                    );
+                    assert_eq!(
+                        with.stats.samples, without.stats.samples,
+                        "{vn}, {cn}, {on}"
+                    );
+                    compared += usize::from(with.stats.hits > 0);
+                }
+            }
+        }
+    }
+    // Most combinations see the surface (the inside camera with caps sees caps).
+    assert!(compared >= 120, "{compared}");
+}
+
+#[test]
+fn the_start_raster_is_conservative() {
+    for (vn, v) in volumes() {
+        for (cn, cam) in cameras(80, 64) {
+            let opts = RenderOptions {
+                caps: false,
+                start_raster: false,
+                ..Default::default()
+            };
+            let f = frame(&v, &cam, &opts, None);
+            let u = uniforms(&v, &cam, &opts).unwrap();
+            let ranges = v.trace_ranges(u.iso, u.inside_sign);
+            let raster = StartRaster::build(&u, &ranges, &[]).expect("a single view");
+            let (mut hits, mut empty_tiles_pixels) = (0, 0);
+            for py in 0..u.height {
+                for px in 0..u.width {
+                    let s = f.gbuffer.pixels()[(py * u.width + px) as usize];
+                    let near = raster.near(px, py);
+                    empty_tiles_pixels += usize::from(near == f32::INFINITY);
+                    if s.is_hit() {
+                        hits += 1;
+                        let t = s.depth / u.spacing;
+                        assert!(
+                            near <= t,
+                            "{vn}, {cn}: pixel ({px}, {py}) near {near} > hit {t}"
+                        );
+                    }
+                }
+            }
+            eprintln!(
+                "{vn}, {cn}: {hits} hits, {empty_tiles_pixels} of {} pixels in empty tiles",
+                u.width * u.height
+            );
+            assert!(hits > 0, "{vn}, {cn}");
+        }
+    }
+    // Skipping off: every block is active, nothing to raster.
+    let v = volume(sphere_grid(32));
+    let cam = perspective(Vec3::new(0.0, 0.0, 3.0), 16, 16);
+    let opts = RenderOptions {
+        skip_empty: false,
+        ..Default::default()
+    };
+    let u = uniforms(&v, &cam, &opts).unwrap();
+    assert!(StartRaster::build(&u, v.block_ranges(), &[]).is_none());
+}
