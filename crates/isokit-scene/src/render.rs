@@ -157,6 +157,11 @@ pub struct RenderSettings {
     /// Rays per pixel for antialiasing (1, 4, 9, … 64: a `k × k` grid,
     /// [`isokit_render::supersample`]); 1 (the default) traces one ray per pixel.
     pub samples: u32,
+    /// Compute the principal curvatures at the hits (the Hessian per pixel) only where the
+    /// shading mode reads them ([`ShadingMode::uses_curvature`], following
+    /// [`Prepared::set_mode`]) instead of as [`RenderOptions::curvature`] says: for frames
+    /// whose G-buffer is not kept (default false).
+    pub curvature_follows_mode: bool,
 }
 
 impl Default for RenderSettings {
@@ -176,6 +181,7 @@ impl Default for RenderSettings {
             cache_bytes: None,
             resolution: None,
             samples: 1,
+            curvature_follows_mode: false,
         }
     }
 }
@@ -273,6 +279,8 @@ pub struct Prepared<'a> {
     prepare_seconds: f64,
     /// The side of the grid of rays per pixel (1: one ray).
     grid: u32,
+    /// [`RenderSettings::curvature_follows_mode`].
+    curvature_follows_mode: bool,
 }
 
 impl Prepared<'_> {
@@ -308,6 +316,9 @@ impl Prepared<'_> {
     /// Another shading mode for the next frame.
     pub fn set_mode(&mut self, mode: ShadingMode) {
         self.shading.mode = mode;
+        if self.curvature_follows_mode {
+            self.options.curvature = mode.uses_curvature();
+        }
     }
     /// Another isovalue for the next frame (the volume is kept: for a scene, values beyond
     /// its sampled band are clamped, so an isovalue outside the band shows nothing).
@@ -485,6 +496,9 @@ impl Renderer {
             }
             check_image_size(u64::from(w * grid), u64::from(h * grid)).map_err(err)?;
         }
+        if settings.curvature_follows_mode {
+            options.curvature = shading.mode.uses_curvature();
+        }
         Ok(Prepared {
             volume,
             scene: target.scene(),
@@ -497,6 +511,7 @@ impl Renderer {
             notes,
             prepare_seconds: t0.elapsed().as_secs_f64(),
             grid,
+            curvature_follows_mode: settings.curvature_follows_mode,
         })
     }
 

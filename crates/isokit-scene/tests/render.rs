@@ -175,3 +175,50 @@ fn every_view_renders_alone() {
         assert_eq!(*image, r.render_view(&p, k as u32, "t").unwrap().image);
     }
 }
+
+/// Frames that are shown, not kept, compute the principal curvatures only where the
+/// shading reads them: the Phong image is the same pixel for pixel, its G-buffer holds no
+/// curvature, and switching to a curvature mode brings the full G-buffer back.
+#[test]
+fn curvatures_can_follow_the_shading_mode() {
+    let text = r#"{"shape": {"difference": [{"box": {"half": [0.6, 0.5, 0.4]}},
+        {"sphere": {"radius": 0.6}}]}, "camera": {"eye": [1.5, 1.2, 2.5], "fov": 40},
+        "sampling": {"resolution": 40}}"#;
+    let scene = Scene::from_text(text, SceneFormat::Json, "t.json", ".".as_ref()).unwrap();
+    let kept = RenderSettings {
+        width: 48,
+        height: 40,
+        ..RenderSettings::default()
+    };
+    let shown = RenderSettings {
+        curvature_follows_mode: true,
+        ..kept.clone()
+    };
+    let mut r = Renderer::cpu();
+    let job = Job::default();
+    let full = r.render(RenderTarget::Scene(&scene), &kept, &job).unwrap();
+    let mut p = r
+        .prepare(RenderTarget::Scene(&scene), &shown, &job)
+        .unwrap();
+    assert!(!p.options().curvature);
+    let lean = r.render_prepared(&p, "t.json").unwrap();
+    assert!(full.stats.hits > 300, "{:?}", full.stats);
+    assert_eq!(lean.image.pixels, full.image.pixels);
+    let curved =
+        |f: &isokit_scene::Frame| f.gbuffer.pixels().iter().filter(|s| s.k1 != 0.0).count();
+    assert_eq!(curved(&lean), 0);
+    assert!(curved(&full) > 300);
+    for (a, b) in lean.gbuffer.pixels().iter().zip(full.gbuffer.pixels()) {
+        assert_eq!(
+            (a.position, a.depth, a.normal, a.id),
+            (b.position, b.depth, b.normal, b.id)
+        );
+    }
+    p.set_mode(isokit_render::ShadingMode::Curvature);
+    assert!(p.options().curvature);
+    let again = r.render_prepared(&p, "t.json").unwrap();
+    assert_eq!(again.gbuffer, full.gbuffer);
+    // Settings that keep the G-buffer keep the option as given.
+    let p = r.prepare(RenderTarget::Scene(&scene), &kept, &job).unwrap();
+    assert!(p.options().curvature);
+}

@@ -273,6 +273,8 @@ impl<F: Fn(Reply)> Worker<F> {
             mode: req.knobs.mode,
             camera: req.orbit.as_ref().map(spec),
             resolution,
+            // Frames are shown, not kept: the Hessian only for the modes that read it.
+            curvature_follows_mode: true,
             ..RenderSettings::default()
         }
     }
