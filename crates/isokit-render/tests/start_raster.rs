@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 use isokit_field::Camera;
+use isokit_render::kernel::ID_MISS;
 use isokit_render::{
     BrickCache, Combine, Inside, RenderOptions, StartRaster, Volume, render, uniforms,
 };
@@ -111,10 +112,14 @@ fn the_start_raster_changes_no_pixel() {
 
 #[test]
 fn the_start_raster_is_conservative() {
-    for (vn, v) in volumes() {
+    let cases = volumes()
+        .into_iter()
+        .flat_map(|v| [(v.clone(), false), (v, true)]);
+    for ((vn, v), caps) in cases {
         for (cn, cam) in cameras(80, 64) {
             let opts = RenderOptions {
-                caps: false,
+                caps,
+                iso: if caps { 0.35 } else { 0.0 },
                 start_raster: false,
                 ..Default::default()
             };
@@ -128,19 +133,26 @@ fn the_start_raster_is_conservative() {
                     let s = f.gbuffer.pixels()[(py * u.width + px) as usize];
                     let near = raster.near(px, py);
                     empty_tiles_pixels += usize::from(near == f32::INFINITY);
-                    if s.is_hit() {
+                    // A hit or a cap lies no nearer than the raster says; a tile it marks
+                    // empty holds neither where its misses are final.
+                    if s.id != ID_MISS {
                         hits += 1;
                         let t = s.depth / u.spacing;
                         assert!(
                             near <= t,
-                            "{vn}, {cn}: pixel ({px}, {py}) near {near} > hit {t}"
+                            "{vn}, {cn}, caps {caps}: pixel ({px}, {py}) near {near} > {t}"
                         );
+                    }
+                    if near == f32::INFINITY && raster.misses_final() {
+                        assert_eq!(s.id, ID_MISS, "{vn}, {cn}, caps {caps}: ({px}, {py})");
                     }
                 }
             }
             eprintln!(
-                "{vn}, {cn}: {hits} hits, {empty_tiles_pixels} of {} pixels in empty tiles",
-                u.width * u.height
+                "{vn}, {cn}, caps {caps}: {hits} hits and caps, {empty_tiles_pixels} of {} \
+                 pixels in empty tiles (final: {})",
+                u.width * u.height,
+                raster.misses_final()
             );
             assert!(hits > 0, "{vn}, {cn}");
         }

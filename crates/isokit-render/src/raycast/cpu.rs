@@ -1625,11 +1625,11 @@ pub fn trace_pixel(
     };
     let caps_on = u.flags & FLAG_CAPS != 0;
     // The smallest parameter at which this ray can reach an active block (CPU only).
-    let near = match (resume, data.start) {
-        (None, Some(s)) => s.near(px, py),
-        _ => f32::NEG_INFINITY,
+    let (near, misses_final) = match (resume, data.start) {
+        (None, Some(s)) => (s.near(px, py), s.misses_final()),
+        _ => (f32::NEG_INFINITY, false),
     };
-    if near == f32::INFINITY && !caps_on {
+    if near == f32::INFINITY && misses_final {
         return miss(samples);
     }
     let (ro, d) = subpixel_ray(u, px, py, sub);

@@ -28,6 +28,7 @@ use super::cpu::{Uniforms, block_active};
 pub struct StartRaster {
     tiles_x: u32,
     near: Vec<f32>,
+    misses_final: bool,
 }
 
 impl StartRaster {
@@ -59,6 +60,30 @@ impl StartRaster {
             (u.dims[2] - 1) as f32,
         );
         let b = u.block as f32;
+        // With caps on, a ray's first block is tested for lying inside the solid. Where every
+        // ray enters through the volume's faces (a perspective eye outside the box) those
+        // blocks are among the boundary blocks rastered here, so a tile that no box covers
+        // holds only misses; otherwise (an eye inside the box, orthographic rays starting
+        // inside it) the first block is tested as the walk does it.
+        let caps = u.flags & super::cpu::FLAG_CAPS != 0;
+        let outside = if u.ortho == 0 {
+            (0..3).any(|a| eye[a] < 0.0 || eye[a] > top[a])
+        } else {
+            // Orthographic rays start on the plane through the eye across `forward`: outside
+            // when the whole box lies in front of it.
+            (0..8).all(|c| {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { 0.0 } else { top.x },
+                    if c & 2 == 0 { 0.0 } else { top.y },
+                    if c & 4 == 0 { 0.0 } else { top.z },
+                );
+                (corner - eye).dot(forward) > 0.0
+            })
+        };
+        let misses_final = !caps || outside;
+        let inside = |r: [f32; 2]| {
+            super::cpu::residual(u, r[0]) < 0.0 && super::cpu::residual(u, r[1]) < 0.0
+        };
         // Pixel coordinates of a camera-space point (x, y) on the image plane: the inverse
         // of `subpixel_ray`'s `sx = (2 (px + 0.5) / w − 1) · h · aspect` (and `sy`).
         let (w, h) = (u.width as f32, u.height as f32);
@@ -72,7 +97,13 @@ impl StartRaster {
                         Some(i) => i[3] == 0.0,
                         None => block_active(u, block_range[idx]),
                     };
-                    if !active {
+                    // With caps, a ray entering the volume in a block inside the solid hits
+                    // there: such blocks on the volume's faces count too, where every ray
+                    // enters through a face (see `misses_final`).
+                    let boundary =
+                        x == 0 || y == 0 || z == 0 || x + 1 == bx || y + 1 == by || z + 1 == bz;
+                    let cap = caps && boundary && inside(block_range[idx]);
+                    if !(active || cap) {
                         continue;
                     }
                     let lo = Vec3::new(x as f32, y as f32, z as f32) * b;
@@ -107,11 +138,22 @@ impl StartRaster {
                 }
             }
         }
-        Some(Self { tiles_x, near })
+        Some(Self {
+            tiles_x,
+            near,
+            misses_final,
+        })
+    }
+
+    /// True when a pixel whose [`StartRaster::near`] is `+∞` misses: caps are off, or every
+    /// ray enters the volume through a face whose blocks inside the solid are rastered.
+    #[inline]
+    pub fn misses_final(&self) -> bool {
+        self.misses_final
     }
 
     /// The smallest ray parameter at which a ray of pixel `(px, py)` can reach an active
-    /// block (`+∞`: none can).
+    /// block (with caps, also a block inside the solid on the volume's faces; `+∞`: none can).
     #[inline]
     pub fn near(&self, px: u32, py: u32) -> f32 {
         let t = Self::TILE;
