@@ -951,10 +951,37 @@ pub fn tricubic_taps(pool: &[f32], l: &Located) -> f32 {
     let (wy, wz) = (bspline4(l.frac.y), bspline4(l.frac.z));
     let wx = Vec4::from_array(bspline4(l.frac.x));
     let w = taps_window(pool, l);
+    if l.side == DEFAULT_SIDE {
+        return taps_value_default_side(w, wx, wy, wz);
+    }
     let mut acc = Vec4::ZERO;
     for (k, &zk) in wz.iter().enumerate() {
         for (j, &yj) in wy.iter().enumerate() {
             acc += taps_row(w, l.side, j, k) * (yj * zk);
+        }
+    }
+    dot4(acc, wx)
+}
+
+/// The stored side of the default layout's bricks (32 cells and the apron of 3;
+/// [`crate::Layout::brick_side`]).
+const DEFAULT_SIDE: usize = 35;
+
+/// [`tricubic_taps`]'s sum for bricks of the default side: the window as an array and the
+/// 16 row offsets as constants, so the loads need no bounds checks (a third fewer
+/// instructions per sample). The same sums in the same order.
+#[inline(never)]
+fn taps_value_default_side(w: &[f32], wx: Vec4, wy: [f32; 4], wz: [f32; 4]) -> f32 {
+    const S: usize = DEFAULT_SIDE;
+    let w: &[f32; 3 * S * S + 3 * S + 4] = match w.try_into() {
+        Ok(w) => w,
+        Err(_) => unreachable!("a window of the default side"),
+    };
+    let mut acc = Vec4::ZERO;
+    for (k, &zk) in wz.iter().enumerate() {
+        for (j, &yj) in wy.iter().enumerate() {
+            let o = S * (j + S * k);
+            acc += Vec4::new(w[o], w[o + 1], w[o + 2], w[o + 3]) * (yj * zk);
         }
     }
     dot4(acc, wx)
@@ -1798,4 +1825,43 @@ pub fn trace_pixel(
         t_in = t1.max(t_in);
     }
     miss(samples)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The specialised tricubic sum is the default layout's and sums as the general one.
+    #[test]
+    fn the_default_side_specialisation_matches_the_general_sum() {
+        assert_eq!(DEFAULT_SIDE, crate::Layout::default().brick_side());
+        let side = DEFAULT_SIDE;
+        let pool: Vec<f32> = (0..side * side * side)
+            .map(|i| ((i * 7919) % 1013) as f32 * 0.01 - 3.0)
+            .collect();
+        for (c, f) in [
+            (IVec3::new(1, 1, 1), Vec3::new(0.25, 0.5, 0.75)),
+            (IVec3::new(17, 3, 30), Vec3::new(0.9, 0.01, 0.5)),
+            (IVec3::new(32, 32, 32), Vec3::ONE),
+        ] {
+            let l = Located {
+                base: 0,
+                cell: c,
+                frac: f,
+                p: Vec3::ZERO,
+                side,
+                half: false,
+            };
+            let (wy, wz) = (bspline4(f.y), bspline4(f.z));
+            let wx = Vec4::from_array(bspline4(f.x));
+            let w = taps_window(&pool, &l);
+            let mut acc = Vec4::ZERO;
+            for (k, &zk) in wz.iter().enumerate() {
+                for (j, &yj) in wy.iter().enumerate() {
+                    acc += taps_row(w, side, j, k) * (yj * zk);
+                }
+            }
+            assert_eq!(tricubic_taps(&pool, &l).to_bits(), dot4(acc, wx).to_bits());
+        }
+    }
 }
