@@ -71,8 +71,7 @@ pub fn run(a: Args) -> Result<()> {
         cache_bytes: a.knobs.cache_bytes(),
         resolution: a.res,
         samples: a.samples,
-        // A G-buffer keeps its curvature channels; an image computes them where it shows them.
-        curvature_follows_mode: a.gbuffer.is_none(),
+        curvature_follows_mode: a.gbuffer.is_none(), // a kept G-buffer keeps its curvatures
         ..RenderSettings::default()
     };
     // Opened once, at the first rendering (after the input was read, so that a missing
