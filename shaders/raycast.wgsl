@@ -5,7 +5,7 @@
 // next pass's list.
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
 // ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT, HALF_RESOLUTION,
-// RANGE_MARGIN, REFINE_TOLERANCE, SLOPE_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl
+// RANGE_MARGIN, REFINE_TOLERANCE, SLOPE_MARGIN, CARRY_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl
 // and common/curvature.wgsl (curvature, used by surface_sample; any_orthonormal).
 // CPU twin: crates/isokit-render/src/raycast/cpu.rs, function by function in the same order.
 
@@ -615,20 +615,22 @@ fn march_segment(ray: SegmentRay, t0: f32, t1: f32, first_block: bool) -> Segmen
 // the bound it leaves at t1 (raycast/cpu.rs: march_sphere).
 fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32, clear: f32) -> Segment {
     let min_step = 1.0 / (U.r0 * f32(U.fine));
+    let ao = abs(ray.o);
+    let face = slope * CARRY_MARGIN * (max(max(ao.x, ao.y), ao.z) + abs(t1));
     var t = t0;
     var r = 0.0;
     var carried = false;
     if (!first_block && clear > 0.0) {
         let lead = clear / slope;
         if (t0 + lead >= t1) {
-            return Segment(SEG_EMPTY, 0.0, clear - slope * (t1 - t0), 0.0, 0.0);
+            return Segment(SEG_EMPTY, 0.0, clear - slope * (t1 - t0) - face, 0.0, 0.0);
         }
         let tn = t0 + lead + min_step;
         let probe = select(t1, tn, tn < t1);
         let rn = residual_at(ray, probe);
         if (rn >= 0.0) {
             if (probe == t1) {
-                return Segment(SEG_EMPTY, 0.0, rn, 0.0, 0.0);
+                return Segment(SEG_EMPTY, 0.0, rn - face, 0.0, 0.0);
             }
             t = tn;
             r = rn;
@@ -658,7 +660,7 @@ fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32
         let sphere = r / slope;
         let cleared = select(0.0, sphere, sphere > 0.0);
         if (cleared > 0.0 && t + cleared >= t1) {
-            return Segment(SEG_EMPTY, 0.0, r - slope * (t1 - t), 0.0, 0.0);
+            return Segment(SEG_EMPTY, 0.0, r - slope * (t1 - t) - face, 0.0, 0.0);
         }
         let tf = t + cleared + min_step;
         let tn = select(t1, tf, tf < t1);
@@ -667,7 +669,7 @@ fn march_sphere(ray: SegmentRay, t0: f32, t1: f32, first_block: bool, slope: f32
             return Segment(SEG_CROSSING, t, r, tn, rn);
         }
         if (tn == t1) {
-            return Segment(SEG_EMPTY, 0.0, select(0.0, rn, rn > 0.0), 0.0, 0.0);
+            return Segment(SEG_EMPTY, 0.0, select(0.0, rn - face, rn > 0.0), 0.0, 0.0);
         }
         t = tn;
         r = rn;

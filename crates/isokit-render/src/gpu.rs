@@ -148,6 +148,7 @@ pub(crate) fn constants(label: &str) -> ShaderSource {
         .constant_f32("RANGE_MARGIN", RANGE_MARGIN)
         .constant_f32("REFINE_TOLERANCE", crate::kernel::REFINE_TOLERANCE)
         .constant_f32("SLOPE_MARGIN", crate::kernel::SLOPE_MARGIN)
+        .constant_f32("CARRY_MARGIN", crate::kernel::CARRY_MARGIN)
         .constant_f32("MIN_GRADIENT", DEFAULT_MIN_GRADIENT)
         .constant_f32("F32_MAX", f32::MAX)
 }

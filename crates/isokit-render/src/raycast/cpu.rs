@@ -98,6 +98,12 @@ pub const REFINE_TOLERANCE: f32 = 3e-5;
 /// rounding in the reconstruction cannot let a step land past a crossing.
 pub const SLOPE_MARGIN: f32 = 1.0 / 1024.0;
 
+/// Relative margin, per unit of the ray's coordinates, taken off a bound handed from one
+/// block to the next ([`march_sphere`]): the two blocks place the same face point from their
+/// own segment starts, a few ulps of `|o| + t` apart, so the next block's residual there may
+/// be lower by `slope` times that.
+pub const CARRY_MARGIN: f32 = 4.0 * f32::EPSILON;
+
 /// [`Uniforms::filter`] value of the trilinear filter.
 pub const FILTER_TRILINEAR: u32 = 0;
 /// [`Uniforms::filter`] value of the tricubic B-spline filter (8-fetch scheme).
@@ -1416,7 +1422,7 @@ pub fn march_segment(
 /// that sample where the first one lies inside (the crossing needs an outside end).
 /// Returns, with [`Segment::Empty`], the bound the segment leaves at `t1` for the next block:
 /// `r − slope · (t1 − t)` after the last sample `(t, r)` where the cleared part reaches
-/// `t1`, the residual itself where `t1` was sampled, else 0.
+/// `t1`, the residual itself where `t1` was sampled, else 0; less [`CARRY_MARGIN`]'s share.
 #[expect(
     clippy::too_many_arguments,
     reason = "the segment, its bounds and the counter, as the shader passes them"
@@ -1433,18 +1439,20 @@ pub fn march_sphere(
     samples: &mut u32,
 ) -> (Segment, f32) {
     let min_step = 1.0 / (u.r0 * u.fine as f32);
+    // What a bound handed on loses to the next block's placing of the face point.
+    let face = slope * CARRY_MARGIN * (ray.o.abs().max_element() + t1.abs());
     let mut carried = None;
     if !first && clear > 0.0 {
         let lead = clear / slope;
         if t0 + lead >= t1 {
-            return (Segment::Empty, clear - slope * (t1 - t0));
+            return (Segment::Empty, clear - slope * (t1 - t0) - face);
         }
         let tn = t0 + lead + min_step;
         let probe = if tn < t1 { tn } else { t1 };
         let rn = ray.residual_at(u, pool, probe, samples);
         if rn >= 0.0 {
             if probe == t1 {
-                return (Segment::Empty, rn);
+                return (Segment::Empty, rn - face);
             }
             carried = Some((tn, rn));
         }
@@ -1464,7 +1472,7 @@ pub fn march_sphere(
         let cleared = if sphere > 0.0 { sphere } else { 0.0 };
         if cleared > 0.0 && t + cleared >= t1 {
             // The bound keeps the rest of the segment outside.
-            return (Segment::Empty, r - slope * (t1 - t));
+            return (Segment::Empty, r - slope * (t1 - t) - face);
         }
         let tn = t + cleared + min_step;
         let tn = if tn < t1 { tn } else { t1 };
@@ -1479,7 +1487,7 @@ pub fn march_sphere(
             return (crossing, 0.0);
         }
         if tn == t1 {
-            return (Segment::Empty, if rn > 0.0 { rn } else { 0.0 });
+            return (Segment::Empty, if rn > 0.0 { rn - face } else { 0.0 });
         }
         (t, r) = (tn, rn);
     }

@@ -110,7 +110,7 @@ impl StartRaster {
                     let hi = (lo + b).min(top);
                     let (rect, dist) =
                         footprint(u.ortho != 0, u.spacing, eye, right, up, forward, lo, hi);
-                    let t_lo = dist * (1.0 - Self::RELATIVE_MARGIN) - Self::ABSOLUTE_MARGIN;
+                    let t_lo = dist - Self::RELATIVE_MARGIN * dist.abs() - Self::ABSOLUTE_MARGIN;
                     let (x0, x1, y0, y1) = match rect {
                         Some([sx0, sx1, sy0, sy1]) => {
                             // Screen y grows downwards: sy1 (top) gives the smaller row.
