@@ -588,14 +588,27 @@ pub fn cell_at(u: &Uniforms, t: f32, o: Vec3, d: Vec3, inv: Vec3, bd: IVec3) -> 
     IVec3::from_array(c)
 }
 
-/// Whether the walk samples block `idx`: its skip distance is 0 where [`TraceData::block_info`]
-/// holds one (computed by [`block_active`] for these ranges), else [`block_active`].
+/// Whether the walk samples block `idx`: its skip distance is 0 where `block_info` holds one
+/// ([`TraceData::block_info`], computed by [`block_active`] for these ranges), else
+/// [`block_active`] of its range.
 #[inline]
-fn block_is_active(u: &Uniforms, data: &TraceData<'_>, idx: usize) -> bool {
-    match data.block_info.get(idx) {
+pub fn block_is_active(
+    u: &Uniforms,
+    block_info: &[[f32; 4]],
+    block_range: &[[f32; 2]],
+    idx: usize,
+) -> bool {
+    match block_info.get(idx) {
         Some(i) => i[3] == 0.0,
-        None => block_active(u, data.block_range[idx]),
+        None => block_active(u, block_range[idx]),
     }
+}
+
+/// True when a block with this `[min, max]` lies inside the solid throughout: a ray whose
+/// first block it is hits a cap there.
+#[inline]
+pub fn range_inside(u: &Uniforms, range: [f32; 2]) -> bool {
+    residual(u, range[0]) < 0.0 && residual(u, range[1]) < 0.0
 }
 
 /// Linear index of block `cell`.
@@ -1696,9 +1709,8 @@ pub fn trace_pixel(
         // Nothing active before `near`: the entry block's cap test (as the walk's first step
         // over an inactive block makes it), then the walk starts in the block at `near`.
         let idx = block_index(u, cell);
-        if !block_is_active(u, data, idx) {
-            let range = data.block_range[idx];
-            if first && caps_on && residual(u, range[0]) < 0.0 && residual(u, range[1]) < 0.0 {
+        if !block_is_active(u, data.block_info, data.block_range, idx) {
+            if first && caps_on && range_inside(u, data.block_range[idx]) {
                 return PixelResult::Done {
                     sample: cap_sample(u, o, d, t_in, entry_axis),
                     samples,
@@ -1708,7 +1720,7 @@ pub fn trace_pixel(
                 return miss(samples);
             }
             let c = cell_at(u, near, o, d, inv, bd);
-            if !block_is_active(u, data, block_index(u, c)) {
+            if !block_is_active(u, data.block_info, data.block_range, block_index(u, c)) {
                 (cell, t_in, first) = (c, near, false);
             }
         }
@@ -1799,11 +1811,7 @@ pub fn trace_pixel(
                     };
                 }
             }
-        } else if first
-            && u.flags & FLAG_CAPS != 0
-            && residual(u, data.block_range[idx][0]) < 0.0
-            && residual(u, data.block_range[idx][1]) < 0.0
-        {
+        } else if first && u.flags & FLAG_CAPS != 0 && range_inside(u, data.block_range[idx]) {
             // A skipped block entirely inside: its first sample would be inside too.
             return PixelResult::Done {
                 sample: cap_sample(u, o, d, t_in, entry_axis),

@@ -20,7 +20,7 @@
 
 use glam::Vec3;
 
-use super::cpu::{Uniforms, block_active};
+use super::cpu::{Uniforms, block_is_active, range_inside};
 
 /// Per tile of the image, the smallest ray parameter (voxels) at which a ray of the tile can
 /// reach an active block: `+∞` when none can.
@@ -81,9 +81,6 @@ impl StartRaster {
             })
         };
         let misses_final = !caps || outside;
-        let inside = |r: [f32; 2]| {
-            super::cpu::residual(u, r[0]) < 0.0 && super::cpu::residual(u, r[1]) < 0.0
-        };
         // Pixel coordinates of a camera-space point (x, y) on the image plane: the inverse
         // of `subpixel_ray`'s `sx = (2 (px + 0.5) / w − 1) · h · aspect` (and `sy`).
         let (w, h) = (u.width as f32, u.height as f32);
@@ -93,16 +90,13 @@ impl StartRaster {
             for y in 0..by {
                 for x in 0..bx {
                     let idx = x + bx * (y + by * z);
-                    let active = match block_info.get(idx) {
-                        Some(i) => i[3] == 0.0,
-                        None => block_active(u, block_range[idx]),
-                    };
+                    let active = block_is_active(u, block_info, block_range, idx);
                     // With caps, a ray entering the volume in a block inside the solid hits
                     // there: such blocks on the volume's faces count too, where every ray
                     // enters through a face (see `misses_final`).
                     let boundary =
                         x == 0 || y == 0 || z == 0 || x + 1 == bx || y + 1 == by || z + 1 == bz;
-                    let cap = caps && boundary && inside(block_range[idx]);
+                    let cap = caps && boundary && range_inside(u, block_range[idx]);
                     if !(active || cap) {
                         continue;
                     }
