@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long, value_name = "S")]
     pub exit_after_seconds: Option<f64>,
     /// Merge file events closer together than this (one save writes several times).
-    #[arg(long, default_value_t = 40, value_name = "MS")]
+    #[arg(long, default_value_t = 16, value_name = "MS")]
     pub quiet_ms: u64,
     /// Sample every edit in full instead of reusing the bricks it cannot have changed (the
     /// baseline the reuse is measured against).

@@ -2,8 +2,9 @@
 
 Opens the viewer on a copy of the demo scene (examples/scenes/demo.json: a mesh blended
 with a sphere), saves edits to it (a primitive's radius; the mesh's transform; a new node)
-and reads, from the viewer's events file, the latency of the finished frame each edit
-produced (`latency_ms`: from the file event to the frame presented). The same edits are run
+and reads, from the viewer's events file, the latency of the first frame each edit
+produced (a half-size draft where the finished frame is slow) and of the finished frame
+(`latency_ms`: from the file event to the frame presented). The same edits are run
 with `--no-reuse` (every edit sampled in full, then rendered): the baseline of a full
 re-evaluation and re-render, in the same run. With xdotool, the window is also dragged to
 orbit and the camera frames counted.
@@ -89,17 +90,21 @@ def run(isokit, mesh, kind, n, size, reuse, work):
         args.append("--no-reuse")
     proc = subprocess.Popen(args, stderr=subprocess.PIPE)
     wait_finals(ev, 1)
-    lat, evaluated, reused, frame = [], [], [], []
+    lat, first, evaluated, reused, frame, phases = [], [], [], [], [], []
     for i, e in enumerate(edits(kind, n)):
         time.sleep(0.25)
+        seen = len([x for x in events(ev) if x.get("event") == "frame"])
         save(path, scene(mesh, **e))
         f = wait_finals(ev, i + 2)[-1]
+        new = [x for x in events(ev) if x.get("event") == "frame"][seen:]
+        first.append(new[0]["latency_ms"])
         lat.append(f["latency_ms"])
         evaluated.append(f["evaluated_bricks"])
         reused.append(f["reused_bricks"])
         frame.append(f["frame_ms"])
+        phases.append([f.get(k, 0.0) for k in ("load_ms", "sample_ms", "prepare_ms")])
     proc.wait(timeout=60)
-    return lat, evaluated, reused, frame
+    return lat, first, evaluated, reused, frame, phases
 
 
 def orbit(isokit, mesh, size, work, seconds=4.0):
@@ -153,19 +158,23 @@ def main():
             work = Path(d)
             for kind in ["radius", "mesh transform", "new node"]:
                 for reuse in [True, False]:
-                    lat, ev, re, fr = run(a.isokit, mesh, kind, a.edits, a.size, reuse, work)
+                    lat, fi, ev, re, fr, ph = run(a.isokit, mesh, kind, a.edits, a.size, reuse,
+                                                  work)
                     rows.append((kind, "reuse" if reuse else "full (--no-reuse)",
+                                 statistics.median(fi), p95(fi),
                                  statistics.median(lat), p95(lat), statistics.median(ev),
-                                 statistics.median(re), statistics.median(fr)))
+                                 statistics.median(re), statistics.median(fr),
+                                 *[statistics.median(p[i] for p in ph) for i in range(3)]))
             orb = orbit(a.isokit, mesh, a.size, work)
     finally:
         if xvfb:
             xvfb.terminate()
-    print(f"| edit ({a.edits} each, {a.size}², CPU) | sampling | latency median ms | p95 ms "
-          "| bricks evaluated | reused | frame ms |")
-    print("|---|---|---:|---:|---:|---:|---:|")
+    print(f"| edit ({a.edits} each, {a.size}², CPU) | sampling | first frame median ms | p95 ms "
+          "| finished frame median ms | p95 ms | bricks evaluated | reused | frame ms | load ms "
+          "| sample ms | prepare ms |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print(f"| {r[0]} | {r[1]} | {r[2]:.0f} | {r[3]:.0f} | {r[4]:.0f} | {r[5]:.0f} | {r[6]:.0f} |")
+        print(f"| {r[0]} | {r[1]} | " + " | ".join(f"{x:.0f}" for x in r[2:]) + " |")
     if orb:
         print(f"\norbiting: {orb[0]:.1f} draft frames/s (half size, median {orb[1]:.0f} ms per "
               f"frame), {orb[2]} camera frames")

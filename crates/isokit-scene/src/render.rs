@@ -752,7 +752,7 @@ fn colour_parts(
 const BSPLINE_RADIUS_VOXELS: f32 = 2.0;
 
 /// The most hit pixels [`thin_feature_note`] probes.
-const THIN_PROBES: usize = 4096;
+const THIN_PROBES: usize = 1024;
 
 /// The fraction of probed surface pixels near a crease above which [`thin_feature_note`]
 /// warns (sharp edges alone stay below it: their creases reach only a strip of pixels along

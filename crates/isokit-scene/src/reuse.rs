@@ -164,6 +164,15 @@ impl Scene {
         let cap = (plan.band + self.lipschitz() * reach) * 1.001 + plan.spacing;
         let prism_bands = self.prepare_prism_bands(&plan, cap)?;
         let field = Clamped { scene: self, cap };
+        // Memoized sources read their values back only where bricks are reused too.
+        let _armed = crate::memo::arm(
+            &self.memo_store,
+            &self.memos,
+            plan.origin,
+            plan.spacing,
+            plan.dims,
+            usable.is_some(),
+        );
         // A brick is untouched when every changed subtree's value there lies above the cap
         // it is evaluated with (so it is clamped to that cap before and after the edit).
         let test = |b: Aabb| {

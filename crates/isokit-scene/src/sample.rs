@@ -68,6 +68,14 @@ pub struct SourceStats {
     /// `queries` over the dense grid's sample count (a dense evaluation queries every
     /// source once per sample).
     pub query_fraction: f64,
+    /// Values read back from the source's lattice memo instead of evaluated (live editing,
+    /// [`crate::SourceCache::memoizing`]); absent when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub memo_hits: u64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 /// What one sampling computed (the `--stats` object of `isokit scene`).
@@ -258,6 +266,7 @@ impl Scene {
                     kind: s.kind,
                     queries: s.queries(),
                     query_fraction: s.queries() as f64 / dense.max(1.0),
+                    memo_hits: s.memo_hits(),
                 })
                 .collect(),
             prism_bands: Vec::new(),

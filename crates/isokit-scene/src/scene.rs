@@ -43,6 +43,8 @@ pub struct SourceInfo {
     /// The number of triangles, for meshes.
     pub triangles: Option<usize>,
     pub(crate) count: Arc<Counter>,
+    /// Values read back from the source's lattice memo, for memoized sources.
+    pub(crate) memo_hits: Option<Arc<Counter>>,
 }
 
 impl std::fmt::Debug for SourceInfo {
@@ -59,6 +61,12 @@ impl SourceInfo {
     /// How many times the source was evaluated since the last reset.
     pub fn queries(&self) -> u64 {
         self.count.get()
+    }
+
+    /// How many values were read back from the source's lattice memo since the last reset
+    /// (see [`crate::SourceCache::memoizing`]); 0 for sources without one.
+    pub fn memo_hits(&self) -> u64 {
+        self.memo_hits.as_ref().map_or(0, |c| c.get())
     }
 }
 
@@ -139,6 +147,9 @@ pub struct Scene {
     root: Box<dyn Field>,
     sources: Vec<SourceInfo>,
     pub(crate) prism_meshes: Vec<PrismMesh>,
+    /// Memoized sources, and the cache's tables they use ([`crate::memo`]).
+    pub(crate) memos: Vec<crate::memo::MemoUse>,
+    pub(crate) memo_store: Arc<std::sync::Mutex<crate::memo::MemoStore>>,
     lipschitz: f32,
     dependencies: Vec<PathBuf>,
     hashes: Vec<NodeHash>,
@@ -247,6 +258,7 @@ impl Scene {
             cache,
             sources: Vec::new(),
             prism_meshes: Vec::new(),
+            memos: Vec::new(),
             hashes: Vec::new(),
             frame: Frame::WORLD,
             warped: None,
@@ -257,7 +269,16 @@ impl Scene {
             pass: None,
         };
         let root = b.compile(&file.shape, "shape")?;
+        let memo_store = b.cache.memos.clone();
+        if b.cache.memoize {
+            let used: Vec<_> = b.memos.iter().map(|m| m.key).collect();
+            memo_store
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .retain(&used);
+        }
         let (sources, prism_meshes, hashes) = (b.sources, b.prism_meshes, b.hashes);
+        let memos = b.memos;
         let colors = b.colors;
         let parts = colors
             .iter()
@@ -282,6 +303,8 @@ impl Scene {
             root: root.field,
             sources,
             prism_meshes,
+            memos,
+            memo_store,
             lipschitz,
             dependencies,
             hashes,
@@ -351,7 +374,12 @@ impl Scene {
 
     /// Sets every source's query counter to zero.
     pub fn reset_counts(&self) {
-        self.sources.iter().for_each(|s| s.count.reset());
+        self.sources.iter().for_each(|s| {
+            s.count.reset();
+            if let Some(h) = &s.memo_hits {
+                h.reset();
+            }
+        });
     }
 
     /// Every file the scene read: the scene file itself, included scenes, meshes, clouds,
@@ -536,6 +564,7 @@ pub(crate) struct Builder<'a> {
     cache: &'a mut SourceCache,
     sources: Vec<SourceInfo>,
     prism_meshes: Vec<PrismMesh>,
+    memos: Vec<crate::memo::MemoUse>,
     hashes: Vec<NodeHash>,
     frame: Frame,
     /// The first node above that is not a similarity (a deformation, a repetition, an
@@ -577,8 +606,32 @@ impl Builder<'_> {
             kind,
             triangles,
             count: count.clone(),
+            memo_hits: None,
         });
         Box::new(Counted { field, count })
+    }
+
+    /// `field` (the source just counted, with content hash `hash`) memoized on the
+    /// lattices it is sampled on, when the cache asks for it and its frame allows.
+    fn memoized(&mut self, field: Box<dyn Field>, hash: u64) -> Box<dyn Field> {
+        if !self.cache.memoize || self.warped.is_some() {
+            return field;
+        }
+        let f = self.frame;
+        let Some(key) = crate::memo::key_of(hash, f.rotation, f.translation, f.scale) else {
+            return field;
+        };
+        let (m, slots) = crate::memo::Memoized::new(field);
+        if let Some(s) = self.sources.last_mut() {
+            s.memo_hits = Some(slots.hits.clone());
+        }
+        self.memos.push(crate::memo::MemoUse {
+            slots,
+            key,
+            translation: f.translation,
+            scale: f.scale,
+        });
+        Box::new(m)
     }
 
     /// The file a node names, relative to the scene file, recorded as a dependency (also
@@ -1141,6 +1194,7 @@ impl Builder<'_> {
         });
         let triangles = Some(mesh.triangles.len());
         let field = self.counted(path, "mesh", triangles, field);
+        let field = self.memoized(field, hash);
         Ok(Compiled::solid(field, hash))
     }
 
@@ -1193,6 +1247,7 @@ impl Builder<'_> {
             key.hash(h);
         });
         let field = self.counted(path, "points", None, sdf);
+        let field = self.memoized(field, hash);
         Ok(Compiled::solid(field, hash))
     }
 

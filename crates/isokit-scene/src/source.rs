@@ -23,7 +23,7 @@ impl Counter {
         Self(std::array::from_fn(|_| Padded(AtomicU64::new(0))))
     }
     #[inline]
-    fn add(&self) {
+    pub(crate) fn add(&self) {
         let i = rayon::current_thread_index().unwrap_or(0) % SHARDS;
         self.0[i].0.fetch_add(1, Ordering::Relaxed);
     }

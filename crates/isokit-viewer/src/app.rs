@@ -20,7 +20,7 @@ use winit::window::{Window, WindowId};
 
 /// Events the other threads send to the window thread.
 pub(crate) enum UserEvent {
-    Reply(Reply),
+    Reply(Box<Reply>),
     Edit(Instant),
 }
 
@@ -166,7 +166,7 @@ impl App {
             .name("isokit-view-render".into())
             .spawn(move || {
                 worker::run(input, backend, reuse, rx, slot, |r| {
-                    let _ = proxy.send_event(UserEvent::Reply(r));
+                    let _ = proxy.send_event(UserEvent::Reply(Box::new(r)));
                 })
             })
             .map_err(|e| e.to_string())?;
@@ -478,7 +478,7 @@ impl ApplicationHandler<UserEvent> for App {
 
     fn user_event(&mut self, el: &ActiveEventLoop, ev: UserEvent) {
         match ev {
-            UserEvent::Reply(r) => self.on_reply(el, r),
+            UserEvent::Reply(r) => self.on_reply(el, *r),
             UserEvent::Edit(t) => self.request(Reason::Edit, t, true, false, false),
         }
     }

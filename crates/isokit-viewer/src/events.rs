@@ -41,6 +41,11 @@ pub(crate) struct FrameEvent {
     pub reused_bricks: usize,
     pub bricks_loaded: u64,
     pub dense_fraction: f64,
+    /// For the frame that follows a (re)load: milliseconds compiling the scene, sampling its
+    /// band and preparing the renderer's volume; 0 for frames of an earlier sampling.
+    pub load_ms: f64,
+    pub sample_ms: f64,
+    pub prepare_ms: f64,
     pub width: u32,
     pub height: u32,
     pub backend: &'static str,
@@ -89,6 +94,9 @@ impl EventLog {
             "reused_bricks": f.reused_bricks,
             "bricks_loaded": f.bricks_loaded,
             "dense_fraction": f.dense_fraction,
+            "load_ms": f.load_ms,
+            "sample_ms": f.sample_ms,
+            "prepare_ms": f.prepare_ms,
             "width": f.width,
             "height": f.height,
             "backend": f.backend,

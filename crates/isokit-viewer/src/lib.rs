@@ -73,7 +73,7 @@ impl Default for ViewOptions {
             screenshot: None,
             exit_after_frames: None,
             exit_after_seconds: None,
-            quiet_ms: 40,
+            quiet_ms: 16,
             reuse: true,
         }
     }

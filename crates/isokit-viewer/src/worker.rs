@@ -16,6 +16,14 @@ use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+/// A finished frame slower than this (trace and shade, milliseconds) makes an edit show a
+/// half-size draft first.
+const DRAFT_ABOVE_MS: f64 = 40.0;
+
+/// A full sampling slower than this (milliseconds) makes the next edit show a coarse frame
+/// first (a quarter of the resolution sampled, half the image).
+const COARSE_ABOVE_MS: f64 = 50.0;
+
 /// What the input file is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum InputKind {
@@ -133,6 +141,12 @@ struct Worker<F: Fn(Reply)> {
     reuse: bool,
     /// The resolution and band of the sampling being shown.
     sampling: Option<(usize, f32)>,
+    /// Milliseconds the last load spent compiling and sampling, for its first frame's event.
+    phases: (f64, f64),
+    /// Trace and shade milliseconds of the last finished frame.
+    last_frame_ms: f64,
+    /// Milliseconds of the last full-resolution sampling.
+    last_sample_ms: f64,
     send: F,
     slot: CancelSlot,
     rx: Receiver<Request>,
@@ -168,10 +182,13 @@ pub(crate) fn run(
         kind: InputKind::of(&input),
         input,
         renderer,
-        cache: SourceCache::default(),
+        cache: SourceCache::memoizing(),
         previous: None,
         reuse,
         sampling: None,
+        phases: (0.0, 0.0),
+        last_frame_ms: 0.0,
+        last_sample_ms: 0.0,
         send,
         slot,
         rx,
@@ -279,10 +296,17 @@ impl<F: Fn(Reply)> Worker<F> {
         }
     }
 
-    fn send_frame(&self, frame: &Frame, req: &Request, final_: bool, reused: Option<usize>) {
+    fn send_frame(&mut self, frame: &Frame, req: &Request, final_: bool, reused: Option<usize>) {
         let rgba = frame.image.to_rgba8();
         let pixels = to_0rgb(&rgba);
         let st = &frame.stats;
+        if final_ {
+            self.last_frame_ms = 1e3 * (st.trace_seconds + st.shade_seconds);
+        }
+        let ((load_ms, sample_ms), prepare_ms) = match reused {
+            Some(_) => (self.phases, 1e3 * st.prepare_seconds),
+            None => ((0.0, 0.0), 0.0),
+        };
         let (evaluated, reused, dense) = match (&st.sampling, reused) {
             (Some(s), Some(r)) => (s.bricks_kept.saturating_sub(r), r, s.dense_fraction),
             _ => (0, 0, 0.0),
@@ -301,6 +325,9 @@ impl<F: Fn(Reply)> Worker<F> {
                 reused_bricks: reused,
                 bricks_loaded: st.bricks_loaded,
                 dense_fraction: dense,
+                load_ms,
+                sample_ms,
+                prepare_ms,
                 width: frame.image.width,
                 height: frame.image.height,
                 backend: st.backend,
@@ -323,15 +350,32 @@ impl<F: Fn(Reply)> Worker<F> {
     ) -> bool {
         let name = self.input.display().to_string();
         let (w, h) = size_of(req);
-        if let Some(o) = &req.orbit {
-            let bounds = p.volume().bounds();
-            match camera_for(Some(&spec(o)), bounds, ProjectionKind::Perspective, w, h) {
-                Ok(c) => p.set_camera(c),
-                Err(e) => {
-                    self.error(&SceneError::new(&name, "camera", e.to_string()), req.reason);
-                    return false;
-                }
+        let c = p.camera();
+        let camera = match &req.orbit {
+            Some(o) => Some(
+                camera_for(
+                    Some(&spec(o)),
+                    p.volume().bounds(),
+                    ProjectionKind::Perspective,
+                    w,
+                    h,
+                )
+                .map_err(|e| e.to_string()),
+            ),
+            // The input's own camera at this request's size (a draft is half the window).
+            None if (c.width(), c.height()) != (w, h) => Some(
+                isokit_field::Camera::look_at(c.eye(), c.target(), c.up(), c.projection(), w, h)
+                    .map_err(|e| e.to_string()),
+            ),
+            None => None,
+        };
+        match camera {
+            Some(Ok(c)) => p.set_camera(c),
+            Some(Err(e)) => {
+                self.error(&SceneError::new(&name, "camera", e), req.reason);
+                return false;
             }
+            None => {}
         }
         if let Some(m) = req.knobs.mode {
             p.set_mode(m);
@@ -365,6 +409,7 @@ impl<F: Fn(Reply)> Worker<F> {
 
     fn scene(&mut self, req: Request) -> Option<Request> {
         let job = self.new_job();
+        let t_load = Instant::now();
         let scene = match Scene::load_with(&self.input, &mut self.cache) {
             Ok(s) => s,
             Err(e) => {
@@ -386,13 +431,18 @@ impl<F: Fn(Reply)> Worker<F> {
         if req.knobs.band.is_some() {
             opts.band = req.knobs.band;
         }
+        let load_ms = 1e3 * t_load.elapsed().as_secs_f64();
+        self.phases = (load_ms, 0.0);
         let reusable = self.previous.as_ref().is_some_and(|p| *p.options() == opts);
         let mut pending = None;
         // A coarse frame first (a quarter of the resolution, half the image) when nothing
-        // can be reused, unless only the camera or shading changed.
-        if !reusable && req.reason >= Reason::Edit && base >= 64 && !req.draft {
-            let coarse = Request { draft: true, ..req };
-            let cs = self.settings(&coarse, Some((base / 4).max(24)));
+        // can be reused or the last sampling was slow, unless only the camera or shading
+        // changed.
+        let slow = !reusable || self.last_sample_ms > COARSE_ABOVE_MS;
+        let coarse = slow && req.reason >= Reason::Edit && base >= 64 && !req.draft;
+        if coarse {
+            let coarse_req = Request { draft: true, ..req };
+            let cs = self.settings(&coarse_req, Some((base / 4).max(24)));
             match self
                 .renderer
                 .prepare(RenderTarget::Scene(&scene), &cs, &job)
@@ -401,7 +451,7 @@ impl<F: Fn(Reply)> Worker<F> {
                     // Files only: the scene's camera frames the full lattice (below).
                     self.loaded(&scene, &p, false);
                     let full_sampling = self.sampling.take();
-                    self.render(&mut p, &coarse, false, Some(0));
+                    self.render(&mut p, &coarse_req, false, Some(0));
                     self.sampling = full_sampling;
                 }
                 Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
@@ -423,6 +473,8 @@ impl<F: Fn(Reply)> Worker<F> {
             }
         };
         let reused = sampled.stats.bricks_reused;
+        self.phases = (load_ms, 1e3 * sampled.stats.seconds);
+        self.last_sample_ms = 1e3 * sampled.stats.seconds;
         self.sampling = Some((opts.resolution, sampled.stats.band));
         if self.reuse {
             // Shared, not copied: the renderer's volume is built from it below.
@@ -442,6 +494,20 @@ impl<F: Fn(Reply)> Worker<F> {
         self.loaded(&scene, &p, true);
         if self.stale(&mut pending) {
             return pending;
+        }
+        // A draft first (half the image) when a finished frame takes longer than the frame
+        // budget and no coarse frame was shown: the edit's first pixels come sooner, the
+        // finished frame right after.
+        if !coarse
+            && req.reason >= Reason::Edit
+            && !req.draft
+            && self.last_frame_ms > DRAFT_ABOVE_MS
+        {
+            let draft = Request { draft: true, ..req };
+            self.render(&mut p, &draft, false, Some(reused));
+            if self.stale(&mut pending) {
+                return pending;
+            }
         }
         let ok = self.render(&mut p, &req, true, Some(reused));
         if let Some(r) = pending.take() {
@@ -599,6 +665,9 @@ impl<F: Fn(Reply)> Worker<F> {
                             reused_bricks: 0,
                             bricks_loaded: 0,
                             dense_fraction: 0.0,
+                            load_ms: 0.0,
+                            sample_ms: 0.0,
+                            prepare_ms: 0.0,
                             width: w,
                             height: h,
                             backend: self.renderer.backend(),

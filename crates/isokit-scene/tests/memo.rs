@@ -1,0 +1,145 @@
+//! Lattice memos of a live-editing cache (`SourceCache::memoizing`): after an edit beside a
+//! mesh, the bricks sampled again read the mesh's values back instead of querying its
+//! kd-tree, and the band is bit for bit a fresh sampling's.
+
+use isokit_field::Job;
+use isokit_scene::file::parse;
+use isokit_scene::{SampleOptions, Scene, SceneFormat, SourceCache};
+use std::path::Path;
+
+fn data() -> String {
+    format!("{}/../../data", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The demo scene's shape: a mesh (moved by `dx`) blended with a sphere of radius `r`, and
+/// `extra` small spheres.
+fn text(r: f32, dx: f32, extra: usize) -> String {
+    let mut of = vec![
+        format!(
+            r#"{{"transform": {{"translate": [{dx}, 0, 0], "of": {{"mesh": {{"path": "{}/torus.off"}}}}}}}}"#,
+            data()
+        ),
+        format!(r#"{{"sphere": {{"radius": {r}, "center": [0.3, 0.2, 0]}}}}"#),
+    ];
+    for i in 0..extra {
+        of.push(format!(
+            r#"{{"sphere": {{"radius": 0.12, "center": [0.9, {}, 0.3]}}}}"#,
+            0.5 - 0.2 * i as f32
+        ));
+    }
+    format!(
+        r#"{{"sampling": {{"resolution": 64, "bounds": [[-1.6, -1.6, -1.0], [1.6, 1.6, 1.0]]}},
+            "shape": {{"smooth_union": {{"radius": 0.1, "of": [{}]}}}}}}"#,
+        of.join(", ")
+    )
+}
+
+fn compile(text: &str, cache: &mut SourceCache) -> Scene {
+    let file = parse(text, SceneFormat::Json, "memo.json").unwrap();
+    Scene::from_file_with(file, Path::new("."), cache).unwrap()
+}
+
+fn mesh_stats(s: &isokit_scene::SampleStats) -> (u64, u64) {
+    let m = s.sources.iter().find(|s| s.kind == "mesh").unwrap();
+    (m.queries, m.memo_hits)
+}
+
+/// Samples `before`, then `after` reusing it through one memoizing cache; checks the band
+/// against a fresh sampling of `after` (no cache) and returns the mesh's queries and memo
+/// hits in the second sampling, and its queries in the fresh one.
+fn edit(before: &str, after: &str) -> (u64, u64, u64) {
+    let job = Job::default();
+    let mut cache = SourceCache::memoizing();
+    let first = compile(before, &mut cache);
+    let opts = SampleOptions::from_scene(&first);
+    let old = first.sample_kept(&opts, &job).unwrap();
+    assert_eq!(
+        mesh_stats(&old.stats).1,
+        0,
+        "a first sampling has nothing to read"
+    );
+    let new = compile(after, &mut cache);
+    let again = new.sample_again(&opts, Some(&old), &job).unwrap();
+    let fresh_scene = compile(after, &mut SourceCache::default());
+    let fresh = fresh_scene.sample_kept(&opts, &job).unwrap();
+    let (a, f) = (again.grid.to_grid().unwrap(), fresh.grid.to_grid().unwrap());
+    let differ = a
+        .data()
+        .iter()
+        .zip(f.data())
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert_eq!(differ, 0, "{differ} samples differ from a fresh sampling");
+    let (q, h) = mesh_stats(&again.stats);
+    eprintln!(
+        "mesh queries {q} with {h} read back; fresh sampling {}",
+        mesh_stats(&fresh.stats).0
+    );
+    (q, h, mesh_stats(&fresh.stats).0)
+}
+
+#[test]
+fn a_radius_edit_beside_a_mesh_reads_the_mesh_back() {
+    let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.45, 0.0, 0));
+    assert!(hits > 0, "no value read back");
+    assert!(
+        queries * 20 < fresh,
+        "the mesh was queried {queries} times (fresh {fresh}), {hits} read back"
+    );
+}
+
+#[test]
+fn a_new_operand_of_the_blend_reads_the_mesh_back() {
+    let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.4, 0.0, 2));
+    assert!(hits > 0, "no value read back");
+    assert!(
+        queries * 5 < fresh,
+        "the mesh was queried {queries} times (fresh {fresh}), {hits} read back"
+    );
+}
+
+#[test]
+fn moving_the_mesh_queries_it_again() {
+    // Another frame: another memo; only the nodes bricks share read back (their aprons),
+    // the band still exact.
+    let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.4, 0.05, 0));
+    assert!(
+        queries >= fresh / 2,
+        "queried {queries}, fresh {fresh}, {hits} read back"
+    );
+}
+
+#[test]
+fn without_a_memoizing_cache_nothing_is_read_back() {
+    let opts = SampleOptions {
+        resolution: 48,
+        ..Default::default()
+    };
+    let job = Job::default();
+    let mut cache = SourceCache::default();
+    let a = compile(&text(0.4, 0.0, 0), &mut cache);
+    let old = a.sample_kept(&opts, &job).unwrap();
+    let b = compile(&text(0.45, 0.0, 0), &mut cache);
+    let again = b.sample_again(&opts, Some(&old), &job).unwrap();
+    assert_eq!(mesh_stats(&again.stats).1, 0);
+}
+
+#[test]
+fn a_full_resampling_only_fills_the_memo() {
+    // No previous sampling given (what `isokit view --no-reuse` does): evaluated in full.
+    let opts = SampleOptions {
+        resolution: 48,
+        ..Default::default()
+    };
+    let job = Job::default();
+    let mut cache = SourceCache::memoizing();
+    let a = compile(&text(0.4, 0.0, 0), &mut cache);
+    a.sample_kept(&opts, &job).unwrap();
+    let b = compile(&text(0.45, 0.0, 0), &mut cache);
+    let again = b.sample_again(&opts, None, &job).unwrap();
+    let fresh = compile(&text(0.45, 0.0, 0), &mut SourceCache::default())
+        .sample_kept(&opts, &job)
+        .unwrap();
+    assert_eq!(mesh_stats(&again.stats).1, 0);
+    assert_eq!(mesh_stats(&again.stats).0, mesh_stats(&fresh.stats).0);
+}
