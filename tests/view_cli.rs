@@ -390,3 +390,140 @@ fn a_volume_and_a_molecule_open_too() {
     assert!(background < px.len() / 4, "only background");
     assert_eq!(finals(&read_events(&events))[0]["reason"], "start");
 }
+
+/// The window of the viewer whose title names `dir` (its scene's folder), found by xdotool;
+/// `None` (skipped, with the reason printed) where xdotool is missing, unless
+/// `ISOKIT_REQUIRE_DISPLAY=1`.
+fn window_of(dir: &Path) -> Option<String> {
+    if Command::new("xdotool").arg("version").output().is_err() {
+        assert!(
+            std::env::var("ISOKIT_REQUIRE_DISPLAY").as_deref() != Ok("1"),
+            "ISOKIT_REQUIRE_DISPLAY=1 but xdotool is missing (.ci/run installs it)"
+        );
+        eprintln!("skipped: no xdotool to click the panel");
+        return None;
+    }
+    let name = dir.file_name().unwrap().to_string_lossy().to_string();
+    let t0 = Instant::now();
+    loop {
+        let out = Command::new("xdotool")
+            .args(["search", "--name", &name])
+            .output()
+            .unwrap();
+        if let Some(w) = String::from_utf8_lossy(&out.stdout)
+            .split_whitespace()
+            .next()
+        {
+            return Some(w.to_string());
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "no window named {name}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Runs xdotool on the window `w` (pointer positions relative to it).
+fn xdo(w: &str, args: &[&str]) {
+    let mut all = vec!["mousemove", "--window", w];
+    all.extend_from_slice(args);
+    let ok = Command::new("xdotool")
+        .args(&all)
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "xdotool {all:?}");
+}
+
+fn panel_frames(ev: &[Value]) -> Vec<&Value> {
+    ev.iter()
+        .filter(|e| e["event"] == "frame" && e["reason"] == "panel" && e["final"] == true)
+        .collect()
+}
+
+/// The panel's widgets answer clicks and drags: the shading mode's next button, the
+/// isovalue's slider (clicked, then dragged past its left end) and the quit button.
+/// Positions follow the panel's layout at one pixel per font pixel (windows under 720
+/// pixels high): 8×10-pixel character cells from (4, 3); a widget's column is where its
+/// label starts in its line.
+#[test]
+fn the_panel_widgets_answer_clicks_and_drags() {
+    if !have_display() {
+        return;
+    }
+    let d = scratch("view-widgets");
+    let (scene, events, shot) = files(&d);
+    save(&scene, &scene_text(0.5));
+    let child = Command::new(env!("CARGO_BIN_EXE_isokit"))
+        .arg("view")
+        .arg(&scene)
+        .args(["--backend", "cpu", "--width", "640", "--height", "400"])
+        .arg("--events")
+        .arg(&events)
+        .arg("--screenshot")
+        .arg(&shot)
+        .args(["--exit-after-seconds", "90"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("isokit view starts");
+    let ev = wait_for(&events, "the first frame", |e| !finals(e).is_empty());
+    let first_mode = finals(&ev)[0]["mode"].as_str().unwrap().to_string();
+    let Some(w) = window_of(&d) else {
+        let _ = Command::new("kill").arg(child.id().to_string()).status();
+        return;
+    };
+    let cell = |col: f32, row: f32| {
+        (
+            format!("{}", (4.0 + (col + 0.5) * 8.0) as i32),
+            format!("{}", (3.0 + (row + 0.5) * 10.0) as i32),
+        )
+    };
+    // Row 1: "shading  " and the mode padded to 10, then " [<] [>]": [>] starts at col 24.
+    let (x, y) = cell(25.0, 1.0);
+    xdo(&w, &[&x, &y, "click", "1"]);
+    let ev = wait_for(&events, "a frame in another mode", |e| {
+        panel_frames(e)
+            .iter()
+            .any(|f| f["mode"] != first_mode.as_str())
+    });
+    let n = panel_frames(&ev).len();
+    // Row 3: the isovalue's slider, 24 columns from col 20; three quarters along it.
+    let (x, y) = cell(38.0, 3.0);
+    xdo(&w, &[&x, &y, "click", "1"]);
+    let ev = wait_for(&events, "a frame at a positive isovalue", |e| {
+        panel_frames(e)
+            .iter()
+            .skip(n)
+            .any(|f| f["iso"].as_f64().unwrap() > 0.0)
+    });
+    let n = panel_frames(&ev).len();
+    // Dragged from its middle to the window's left edge: the lowest isovalue, −band.
+    let (x, y) = cell(32.0, 3.0);
+    xdo(&w, &[&x, &y, "mousedown", "1"]);
+    xdo(&w, &["1", &y]);
+    xdo(&w, &["1", &y, "mouseup", "1"]);
+    let ev = wait_for(&events, "a frame at a negative isovalue", |e| {
+        panel_frames(e)
+            .iter()
+            .skip(n)
+            .any(|f| f["iso"].as_f64().unwrap() < 0.0)
+    });
+    let iso: Vec<f64> = panel_frames(&ev)
+        .iter()
+        .map(|f| f["iso"].as_f64().unwrap())
+        .collect();
+    // The slider spans ±band symmetrically: its ends are opposite isovalues.
+    let lowest = iso.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(lowest < 0.0, "{iso:?}");
+    // Orbiting is not what a press on a widget does: no camera frame came.
+    assert!(
+        !ev.iter().any(|e| e["reason"] == "camera"),
+        "a click on the panel moved the camera"
+    );
+    // Row 9: "drag orbit, shift-drag pan, wheel zoom" then " [reset view R] [quit Q]".
+    let (x, y) = cell(56.0, 9.0);
+    xdo(&w, &[&x, &y, "click", "1"]);
+    finish(child);
+}

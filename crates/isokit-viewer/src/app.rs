@@ -2,7 +2,7 @@
 
 use crate::events::{EventLog, Reason};
 use crate::orbit::Orbit;
-use crate::panel;
+use crate::panel::{self, Action, Line};
 use crate::watch::FileWatch;
 use crate::worker::{self, CancelSlot, InputKind, Knobs, Reply, Request};
 use crate::{ViewError, ViewOptions};
@@ -44,6 +44,8 @@ struct Live {
     fps: f64,
     /// The resolution and band of the sampling shown.
     sampling: Option<(usize, f32)>,
+    /// The shading mode of the frame shown.
+    mode: Option<&'static str>,
     last_present: Option<Instant>,
 }
 
@@ -75,6 +77,8 @@ struct App {
     cursor: Option<PhysicalPosition<f64>>,
     settle_at: Option<Instant>,
     show_panel: bool,
+    /// The panel widget the left button was pressed on (until it is released).
+    pressed: Option<Action>,
     failure: Option<ViewError>,
 }
 
@@ -115,6 +119,7 @@ pub(crate) fn run(opts: ViewOptions) -> Result<(), ViewError> {
         cursor: None,
         settle_at: None,
         show_panel: true,
+        pressed: None,
         failure: None,
     };
     event_loop
@@ -208,41 +213,61 @@ impl App {
         self.settle_at = draft.then(|| Instant::now() + SETTLE);
     }
 
-    fn panel_lines(&self) -> Vec<(String, u32)> {
+    fn panel_lines(&self) -> Vec<Line> {
         let t = panel::TEXT;
         let mode = self.knobs.mode.map_or("scene's", ShadingMode::name);
+        let iso = self
+            .knobs
+            .iso
+            .map_or("default".into(), |v| format!("{v:.4}"));
         let mut lines = vec![
-            (format!("{}  [H] hide panel", self.opts.input.display()), t),
-            (format!("shading  {mode}  [M]/[N] next/previous"), t),
-            (
-                format!(
-                    "iso      {}  [I]/[K] up/down",
-                    self.knobs
-                        .iso
-                        .map_or("default".into(), |v| format!("{v:.4}"))
-                ),
-                t,
-            ),
+            Line::new(format!("{}", self.opts.input.display()), t).button("[hide H]", Action::Hide),
+            Line::new(format!("shading  {mode:<10}"), t)
+                .button("[<]", Action::Mode(-1))
+                .button("[>]", Action::Mode(1))
+                .text("  keys M N"),
+            Line::new(format!("iso      {iso:<10}"), t)
+                .button("[-]", Action::Iso(-1.0))
+                .button("[+]", Action::Iso(1.0))
+                .text("  keys K I"),
         ];
         if self.kind == InputKind::Scene {
             let (res, band) = match self.live.sampling {
                 Some((r, b)) => (r.to_string(), format!("{b:.4}")),
                 None => ("-".into(), "-".into()),
             };
-            lines.push((format!("sampling {res}  [+]/[-] resolution"), t));
-            lines.push((format!("band     {band}  [B]/[V] wider/narrower"), t));
+            if let Some((_, b)) = self.live.sampling {
+                let f = 0.5 * (self.knobs.iso.unwrap_or(0.0) / b + 1.0);
+                lines.push(
+                    Line::new(format!("{:<19}", format!("  -{b:.3}")), t)
+                        .slider(24, f, Action::IsoAt)
+                        .text(&format!(" +{b:.3}")),
+                );
+            }
+            lines.push(
+                Line::new(format!("sampling {res:<10}"), t)
+                    .button("[-]", Action::Resolution(false))
+                    .button("[+]", Action::Resolution(true))
+                    .text("  keys - +"),
+            );
+            lines.push(
+                Line::new(format!("band     {band:<10}"), t)
+                    .button("[-]", Action::Band(false))
+                    .button("[+]", Action::Band(true))
+                    .text("  keys V B"),
+            );
         }
         let l = &self.live;
         lines.extend([
-            (format!("backend  {}", self.device), t),
-            (
+            Line::new(format!("backend  {}", self.device), t),
+            Line::new(
                 format!(
                     "frame {:.1} ms  {:.1} fps  edit latency {:.0} ms",
                     l.frame_ms, l.fps, l.latency_ms
                 ),
                 t,
             ),
-            (
+            Line::new(
                 format!(
                     "bricks evaluated {} reused {}  grid evaluated {:.1}%  loaded {}",
                     l.evaluated,
@@ -252,16 +277,24 @@ impl App {
                 ),
                 t,
             ),
-            (
-                "drag orbit, shift-drag pan, wheel zoom, [R]eset, [Q]uit".into(),
-                t,
-            ),
+            Line::new("drag orbit, shift-drag pan, wheel zoom", t)
+                .button("[reset view R]", Action::Reset)
+                .button("[quit Q]", Action::Quit),
         ]);
-        lines.extend(self.notes.iter().map(|n| (n.clone(), t)));
+        lines.extend(self.notes.iter().map(|n| Line::new(n.clone(), t)));
         if let Some(e) = &self.error {
-            lines.push((e.clone(), panel::ERROR));
+            lines.push(Line::new(e.clone(), panel::ERROR));
         }
         lines
+    }
+
+    /// Pixels per font pixel of the panel, for the window's height.
+    fn panel_scale(&self) -> usize {
+        let h = self
+            .window
+            .as_ref()
+            .map_or(self.size.1, |(w, _)| w.inner_size().height);
+        if h >= 720 { 2 } else { 1 }
     }
 
     /// Draws the frame shown (scaled to the window, nearest sample) and the panel.
@@ -271,9 +304,10 @@ impl App {
         } else {
             self.error
                 .iter()
-                .map(|e| (e.clone(), panel::ERROR))
+                .map(|e| Line::new(e.clone(), panel::ERROR))
                 .collect()
         };
+        let scale = self.panel_scale();
         let Some((window, surface)) = &mut self.window else {
             return;
         };
@@ -301,7 +335,7 @@ impl App {
             }
             None => buf.fill(0x0030_3030),
         }
-        panel::draw(&mut buf, ww, wh, &lines, if wh >= 720 { 2 } else { 1 });
+        panel::draw(&mut buf, ww, wh, &lines, scale);
         let _ = buf.present();
     }
 
@@ -342,6 +376,7 @@ impl App {
                 }
                 l.last_present = Some(now);
                 l.frame_ms = event.frame_ms;
+                l.mode = Some(event.mode);
                 if event.reason >= Reason::Edit || event.reason == Reason::Panel {
                     l.latency_ms = event.latency_ms;
                 }
@@ -397,72 +432,97 @@ impl App {
     }
 
     fn key(&mut self, el: &ActiveEventLoop, key: &Key) {
-        let modes = ShadingMode::ALL;
-        let step_mode = |cur: Option<ShadingMode>, d: isize| {
-            let i = cur
-                .and_then(|m| modes.iter().position(|(_, x)| *x == m))
-                .map_or(0, |i| i as isize + d);
-            modes[i.rem_euclid(modes.len() as isize) as usize].1
-        };
-        let iso_step = self.orbit.map_or(0.01, |o| 0.002 * o.offset.length());
-        match key {
-            Key::Named(NamedKey::Escape) => el.exit(),
+        let action = match key {
+            Key::Named(NamedKey::Escape) => Action::Quit,
             Key::Character(c) => match c.as_str() {
-                "q" | "Q" => el.exit(),
-                "h" | "H" => {
-                    self.show_panel = !self.show_panel;
-                    self.present();
+                "q" | "Q" => Action::Quit,
+                "h" | "H" => Action::Hide,
+                "m" | "M" => Action::Mode(1),
+                "n" | "N" => Action::Mode(-1),
+                "i" | "I" => Action::Iso(1.0),
+                "k" | "K" => Action::Iso(-1.0),
+                "b" | "B" => Action::Band(true),
+                "v" | "V" => Action::Band(false),
+                "+" | "=" => Action::Resolution(true),
+                "-" => Action::Resolution(false),
+                "r" | "R" => Action::Reset,
+                _ => return,
+            },
+            _ => return,
+        };
+        self.act(el, action, 0.0);
+    }
+
+    /// Does what a key or a click on the panel asks for; `fraction`: where along a slider
+    /// it was clicked.
+    fn act(&mut self, el: &ActiveEventLoop, action: Action, fraction: f32) {
+        let modes = ShadingMode::ALL;
+        let scene = self.kind == InputKind::Scene;
+        match action {
+            Action::Quit => el.exit(),
+            Action::Hide => {
+                self.show_panel = !self.show_panel;
+                self.present();
+            }
+            Action::Mode(d) => {
+                // From the mode set, else the one shown (the input's own).
+                let i = match self.knobs.mode {
+                    Some(m) => modes.iter().position(|(_, x)| *x == m),
+                    None => self
+                        .live
+                        .mode
+                        .and_then(|n| modes.iter().position(|(_, x)| x.name() == n)),
                 }
-                "m" | "M" => {
-                    self.knobs.mode = Some(step_mode(self.knobs.mode, 1));
+                .map_or(0, |i| i as isize + d);
+                self.knobs.mode = Some(modes[i.rem_euclid(modes.len() as isize) as usize].1);
+                self.request(Reason::Panel, Instant::now(), false, false, false);
+            }
+            Action::Iso(d) => {
+                let step = self.orbit.map_or(0.01, |o| 0.002 * o.offset.length());
+                self.knobs.iso = Some(self.knobs.iso.unwrap_or(0.0) + d * step);
+                self.request(Reason::Panel, Instant::now(), false, false, false);
+            }
+            Action::IsoAt => {
+                if let Some((_, band)) = self.live.sampling {
+                    self.knobs.iso = Some(band * (2.0 * fraction.clamp(0.0, 1.0) - 1.0));
                     self.request(Reason::Panel, Instant::now(), false, false, false);
                 }
-                "n" | "N" => {
-                    self.knobs.mode = Some(step_mode(self.knobs.mode, -1));
-                    self.request(Reason::Panel, Instant::now(), false, false, false);
-                }
-                "i" | "I" | "k" | "K" => {
-                    let d = if matches!(c.as_str(), "i" | "I") {
-                        1.0
-                    } else {
-                        -1.0
-                    };
-                    self.knobs.iso = Some(self.knobs.iso.unwrap_or(0.0) + d * iso_step);
-                    self.request(Reason::Panel, Instant::now(), false, false, false);
-                }
-                "b" | "B" | "v" | "V" if self.kind == InputKind::Scene => {
-                    if let Some((_, band)) = self.live.sampling {
-                        let f = if matches!(c.as_str(), "b" | "B") {
-                            2.0
-                        } else {
-                            0.5
-                        };
-                        self.knobs.band = Some(band * f);
-                        self.request(Reason::Panel, Instant::now(), false, true, false);
-                    }
-                }
-                "+" | "=" | "-" if self.kind == InputKind::Scene => {
-                    let r = self
-                        .knobs
-                        .resolution
-                        .or(self.live.sampling.map(|s| s.0))
-                        .unwrap_or(128);
-                    let r = if c.as_str() == "-" {
-                        (r / 2).max(16)
-                    } else {
-                        (r * 2).min(1024)
-                    };
-                    self.knobs.resolution = Some(r);
+            }
+            Action::Band(wider) if scene => {
+                if let Some((_, band)) = self.live.sampling {
+                    self.knobs.band = Some(band * if wider { 2.0 } else { 0.5 });
                     self.request(Reason::Panel, Instant::now(), false, true, false);
                 }
-                "r" | "R" => {
-                    self.orbit = self.home;
-                    self.camera_moved(false);
-                }
-                _ => {}
-            },
-            _ => {}
+            }
+            Action::Resolution(finer) if scene => {
+                let r = self
+                    .knobs
+                    .resolution
+                    .or(self.live.sampling.map(|s| s.0))
+                    .unwrap_or(128);
+                let r = if finer {
+                    (r * 2).min(1024)
+                } else {
+                    (r / 2).max(16)
+                };
+                self.knobs.resolution = Some(r);
+                self.request(Reason::Panel, Instant::now(), false, true, false);
+            }
+            Action::Band(_) | Action::Resolution(_) => {}
+            Action::Reset => {
+                self.orbit = self.home;
+                self.camera_moved(false);
+            }
         }
+    }
+
+    /// The panel widget under the cursor, if the panel is shown.
+    fn widget_at_cursor(&self) -> Option<(Action, f32)> {
+        let c = self.cursor?;
+        if !self.show_panel {
+            return None;
+        }
+        panel::hit(&self.panel_lines(), self.panel_scale(), c.x, c.y)
     }
 }
 
@@ -500,6 +560,17 @@ impl ApplicationHandler<UserEvent> for App {
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
+                // A press on a panel widget is a click (or a slider drag), not an orbit.
+                if button == MouseButton::Left && down {
+                    if let Some((action, f)) = self.widget_at_cursor() {
+                        self.pressed = Some(action);
+                        self.act(el, action, f);
+                        return;
+                    }
+                }
+                if button == MouseButton::Left && !down && self.pressed.take().is_some() {
+                    return;
+                }
                 match button {
                     MouseButton::Left => self.buttons.0 = down,
                     MouseButton::Right | MouseButton::Middle => self.buttons.1 = down,
@@ -511,6 +582,17 @@ impl ApplicationHandler<UserEvent> for App {
             }
             WindowEvent::CursorMoved { position, .. } => {
                 let prev = self.cursor.replace(position);
+                if self.pressed == Some(Action::IsoAt) {
+                    let lines = self.panel_lines();
+                    if let Some(f) = panel::slider_fraction(&lines, self.panel_scale(), position.x)
+                    {
+                        self.act(el, Action::IsoAt, f);
+                    }
+                    return;
+                }
+                if self.pressed.is_some() {
+                    return;
+                }
                 let (Some(prev), Some(o)) = (prev, self.orbit.as_mut()) else {
                     return;
                 };

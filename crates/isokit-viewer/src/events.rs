@@ -49,6 +49,9 @@ pub(crate) struct FrameEvent {
     pub width: u32,
     pub height: u32,
     pub backend: &'static str,
+    /// The shading mode and isovalue rendered.
+    pub mode: &'static str,
+    pub iso: f32,
 }
 
 /// Appends events to a file, a line at a time (flushed, so a killed viewer leaves whole
@@ -100,6 +103,8 @@ impl EventLog {
             "width": f.width,
             "height": f.height,
             "backend": f.backend,
+            "mode": f.mode,
+            "iso": f.iso,
             "ok": true,
         }));
     }
