@@ -7,7 +7,8 @@
 //! differs but whose own parameters do not passes the comparison on to its operands (which
 //! share its frame and enter only through their values clamped to a cap: the node's own for
 //! the sharp operations, raised by the blend's reach and window for the blends, Quilez's
-//! polynomial smooth minimum and hg_sdf's chamfer and stairs); any other node that differs
+//! polynomial smooth minimum and hg_sdf's chamfer and stairs; an operand added to or removed
+//! from a blend is one more changed subtree); any other node that differs
 //! changed as a whole, and its distance boxes before and after the edit bound where it can
 //! matter. Where a changed operand's value lies at or above the cap it is evaluated with,
 //! before and after the edit, it is clamped to that cap both times and the node computes
@@ -91,8 +92,15 @@ fn diff(
         Some(())
     };
     match (a.pass, b.pass) {
-        (Some(pa), Some(pb)) if a.node == b.node && pa == pb => {
-            let g = growth + pa.growth;
+        // The same operation with the same parameters. A blend's growth depends on its
+        // number of operands (its reach is one per fold), so an operand added or removed
+        // changes it: the other operands are then evaluated with another cap, which changes
+        // nothing where the blend's clamped result is exact, and where an added or removed
+        // operand lies a window above the running value it leaves the fold's value as it
+        // was, bit for bit (each blend returns the sharp operation there); the larger
+        // growth bounds where it can matter.
+        (Some(pa), Some(pb)) if a.node == b.node && pa.own == pb.own => {
+            let g = growth + pa.growth.max(pb.growth);
             let (ca, cb) = (children(old, i), children(new, j));
             for k in 0..ca.len().max(cb.len()) {
                 match (ca.get(k), cb.get(k)) {

@@ -142,6 +142,48 @@ fn an_operand_of_a_smooth_union_at_the_root_is_edited_alone() {
 }
 
 #[test]
+fn an_operand_added_to_a_blend_is_the_only_change() {
+    // Every blend kind: a third operand appended, removed again, then inserted first (for
+    // the unions).
+    for (kind, params) in [
+        ("smooth_union", ""),
+        ("chamfer_union", ""),
+        ("stairs_union", r#""steps": 3, "#),
+        ("smooth_difference", ""),
+    ] {
+        let of = |extra: bool, first: bool| {
+            let a = r#"{"box": {"half": [1.2, 0.5, 0.5], "center": [-0.6, 0, 0]}}"#;
+            let b = r#"{"sphere": {"radius": 0.4, "center": [-1.5, 0.5, 0]}}"#;
+            let c = r#"{"sphere": {"radius": 0.25, "center": [1.2, 0.7, 0.5]}}"#;
+            let list = match (extra, first) {
+                (false, _) => vec![a, b],
+                (true, false) => vec![a, b, c],
+                (true, true) => vec![c, a, b],
+            };
+            format!(
+                r#"{{"{kind}": {{"radius": 0.15, {params}"of": [{}]}}}}"#,
+                list.join(", ")
+            )
+        };
+        let (reused, with, fresh) = edit(&of(false, false), &of(true, false));
+        assert!(
+            reused > 0,
+            "{kind}: nothing reused when an operand is appended"
+        );
+        assert!(with < 0.5 * fresh, "{kind}: {with} against {fresh}");
+        assert!(
+            edit(&of(true, false), &of(false, false)).0 > 0,
+            "{kind}: removed"
+        );
+        if kind != "smooth_difference" {
+            // Inserted first: every pair of operands compared differs, still equal to a
+            // fresh sampling.
+            edit(&of(false, false), &of(true, true));
+        }
+    }
+}
+
+#[test]
 fn a_subtrahend_edit_matches_a_fresh_sampling() {
     let bore = |r: f32| {
         format!(
