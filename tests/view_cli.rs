@@ -455,7 +455,7 @@ fn the_panel_widgets_answer_clicks_and_drags() {
     let d = scratch("view-widgets");
     let (scene, events, shot) = files(&d);
     save(&scene, &scene_text(0.5));
-    let child = Command::new(env!("CARGO_BIN_EXE_isokit"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isokit"))
         .arg("view")
         .arg(&scene)
         .args(["--backend", "cpu", "--width", "640", "--height", "400"])
@@ -471,7 +471,8 @@ fn the_panel_widgets_answer_clicks_and_drags() {
     let ev = wait_for(&events, "the first frame", |e| !finals(e).is_empty());
     let first_mode = finals(&ev)[0]["mode"].as_str().unwrap().to_string();
     let Some(w) = window_of(&d) else {
-        let _ = Command::new("kill").arg(child.id().to_string()).status();
+        let _ = child.kill();
+        let _ = child.wait();
         return;
     };
     let cell = |col: f32, row: f32| {
