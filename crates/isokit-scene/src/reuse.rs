@@ -8,7 +8,8 @@
 //! share its frame and enter only through their values clamped to a cap: the node's own for
 //! the sharp operations, raised by the blend's reach and window for the blends, Quilez's
 //! polynomial smooth minimum and hg_sdf's chamfer and stairs; an operand added to or removed
-//! from a blend is one more changed subtree); any other node that differs
+//! from a union, a difference or one of their blends is one more changed subtree, while an
+//! intersection whose operand count changed changed as a whole); any other node that differs
 //! changed as a whole, and its distance boxes before and after the edit bound where it can
 //! matter. Where a changed operand's value lies at or above the cap it is evaluated with,
 //! before and after the edit, it is clamped to that cap both times and the node computes
@@ -98,8 +99,14 @@ fn diff(
         // nothing where the blend's clamped result is exact, and where an added or removed
         // operand lies a window above the running value it leaves the fold's value as it
         // was, bit for bit (each blend returns the sharp operation there); the larger
-        // growth bounds where it can matter.
-        (Some(pa), Some(pb)) if a.node == b.node && pa.own == pb.own => {
+        // growth bounds where it can matter. That holds only where a missing operand acts
+        // as one far outside (unions, and a difference's subtrahends); an intersection
+        // whose operand count changed changed as a whole.
+        (Some(pa), Some(pb))
+            if a.node == b.node
+                && pa.own == pb.own
+                && (pa.far_when_absent || children(old, i).len() == children(new, j).len()) =>
+        {
             let g = growth + pa.growth.max(pb.growth);
             let (ca, cb) = (children(old, i), children(new, j));
             for k in 0..ca.len().max(cb.len()) {

@@ -99,6 +99,12 @@ pub struct Pass {
     pub growth: f32,
     /// A hash of the node's kind and parameters, operands excluded.
     pub own: u64,
+    /// Whether an operand added or removed leaves the node's value unchanged wherever that
+    /// operand's value lies above the cap: true for unions and differences (a missing
+    /// operand of a minimum, or a missing subtrahend, acts as one at +∞), false for
+    /// intersections (a missing operand of a maximum acts as one at −∞, and an added far
+    /// operand raises the value everywhere).
+    pub far_when_absent: bool,
 }
 
 /// The frame of a node below transforms: world = translation + scale · rotation(local).
@@ -823,6 +829,7 @@ impl Builder<'_> {
                 self.pass = Some(Pass {
                     growth: 0.0,
                     own: hash_of(|h| "union".hash(h)),
+                    far_when_absent: true,
                 });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
@@ -838,6 +845,7 @@ impl Builder<'_> {
                 self.pass = Some(Pass {
                     growth: 0.0,
                     own: hash_of(|h| "intersection".hash(h)),
+                    far_when_absent: false,
                 });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
@@ -853,6 +861,7 @@ impl Builder<'_> {
                 self.pass = Some(Pass {
                     growth: 0.0,
                     own: hash_of(|h| "difference".hash(h)),
+                    far_when_absent: true,
                 });
                 let mut fields: Vec<Box<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
                 let base = fields.remove(0);
@@ -943,6 +952,7 @@ impl Builder<'_> {
             .map_err(|e| self.err(path, e.to_string()))?;
         self.pass = Some(Pass {
             growth: field.child_cap(0.0),
+            far_when_absent: kind != SmoothKind::Intersection,
             own: hash_of(|h| {
                 format!("{kind:?} {blend:?}").hash(h);
                 radius.to_bits().hash(h);

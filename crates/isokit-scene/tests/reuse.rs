@@ -184,6 +184,49 @@ fn an_operand_added_to_a_blend_is_the_only_change() {
 }
 
 #[test]
+fn an_operand_added_to_an_intersection_changes_it_as_a_whole() {
+    // A missing operand of a maximum acts as one at minus infinity: a far operand added to
+    // an intersection raises its value everywhere, not only near that operand, so the
+    // intersection changed as a whole (a sampling that reused the bricks away from the new
+    // operand would keep the old, smaller values there).
+    let a = r#"{"box": {"half": [1.2, 0.5, 0.5], "center": [-0.6, 0, 0]}}"#;
+    let b = r#"{"sphere": {"radius": 0.6, "center": [-1.2, 0.3, 0]}}"#;
+    let c = r#"{"sphere": {"radius": 0.25, "center": [1.2, 0.7, 0.5]}}"#;
+    for (kind, params) in [
+        ("intersection", None),
+        ("smooth_intersection", Some("")),
+        ("chamfer_intersection", Some("")),
+        ("stairs_intersection", Some(r#""steps": 3, "#)),
+    ] {
+        let of = |list: &[&str]| match params {
+            None => format!(r#"{{"{kind}": [{}]}}"#, list.join(", ")),
+            Some(p) => format!(
+                r#"{{"{kind}": {{"radius": 0.15, {p}"of": [{}]}}}}"#,
+                list.join(", ")
+            ),
+        };
+        // Appended (the intersection becomes empty), removed again, and an operand edited
+        // in place, which is still one changed subtree.
+        edit(&of(&[a, b]), &of(&[a, b, c]));
+        edit(&of(&[a, b, c]), &of(&[a, b]));
+        let (x, y) = (scene(&of(&[a, b])), scene(&of(&[a, c])));
+        assert_eq!(
+            changed_boxes(x.hashes(), y.hashes()).unwrap().len(),
+            2,
+            "{kind}: an operand edited in place"
+        );
+        let (x, y) = (scene(&of(&[a, b])), scene(&of(&[a, b, c])));
+        let boxes = changed_boxes(x.hashes(), y.hashes()).unwrap();
+        assert_eq!(
+            boxes.len(),
+            2,
+            "{kind}: the whole intersection, before and after"
+        );
+        assert!(boxes.iter().all(|c| c.growth == 0.0), "{kind}");
+    }
+}
+
+#[test]
 fn a_subtrahend_edit_matches_a_fresh_sampling() {
     let bore = |r: f32| {
         format!(
