@@ -157,8 +157,11 @@ impl SourceCache {
     /// unchanged; at most two lattices each): [`Scene::sample_again`] reads them back in
     /// the bricks an edit elsewhere samples again, so that only the edited part of the tree
     /// is evaluated there. The values are the ones the source gives, so the sampling is
-    /// the same bit for bit. Costs up to 4 bytes per band sample per source; for live
-    /// editing (`isokit view`), not for one-shot runs.
+    /// the same bit for bit. Meshes with a prism band (built per sampling) and sources
+    /// under rotations or warps are not memoized. Costs 4 bytes per lattice node in the
+    /// chunks of 8³ nodes that hold a value within the sampler's cap of the source's
+    /// surface, plus 1/32 byte per node of the lattice, per source and kept lattice; for
+    /// live editing (`isokit view`), not for one-shot runs.
     pub fn memoizing() -> Self {
         Self {
             memoize: true,

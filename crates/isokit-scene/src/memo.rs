@@ -4,18 +4,25 @@
 //! again: a sphere's radius changed beside a mesh re-evaluates the sphere and the blend, and
 //! reads the mesh's values back.
 //!
-//! A memo is keyed by the source's content hash and the frame it sits in (its transforms),
-//! and holds a table per lattice (origin and spacing in the source's own frame). It is read
-//! and filled only while a sampling runs ([`Scene::sample_again`](crate::Scene::sample_again)
-//! arms it), only at points within 1/1000 of a cell of a node (the sampler's points; the
-//! value stored is the one computed there). A table is filled for the first cap the source
+//! A memo is keyed by the source's content hash and the frame it sits in (its transforms'
+//! bits), and holds a table per lattice (the world origin's and spacing's bits, and the
+//! dims: two lattices share a table only when the sampler computes the same points on
+//! both). It is read and filled only while a sampling runs
+//! ([`Scene::sample_again`](crate::Scene::sample_again) arms it; one lattice per source at a
+//! time, a second sampling of the same source on another lattice running alongside gets no
+//! memo), only at points within 1/1000 of a cell of a node (the sampler's points, brick
+//! centres included, which it computes with the same formula as the nodes; the value stored
+//! is the one computed there). Sources whose values depend on the sampling itself (a mesh
+//! with a prism band, built for the lattice and the cap) are not memoized. A table is filled for the first cap the source
 //! is evaluated with; by the contract of `Field::value_clamped` (the value itself below the
 //! cap, `±cap` beyond), an entry `v` stored for cap `c` answers a query with another cap
 //! `c'` as `clamp(v, −c', c')` unless it is saturated (`|v| = c`) and `c' > c` (an edit that
 //! adds an operand to a blend raises the cap its operands get). So a sampling that reads
 //! entries is bit for bit the one that computes them.
-//! Tables fill in chunks of 8³ nodes as they are touched, so one costs about as much memory
-//! as the part of the band where the source is not pruned.
+//! Tables fill in chunks of 8³ nodes, allocated where the first value below the cap is
+//! stored (saturated values are stored only into chunks that exist), so a table costs 4
+//! bytes per node of the chunks within the cap of the source's surface, plus an index of 16
+//! bytes per chunk of the whole lattice (1/32 byte per node).
 
 use crate::source::Counter;
 use glam::{DQuat, Vec3};
@@ -34,8 +41,8 @@ const SLOTS: usize = 4;
 const KEPT: usize = 2;
 /// A point this close to a node (in cells) reads and fills the node's entry.
 const TOLERANCE: f32 = 1e-3;
-/// Lattices with more nodes than this get no table (the chunk index alone would be large).
-const MAX_NODES: u64 = 1 << 31;
+/// Lattices with more nodes than this get no table (the chunk index alone would be 32 MiB).
+const MAX_NODES: u64 = 1 << 30;
 
 /// Which source a memo belongs to: its content hash and its frame's bits.
 pub(crate) type MemoKey = (u64, [u64; 4]);
@@ -67,12 +74,20 @@ impl MemoStore {
     }
 }
 
-/// A lattice in a source's frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A lattice in a source's frame, and the bits of the world lattice it comes from.
+#[derive(Clone, Copy, Debug)]
 struct Lattice {
     origin: Vec3,
     spacing: f32,
     dims: [usize; 3],
+    /// The world origin's and spacing's bits: the table's identity.
+    world: [u32; 4],
+}
+
+impl PartialEq for Lattice {
+    fn eq(&self, other: &Self) -> bool {
+        self.world == other.world && self.dims == other.dims
+    }
 }
 
 /// One lattice's values.
@@ -210,12 +225,8 @@ impl<F: Field> Field for Memoized<F> {
             }
             let Some((c, e)) = t.node(p) else { continue };
             let own = t.cap_for(cap);
-            let chunk = t.chunks[c].get_or_init(|| {
-                (0..CHUNK * CHUNK * CHUNK)
-                    .map(|_| AtomicU32::new(EMPTY))
-                    .collect()
-            });
-            if t.readers.load(Ordering::Relaxed) > 0 {
+            let chunk = t.chunks[c].get();
+            if let Some(chunk) = chunk.filter(|_| t.readers.load(Ordering::Relaxed) > 0) {
                 let bits = chunk[e].load(Ordering::Relaxed);
                 let v = f32::from_bits(bits);
                 // Saturated entries say only |value| ≥ own (see the module docs).
@@ -226,7 +237,19 @@ impl<F: Field> Field for Memoized<F> {
             }
             let v = self.field.value_clamped(p, cap);
             if cap == own && v.to_bits() != EMPTY {
-                chunk[e].store(v.to_bits(), Ordering::Relaxed);
+                // A chunk is made only for a value below the cap (near the surface).
+                let chunk = match chunk {
+                    Some(chunk) => Some(chunk),
+                    None if v.abs() < own => Some(t.chunks[c].get_or_init(|| {
+                        (0..CHUNK * CHUNK * CHUNK)
+                            .map(|_| AtomicU32::new(EMPTY))
+                            .collect()
+                    })),
+                    None => None,
+                };
+                if let Some(chunk) = chunk {
+                    chunk[e].store(v.to_bits(), Ordering::Relaxed);
+                }
             }
             return v;
         }
@@ -252,6 +275,7 @@ pub(crate) fn key_of(
     translation: glam::DVec3,
     scale: f64,
 ) -> Option<MemoKey> {
+    // Any rotation other than the identity (up to rounding) moves the lattice's axes.
     if rotation.angle_between(DQuat::IDENTITY) > 1e-12 {
         return None;
     }
@@ -291,7 +315,22 @@ pub(crate) fn arm(
             origin: ((origin.as_dvec3() - u.translation) / u.scale).as_vec3(),
             spacing: (f64::from(spacing) / u.scale) as f32,
             dims,
+            world: [
+                origin.x.to_bits(),
+                origin.y.to_bits(),
+                origin.z.to_bits(),
+                spacing.to_bits(),
+            ],
         };
+        // One lattice per source at a time: a point of a sampling on another lattice can lie
+        // within the tolerance of this one's nodes.
+        let busy = u.slots.tables.iter().any(|s| {
+            s.get()
+                .is_some_and(|h| h.lattice != lattice && h.armed.load(Ordering::Relaxed) > 0)
+        });
+        if busy {
+            continue;
+        }
         let Some(t) = store.table(u.key, lattice) else {
             continue;
         };

@@ -1204,7 +1204,13 @@ impl Builder<'_> {
         });
         let triangles = Some(mesh.triangles.len());
         let field = self.counted(path, "mesh", triangles, field);
-        let field = self.memoized(field, hash);
+        // A prism band is built for the lattice and cap of each sampling: its values are
+        // not the source's alone, so they are not memoized.
+        let field = if prism.is_some() {
+            field
+        } else {
+            self.memoized(field, hash)
+        };
         Ok(Compiled::solid(field, hash))
     }
 

@@ -40,8 +40,27 @@ fn compile(text: &str, cache: &mut SourceCache) -> Scene {
 }
 
 fn mesh_stats(s: &isokit_scene::SampleStats) -> (u64, u64) {
-    let m = s.sources.iter().find(|s| s.kind == "mesh").unwrap();
+    let m = s
+        .sources
+        .iter()
+        .find(|s| s.kind == "mesh" || s.kind == "points")
+        .unwrap();
     (m.queries, m.memo_hits)
+}
+
+/// The same blend with the mesh (or the cloud, `points`) under a scale and a translation.
+fn scaled(r: f32, points: bool) -> String {
+    let source = if points {
+        format!(r#"{{"points": {{"path": "{}/torus_cloud.ply"}}}}"#, data())
+    } else {
+        format!(r#"{{"mesh": {{"path": "{}/torus.off"}}}}"#, data())
+    };
+    format!(
+        r#"{{"sampling": {{"resolution": 56, "bounds": [[-1.6, -1.6, -1.0], [1.6, 1.6, 1.0]]}},
+            "shape": {{"smooth_union": {{"radius": 0.1, "of": [
+                {{"transform": {{"scale": 0.8, "translate": [0.1, -0.05, 0.02], "of": {source}}}}},
+                {{"sphere": {{"radius": {r}, "center": [0.3, 0.2, 0]}}}}]}}}}}}"#
+    )
 }
 
 /// Samples `before`, then `after` reusing it through one memoizing cache; checks the band
@@ -100,8 +119,9 @@ fn a_new_operand_of_the_blend_reads_the_mesh_back() {
 
 #[test]
 fn moving_the_mesh_queries_it_again() {
-    // Another frame: another memo; only the nodes bricks share read back (their aprons),
-    // the band still exact.
+    // Another frame: another memo, empty at first; what is read back are the apron nodes
+    // a brick shares with a neighbour sampled before it in the same sampling. The band is
+    // still exact.
     let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.4, 0.05, 0));
     assert!(
         queries >= fresh / 2,
@@ -142,4 +162,26 @@ fn a_full_resampling_only_fills_the_memo() {
         .unwrap();
     assert_eq!(mesh_stats(&again.stats).1, 0);
     assert_eq!(mesh_stats(&again.stats).0, mesh_stats(&fresh.stats).0);
+}
+
+#[test]
+fn scaled_and_translated_meshes_and_clouds_read_back() {
+    for points in [false, true] {
+        let (queries, hits, fresh) = edit(&scaled(0.4, points), &scaled(0.45, points));
+        assert!(hits > 0, "points {points}: no value read back");
+        assert!(
+            queries * 10 < fresh,
+            "points {points}: queried {queries} times (fresh {fresh}), {hits} read back"
+        );
+    }
+}
+
+#[test]
+fn a_prism_band_is_not_memoized() {
+    // Its values come from a band built for each sampling's lattice and cap.
+    let prism =
+        |r: f32| text(r, 0.0, 0).replace(r#"torus.off""#, r#"torus.off", "method": "prism_cpu""#);
+    assert!(prism(0.4).contains("prism_cpu"));
+    let (_, hits, _) = edit(&prism(0.4), &prism(0.45));
+    assert_eq!(hits, 0);
 }
