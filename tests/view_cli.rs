@@ -525,6 +525,19 @@ fn the_panel_widgets_answer_clicks_and_drags() {
     );
     // Row 9: "drag orbit, shift-drag pan, wheel zoom" then " [reset view R] [quit Q]".
     let (x, y) = cell(56.0, 9.0);
+    let clicked = std::time::Instant::now();
     xdo(&w, &[&x, &y, "click", "1"]);
+    // The run would end by itself after 90 s: the quit button ends it long before.
+    loop {
+        match child.try_wait().unwrap() {
+            Some(_) => break,
+            None if clicked.elapsed() > std::time::Duration::from_secs(30) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("the quit button did not end the viewer");
+            }
+            None => std::thread::sleep(std::time::Duration::from_millis(50)),
+        }
+    }
     finish(child);
 }

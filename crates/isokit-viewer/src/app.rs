@@ -569,6 +569,7 @@ impl ApplicationHandler<UserEvent> for App {
                     }
                 }
                 if button == MouseButton::Left && !down && self.pressed.take().is_some() {
+                    self.buttons.0 = false;
                     return;
                 }
                 match button {
@@ -606,6 +607,18 @@ impl ApplicationHandler<UserEvent> for App {
                     return;
                 }
                 self.camera_moved(true);
+            }
+            // A release after the window lost the focus (to another window, a desktop
+            // switch) may never arrive: the drag or the press on a widget ends here. (A drag
+            // that leaves the window keeps its grab and its release.)
+            WindowEvent::Focused(false) => {
+                let dragging = self.buttons.0 || self.buttons.1;
+                self.pressed = None;
+                self.buttons = (false, false);
+                self.cursor = None;
+                if dragging {
+                    self.camera_moved(false);
+                }
             }
             WindowEvent::MouseWheel { delta, .. } => {
                 let clicks = match delta {

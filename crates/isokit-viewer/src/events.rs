@@ -42,16 +42,19 @@ pub(crate) struct FrameEvent {
     pub bricks_loaded: u64,
     pub dense_fraction: f64,
     /// For the frame that follows a (re)load: milliseconds compiling the scene, sampling its
-    /// band and preparing the renderer's volume; 0 for frames of an earlier sampling.
+    /// band and preparing the renderer's volume; 0 for frames of an earlier sampling (a
+    /// half-size draft and the finished frame after it both carry their sampling's).
     pub load_ms: f64,
     pub sample_ms: f64,
     pub prepare_ms: f64,
     pub width: u32,
     pub height: u32,
     pub backend: &'static str,
-    /// The shading mode and isovalue rendered.
+    /// The shading mode rendered.
     pub mode: &'static str,
-    pub iso: f32,
+    /// The isovalue rendered; `None` (JSON `null`) for molecules, whose splatted quadrics
+    /// have none.
+    pub iso: Option<f32>,
 }
 
 /// Appends events to a file, a line at a time (flushed, so a killed viewer leaves whole

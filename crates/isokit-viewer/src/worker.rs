@@ -332,7 +332,7 @@ impl<F: Fn(Reply)> Worker<F> {
                 height: frame.image.height,
                 backend: st.backend,
                 mode: st.mode,
-                iso: st.iso,
+                iso: Some(st.iso),
             },
             t0: req.t0,
             notes: frame.notes.clone(),
@@ -476,7 +476,12 @@ impl<F: Fn(Reply)> Worker<F> {
         };
         let reused = sampled.stats.bricks_reused;
         self.phases = (load_ms, 1e3 * sampled.stats.seconds);
-        self.last_sample_ms = 1e3 * sampled.stats.seconds;
+        // Only a sampling that could reuse says what the next edit's will cost.
+        self.last_sample_ms = if reusable {
+            1e3 * sampled.stats.seconds
+        } else {
+            0.0
+        };
         self.sampling = Some((opts.resolution, sampled.stats.band));
         if self.reuse {
             // Shared, not copied: the renderer's volume is built from it below.
@@ -674,7 +679,7 @@ impl<F: Fn(Reply)> Worker<F> {
                             height: h,
                             backend: self.renderer.backend(),
                             mode: settings.mode.name(),
-                            iso: 0.0,
+                            iso: None,
                         },
                         t0: req.t0,
                         notes: Vec::new(),
