@@ -160,7 +160,7 @@ impl SourceCache {
     /// the same bit for bit. Meshes with a prism band (built per sampling) and sources
     /// under rotations or warps are not memoized. Costs 4 bytes per lattice node in the
     /// chunks of 8³ nodes that hold a value within the sampler's cap of the source's
-    /// surface, plus 1/32 byte per node of the lattice, per source and kept lattice; for
+    /// surface, plus 3/64 byte per node of the lattice, per source and kept lattice; for
     /// live editing (`isokit view`), not for one-shot runs.
     pub fn memoizing() -> Self {
         Self {

@@ -9,8 +9,9 @@
 //! dims: two lattices share a table only when the sampler computes the same points on
 //! both). It is read and filled only while a sampling runs
 //! ([`Scene::sample_again`](crate::Scene::sample_again) arms it; one lattice per source at a
-//! time, a second sampling of the same source on another lattice running alongside gets no
-//! memo), only at points within 1/1000 of a cell of a node (the sampler's points, brick
+//! time is armed; concurrent samplings of one compiled scene on different lattices are not
+//! supported while memoizing: a point of one can read or fill the other's armed table where
+//! it lies within the tolerance of its nodes), only at points within 1/1000 of a cell of a node (the sampler's points, brick
 //! centres included, which it computes with the same formula as the nodes; the value stored
 //! is the one computed there). Sources whose values depend on the sampling itself (a mesh
 //! with a prism band, built for the lattice and the cap) are not memoized. A table is filled for the first cap the source
@@ -21,8 +22,8 @@
 //! entries is bit for bit the one that computes them.
 //! Tables fill in chunks of 8³ nodes, allocated where the first value below the cap is
 //! stored (saturated values are stored only into chunks that exist), so a table costs 4
-//! bytes per node of the chunks within the cap of the source's surface, plus an index of 16
-//! bytes per chunk of the whole lattice (1/32 byte per node).
+//! bytes per node of the chunks within the cap of the source's surface, plus an index of 24
+//! bytes per chunk of the whole lattice (3/64 byte per node).
 
 use crate::source::Counter;
 use glam::{DQuat, Vec3};
@@ -41,7 +42,7 @@ const SLOTS: usize = 4;
 const KEPT: usize = 2;
 /// A point this close to a node (in cells) reads and fills the node's entry.
 const TOLERANCE: f32 = 1e-3;
-/// Lattices with more nodes than this get no table (the chunk index alone would be 32 MiB).
+/// Lattices with more nodes than this get no table (the chunk index alone would be 48 MiB).
 const MAX_NODES: u64 = 1 << 30;
 
 /// Which source a memo belongs to: its content hash and its frame's bits.
