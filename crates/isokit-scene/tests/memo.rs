@@ -97,24 +97,25 @@ fn edit(before: &str, after: &str) -> (u64, u64, u64) {
     (q, h, mesh_stats(&fresh.stats).0)
 }
 
-#[test]
-fn a_radius_edit_beside_a_mesh_reads_the_mesh_back() {
-    let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.45, 0.0, 0));
-    assert!(hits > 0, "no value read back");
+/// [`edit`], asserting that values were read back and that the source was queried less
+/// than `1/factor` as often as in a fresh sampling.
+fn reads_back(before: &str, after: &str, factor: u64, what: &str) {
+    let (queries, hits, fresh) = edit(before, after);
+    assert!(hits > 0, "{what}: no value read back");
     assert!(
-        queries * 20 < fresh,
-        "the mesh was queried {queries} times (fresh {fresh}), {hits} read back"
+        queries * factor < fresh,
+        "{what}: the source was queried {queries} times (fresh {fresh}), {hits} read back"
     );
 }
 
 #[test]
+fn a_radius_edit_beside_a_mesh_reads_the_mesh_back() {
+    reads_back(&text(0.4, 0.0, 0), &text(0.45, 0.0, 0), 20, "radius");
+}
+
+#[test]
 fn a_new_operand_of_the_blend_reads_the_mesh_back() {
-    let (queries, hits, fresh) = edit(&text(0.4, 0.0, 0), &text(0.4, 0.0, 2));
-    assert!(hits > 0, "no value read back");
-    assert!(
-        queries * 5 < fresh,
-        "the mesh was queried {queries} times (fresh {fresh}), {hits} read back"
-    );
+    reads_back(&text(0.4, 0.0, 0), &text(0.4, 0.0, 2), 5, "new operand");
 }
 
 #[test]
@@ -167,12 +168,8 @@ fn a_full_resampling_only_fills_the_memo() {
 #[test]
 fn scaled_and_translated_meshes_and_clouds_read_back() {
     for points in [false, true] {
-        let (queries, hits, fresh) = edit(&scaled(0.4, points), &scaled(0.45, points));
-        assert!(hits > 0, "points {points}: no value read back");
-        assert!(
-            queries * 10 < fresh,
-            "points {points}: queried {queries} times (fresh {fresh}), {hits} read back"
-        );
+        let what = if points { "cloud" } else { "mesh" };
+        reads_back(&scaled(0.4, points), &scaled(0.45, points), 10, what);
     }
 }
 
