@@ -6,16 +6,16 @@
 //! same field; a union, intersection or difference, or one of their blends, whose hash
 //! differs but whose own parameters do not passes the comparison on to its operands (which
 //! share its frame and enter only through their values clamped to a cap: the node's own for
-//! the sharp operations, raised by the blend's reach and window for the blends, Quilez's
-//! polynomial smooth minimum and hg_sdf's chamfer and stairs; an operand added to or removed
-//! from a union, a difference or one of their blends is one more changed subtree, while an
-//! intersection whose operand count changed changed as a whole); any other node that differs
-//! changed as a whole, and its distance boxes before and after the edit bound where it can
-//! matter. Where a changed operand's value lies at or above the cap it is evaluated with,
-//! before and after the edit, it is clamped to that cap both times and the node computes
-//! the same value bit for bit, so a brick farther than that cap (plus the box's slack) from
-//! every changed box samples the same values as before: it keeps its earlier decision and
-//! samples.
+//! the sharp operations, raised by the window and the reach of each fold for the blends
+//! (Quilez's polynomial smooth minimum, hg_sdf's chamfer and stairs); an operand added to
+//! or removed from a union, a difference or one of their blends is one more changed
+//! subtree, while an intersection whose operand count changed changed as a whole); any
+//! other node that differs changed as a whole, and its distance boxes before and after the
+//! edit bound where it can matter. Where a changed operand's value lies at or above the cap
+//! it is evaluated with, before and after the edit, it is clamped to that cap both times and
+//! the node computes the same value bit for bit, so a brick farther than that cap (plus the
+//! box's slack) from every changed box samples the same values as before: it keeps its
+//! earlier decision and samples.
 
 use crate::sample::Clamped;
 use crate::{NodeHash, Plan, SampleOptions, SampleStats, Scene, SceneError};

@@ -133,12 +133,40 @@ fn an_operand_of_a_smooth_union_at_the_root_is_edited_alone() {
     let (a, b) = (scene(&blend(0.4)), scene(&blend(0.5)));
     let boxes = changed_boxes(a.hashes(), b.hashes()).unwrap();
     assert_eq!(boxes.len(), 2);
-    // The blend raises the operands' cap by its reach (2 folds of k/4) and window (k).
+    // The blend raises the operands' cap by its window (k) and reach (k/4) for each of its
+    // 2 folds.
     assert!(
         boxes
             .iter()
-            .all(|c| (c.growth - (2.0 * 0.0375 + 0.15)).abs() < 1e-6)
+            .all(|c| (c.growth - 2.0 * (0.15 + 0.0375)).abs() < 1e-6)
     );
+}
+
+#[test]
+fn an_operand_appended_to_a_long_blend_after_a_clamped_one_matches_a_fresh_sampling() {
+    // Three operands: a sphere, a far one (clamped near the third), and a third sphere at a
+    // swept gap from the first, so that somewhere near the third the first lies within a
+    // window of the operands' cap; then a fourth, far from both, appended and removed.
+    for i in 0..12 {
+        let gap = 0.12 + 0.04 * i as f32;
+        let of = |extra: bool| {
+            let c = -1.1 + gap + 0.3;
+            let mut list = vec![
+                r#"{"sphere": {"radius": 0.5, "center": [-1.6, 0, 0]}}"#.to_string(),
+                r#"{"sphere": {"radius": 0.2, "center": [0.6, 1.1, 0]}}"#.to_string(),
+                format!(r#"{{"sphere": {{"radius": 0.3, "center": [{c}, 0, 0]}}}}"#),
+            ];
+            if extra {
+                list.push(r#"{"sphere": {"radius": 0.2, "center": [2.0, -1.0, 0.5]}}"#.into());
+            }
+            format!(
+                r#"{{"smooth_union": {{"radius": 0.15, "of": [{}]}}}}"#,
+                list.join(", ")
+            )
+        };
+        edit(&of(false), &of(true));
+        edit(&of(true), &of(false));
+    }
 }
 
 #[test]

@@ -609,8 +609,10 @@ impl<F: Field> SmoothN<F> {
 
     /// The cap [`Field::value_clamped`] evaluates the operands with for a result clamped to
     /// `cap`: exact within it, an operand contributes nothing more (see `value_clamped`).
+    /// Each fold adds its window and its reach: `cap + (n − 1)·(window + reach)`.
     pub fn child_cap(&self, cap: f32) -> f32 {
-        cap + self.reach() + self.blend.window(self.k)
+        let folds = self.children.len().saturating_sub(1) as f32;
+        cap + folds * (self.blend.window(self.k) + self.blend.reach(self.k))
     }
 
     fn fold(&self, mut vals: impl Iterator<Item = f32>) -> f32 {
@@ -662,10 +664,15 @@ impl<F: Field> Field for SmoothN<F> {
         })
     }
     fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
-        // Children exact within `cap + reach + window` make the blend exact within `cap`: a
-        // clamped child either lies a window or more above the running value (and does not
-        // enter the blend) or the running value already lies above `cap + reach`, which the
-        // remaining folds cannot bring below `cap`.
+        // Children exact within `C = cap + (n − 1)·(window + reach)` make the blend exact
+        // within `cap` (for the union; the intersection and the difference mirror it). A
+        // child clamped at `C` changes a fold only where the running value lies within a
+        // window of `C`, and the changed value is then at least `C − window − reach`. A
+        // later fold carries a change on only where the running value lies within a window
+        // of the new operand, and then lowers it by at most `window + reach` (the fold is
+        // at least the smaller operand less its reach). So a change that reaches the result
+        // leaves it, computed and true alike, at `cap` or above, where both are clamped to
+        // `cap`. A child clamped at `−C` makes both values `−C` or below: clamped to `−cap`.
         let inner = self.child_cap(cap);
         self.fold(self.children.iter().map(|c| value_clamped(c, p, inner)))
             .clamp(-cap, cap)
