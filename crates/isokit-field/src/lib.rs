@@ -7,8 +7,9 @@
 //! ([`filter`]: trilinear, tricubic B-spline value/gradient/Hessian by direct 64-tap
 //! convolution and by the 8-fetch scheme, Catmull-Rom), differential geometry of level
 //! sets ([`curvature`]) and a [`Camera`]; the plain geometry the other crates exchange:
-//! triangle meshes ([`TriMesh`], with a validation report) and point clouds ([`PointCloud`]),
-//! and small generated ones for tests ([`generate`]).
+//! triangle meshes ([`TriMesh`], with a validation report), point clouds ([`PointCloud`])
+//! and tetrahedral grids with point scalars ([`TetGrid`], with a report on its cells), and
+//! small generated ones for tests ([`generate`]).
 //!
 //! It is not the place for file formats, CSG or rendering: those live in the other isokit
 //! crates and build on these types.
@@ -41,6 +42,7 @@ pub mod morton;
 pub mod primitives;
 pub mod profile;
 pub mod rng;
+pub mod tet;
 pub mod transform;
 
 pub use aabb::Aabb;
@@ -55,3 +57,4 @@ pub use field::{
 pub use grid::{Grid, MAX_AXIS, MAX_SAMPLES, check_grid_budget, checked_len, finite_min_max};
 pub use job::{Cancelled, Counter, Job, ProgressFn};
 pub use mesh::{DEGENERATE_REL_TOL, MeshReport, TriMesh};
+pub use tet::{TetFaces, TetGrid, TetReport, TetSplit};
