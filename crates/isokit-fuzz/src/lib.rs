@@ -2,11 +2,12 @@
 //!
 //! Every reader of user files as a function of bytes ([`TARGETS`]): OBJ, PLY (mesh and
 //! cloud), STL, OFF, glTF, GLB, XYZ, NRRD (attached data, gzip and detached headers),
-//! NPY, NIfTI (plain and gzip), PDB, mmCIF, gzipped molecules, and scene files in JSON and
-//! TOML. A target feeds the bytes to the same entry point the command uses and checks what
+//! NPY, NIfTI (plain and gzip), tetrahedral grids (legacy VTK and VTK XML), PDB, mmCIF,
+//! gzipped molecules, and scene files in JSON and TOML. A target feeds the bytes to the same entry point the command uses and checks what
 //! the project promises of any input: no panic, and an error that is one line. Successful
 //! reads go one step further (a mesh is validated, a volume becomes a grid, a molecule a
-//! splat scene, a scene is compiled and evaluated) so that what the readers accept is
+//! splat scene, a scene is compiled and evaluated, a tetrahedral grid is checked and meshed)
+//! so that what the readers accept is
 //! exercised too.
 //!
 //! Three harnesses call these functions:
@@ -21,7 +22,7 @@
 #![warn(missing_docs)]
 
 use isokit_field::Field;
-use isokit_io::{MeshFormat, PointFormat, VolumeFormat};
+use isokit_io::{MeshFormat, PointFormat, TetFormat, VolumeFormat};
 use isokit_molecule::MoleculeFormat;
 use isokit_scene::file::SceneFormat;
 use std::path::Path;
@@ -43,6 +44,8 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("npy", npy),
     ("nifti", nifti),
     ("nifti_gz", nifti_gz),
+    ("vtk", vtk),
+    ("vtu", vtu),
     ("pdb", pdb),
     ("mmcif", mmcif),
     ("molecule_gz", molecule_gz),
@@ -91,6 +94,20 @@ fn volume(data: &[u8], format: VolumeFormat, name: &str) {
                 if let Err(e) = v.into_grid() {
                     one_line(e);
                 }
+            }
+        }
+        Err(e) => one_line(e),
+    }
+}
+
+fn tets(data: &[u8], format: TetFormat, name: &str) {
+    match isokit_io::read_tets_bytes(data, format, None, name) {
+        Ok(g) => {
+            let r = g.report();
+            assert_eq!(r.cells, g.tets().len());
+            let iso = r.range.map_or(0.0, |(lo, hi)| lo + 0.5 * (hi - lo));
+            if let Err(e) = isokit_levelset::tets::mesh_tets(&g, iso) {
+                one_line(e);
             }
         }
         Err(e) => one_line(e),
@@ -183,6 +200,14 @@ pub fn nifti(data: &[u8]) {
 /// Gzipped NIfTI-1 (the bounded inflation).
 pub fn nifti_gz(data: &[u8]) {
     volume(data, VolumeFormat::NiftiGz, "fuzz.nii.gz");
+}
+/// Legacy VTK unstructured grids (ASCII and binary).
+pub fn vtk(data: &[u8]) {
+    tets(data, TetFormat::Legacy, "fuzz.vtk");
+}
+/// VTK XML unstructured grids (ASCII, base64, appended raw, zlib).
+pub fn vtu(data: &[u8]) {
+    tets(data, TetFormat::Vtu, "fuzz.vtu");
 }
 /// PDB.
 pub fn pdb(data: &[u8]) {

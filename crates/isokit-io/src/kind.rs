@@ -18,6 +18,8 @@ pub enum FileKind {
     /// An image (`.png .exr`). PNG is read by [`crate::read_png`]; of an EXR only the
     /// header is read ([`crate::read_exr_info`]).
     Image,
+    /// A tetrahedral grid with point scalars (`.vtk .vtu`), read by [`crate::read_tets`].
+    TetGrid,
 }
 
 /// Decides the kind of a file by extension (case-insensitive). A `.ply` file is opened and
@@ -37,6 +39,7 @@ pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
         "xyz" => FileKind::PointCloud,
         "nrrd" | "nhdr" | "npy" | "nii" | "nii.gz" => FileKind::Volume,
         "png" | "exr" => FileKind::Image,
+        "vtk" | "vtu" => FileKind::TetGrid,
         "ply" => {
             // The header is text at the start of the file; 1 MiB is plenty.
             let mut head = Vec::new();
@@ -53,7 +56,7 @@ pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
         _ => {
             return Err(IoError::UnknownFormat {
                 path: path.to_path_buf(),
-                expected: "a mesh (.obj .gltf .glb .ply .stl .off), point cloud (.ply .xyz), volume (.nrrd .nhdr .npy .nii .nii.gz) or image (.png .exr)",
+                expected: "a mesh (.obj .gltf .glb .ply .stl .off), point cloud (.ply .xyz), volume (.nrrd .nhdr .npy .nii .nii.gz), tetrahedral grid (.vtk .vtu) or image (.png .exr)",
             });
         }
     })

@@ -7,6 +7,7 @@
 //! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY (with normals), STL, OFF, glTF/GLB (with normals); [`write_mesh_colored`]: PLY, glTF/GLB with vertex colours |
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
 //! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY; [`write_volume_with`]: NRRD (chosen compression, band/inside/sign key/values), NPY + sidecar |
+//! | tetrahedral grids | [`TetGrid`](isokit_field::TetGrid) | [`read_tets`]: VTK legacy `.vtk` (ASCII, binary), VTK XML `.vtu` (ASCII, base64, appended raw/base64, zlib) | — |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
 //! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
 //!
@@ -64,6 +65,7 @@ mod off;
 mod ply;
 mod points;
 mod stl;
+mod tets;
 mod util;
 mod volume;
 
@@ -90,6 +92,7 @@ pub use mesh::{
 };
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};
+pub use tets::{TetFormat, read_tets, read_tets_bytes};
 pub use util::{shown_path, shown_text};
 pub use volume::{
     ISOTROPY_TOL, NrrdEncoding, Volume, VolumeFormat, read_volume, read_volume_bytes, write_nrrd,

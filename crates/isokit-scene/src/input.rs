@@ -131,6 +131,11 @@ pub fn open_field(name: &str, mesh: MeshOptions) -> Result<FieldInput, SceneErro
                 "a point cloud: make it a field first (`isokit points`, or a scene with a points node)",
             )),
             FileKind::Image => Err(SceneError::new(name, "", "an image is not a field")),
+            FileKind::TetGrid => Err(SceneError::new(
+                name,
+                "",
+                "a tetrahedral grid is read by `isokit mesh`, `isokit render` and `isokit info`, not as a field",
+            )),
         };
     }
     let names: Vec<&str> = PrimitiveKind::ALL
