@@ -12,6 +12,7 @@
 //! - [`reinit`]: reinitialization to a signed distance by fast marching and fast sweeping.
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export (marching cubes).
 //! - [`dual`]: dual contouring with Hermite data, sharp edges and corners from exact fields.
+//! - [`tets`]: marching tetrahedra on unstructured tetrahedral grids, exact in each cell.
 //! - [`intersect`]: exact self-intersection test of a triangle mesh (Shewchuk's predicates).
 //! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
@@ -36,4 +37,5 @@ pub mod offset;
 pub mod profile;
 pub mod reinit;
 pub mod repeat;
+pub mod tets;
 pub mod weld;
