@@ -26,6 +26,8 @@
 //! | `splat.wgsl`, `splat_shade.wgsl` | `splat/cpu.rs` ([`splat`]), `quadric.rs` ([`quadric::intersect`]) | `splat/gpu.rs` ([`splat::gpu`], also [`gpu::splat`]) |
 //! | `dvr.wgsl` | `dvr/mod.rs` ([`dvr::render_dvr`]) | `dvr/gpu.rs` ([`gpu::GpuRenderer::render_dvr`]) |
 //!
+//! [`tets`] (ray casting through the cells of a tetrahedral grid) has only its CPU side so far.
+//!
 //! `gpu.rs` holds what the GPU host code shares (the device and pipelines, the constants
 //! prepended from Rust, the backend choice).
 //!
@@ -105,6 +107,7 @@ pub mod setup;
 pub mod shade;
 pub mod splat;
 pub mod supersample;
+pub mod tets;
 mod volume;
 
 /// The ray caster's per-pixel kernel, the CPU twin of `shaders/raycast.wgsl` (the module
