@@ -101,5 +101,6 @@ fn kind_name(k: FileKind) -> &'static str {
         FileKind::PointCloud => "point cloud",
         FileKind::Volume => "volume",
         FileKind::Image => "image",
+        FileKind::TetGrid => "tetrahedral grid",
     }
 }

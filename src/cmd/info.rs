@@ -1,6 +1,6 @@
 //! `isokit info FILE`: describe any mesh, cloud, volume or image.
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use isokit_field::Aabb;
 use isokit_io::lattice::{read_sidecar, sidecar_path};
 use isokit_io::{FileKind, VolumeFormat, detect_kind, read_exr_info, read_png, read_points};
@@ -11,8 +11,11 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Mesh (.obj .gltf .glb .ply .stl .off), cloud (.ply .xyz), volume (.nrrd .nhdr .npy
-    /// .nii .nii.gz) or image (.png; .exr: header only).
+    /// .nii .nii.gz), tetrahedral grid (.vtk .vtu) or image (.png; .exr: header only).
     pub file: PathBuf,
+    /// Tetrahedral grids: the point array (default: the first with one component).
+    #[arg(long)]
+    pub array: Option<String>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -53,8 +56,13 @@ fn is_exr(path: &std::path::Path) -> bool {
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     let path = &a.file;
-    let (text, value) = match detect_kind(path)? {
+    let kind = detect_kind(path)?;
+    if a.array.is_some() && kind != FileKind::TetGrid {
+        bail!("--array applies to tetrahedral grids (.vtk .vtu)");
+    }
+    let (text, value) = match kind {
         FileKind::Mesh => super::mesher_args::describe_mesh(path, a.self_intersections)?,
+        FileKind::TetGrid => super::tets::describe(path, a.array.as_deref())?,
         FileKind::PointCloud => {
             let c = read_points(path)?;
             let b = Aabb::from_points(&c.points);

@@ -1,5 +1,5 @@
 //! `isokit mesh FIELD -o out.obj [--mesher mc|dual]`: the isosurface of a volume as a
-//! triangle mesh.
+//! triangle mesh; of a tetrahedral grid (`.vtk`, `.vtu`) by marching tetrahedra.
 
 use super::check_output;
 use anyhow::{Result, bail};
@@ -21,8 +21,13 @@ pub enum Inside {
 /// Arguments of `isokit mesh`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Volume (.nrrd .nhdr .npy .nii .nii.gz).
+    /// Volume (.nrrd .nhdr .npy .nii .nii.gz) or tetrahedral grid (.vtk .vtu: marching
+    /// tetrahedra, exact in each cell, open where the surface leaves the grid; `--mesher`
+    /// and `--open` do not apply).
     pub field: PathBuf,
+    /// Tetrahedral grids: the point array (default: the first with one component).
+    #[arg(long)]
+    pub array: Option<String>,
     /// Output mesh (.obj, .ply, .stl, .off, .glb, .gltf; PLY and glTF with vertex normals).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -54,6 +59,24 @@ pub fn run(a: Args) -> Result<()> {
     if !a.iso.is_finite() {
         bail!("--iso {} must be finite", a.iso);
     }
+    if super::tets::is_tets(&a.field) {
+        if a.open || a.mesher != super::mesher_args::MesherArg::Mc {
+            bail!(
+                "--open and --mesher apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
+            );
+        }
+        let t = Instant::now();
+        let mesh = super::tets::mesh(
+            &a.field,
+            a.array.as_deref(),
+            a.iso,
+            a.inside == Inside::Above,
+        )?;
+        return finish(&a, &mesh, t.elapsed().as_secs_f64());
+    }
+    if a.array.is_some() {
+        bail!("--array applies to tetrahedral grids (.vtk .vtu)");
+    }
     let mut grid = a.volume.read(&a.field)?.into_grid()?;
     let mut iso = a.iso;
     if a.inside == Inside::Above {
@@ -78,14 +101,18 @@ pub fn run(a: Args) -> Result<()> {
             mesh
         }
     };
-    let secs = t.elapsed().as_secs_f64();
+    finish(&a, &mesh, t.elapsed().as_secs_f64())
+}
+
+/// Writes the mesh and reports it.
+fn finish(a: &Args, mesh: &isokit_field::TriMesh, secs: f64) -> Result<()> {
     if mesh.triangles.is_empty() {
         eprintln!(
             "warning: no sample lies on both sides of {}; the mesh is empty",
             a.iso
         );
     }
-    write_mesh(&a.output, &mesh)?;
+    write_mesh(&a.output, mesh)?;
     let r = mesh.validate();
     eprintln!(
         "{} vertices, {} triangles in {secs:.2} s; watertight {}, consistently oriented {}, {} components, boundary edges {}, non-manifold edges {} -> {}",

@@ -24,6 +24,7 @@ pub mod sample;
 pub mod sample_options;
 pub mod scene;
 pub mod sdf;
+pub mod tets;
 pub mod view;
 pub mod volume_args;
 

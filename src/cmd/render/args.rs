@@ -31,8 +31,12 @@ pub enum ClassificationArg {
 /// Arguments of `isokit render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A scene file (.json, .toml) or a volume (.nrrd .nhdr .npy .nii .nii.gz).
+    /// A scene file (.json, .toml), a volume (.nrrd .nhdr .npy .nii .nii.gz) or a
+    /// tetrahedral grid (.vtk .vtu: ray cast through its cells, on the CPU).
     pub input: PathBuf,
+    /// Tetrahedral grids: the point array (default: the first with one component).
+    #[arg(long)]
+    pub array: Option<String>,
     /// Output image (.png).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -109,4 +113,27 @@ pub struct Args {
     /// kept (warm frames); --stats lists their `warm_trace_seconds`.
     #[arg(long, default_value_t = 0)]
     pub warm_frames: u32,
+}
+
+impl Args {
+    /// Refuses inputs that do not go together: `--csg` with a scene, `--array` with
+    /// anything but a tetrahedral grid (which does not come here).
+    pub fn check_inputs(&self, is_scene: fn(&std::path::Path) -> bool) -> anyhow::Result<()> {
+        if self.csg.csg.is_some() {
+            if is_scene(&self.input) {
+                anyhow::bail!(
+                    "--csg combines two volumes; {} is a scene (use its union/intersection/difference/morph nodes instead)",
+                    self.input.display()
+                );
+            }
+            if self.csg.with.as_deref().is_some_and(is_scene) {
+                anyhow::bail!("--with must be a volume, not a scene");
+            }
+        }
+        if self.array.is_some() {
+            anyhow::bail!("--array applies to tetrahedral grids (.vtk .vtu)");
+        }
+        self.csg.combine()?;
+        Ok(())
+    }
 }

@@ -25,6 +25,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         (a.samples > 1, "--samples"),
         (a.multiview.multiview()?.0.is_some(), "--views"),
         (a.iso.is_some(), "--iso"),
+        (a.array.is_some(), "--array"),
     ] {
         if given {
             bail!("{flag} is for --mode isosurface; --mode dvr does not take it");

@@ -1,12 +1,13 @@
 //! `isokit render SCENE|VOLUME -o image.png [...]`: the isosurface ray cast into a G-buffer
 //! and shaded (`isokit_scene::Renderer`); `--watch` renders again whenever the input or a
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
-//! while ray casting (Sigg 2006, Sec. 6.4.3). `--mode dvr` renders a volume directly with a
-//! transfer function instead (`dvr.rs`).
+//! (Sigg 2006, Sec. 6.4.3). `--mode dvr` renders a volume with a transfer function
+//! (`dvr.rs`); tetrahedral grids are ray cast through their cells (`tets.rs`).
 
 mod args;
 mod dvr;
 mod summary;
+mod tets;
 
 pub use args::Args;
 
@@ -28,21 +29,13 @@ pub fn run(a: Args) -> Result<()> {
         check_output(g, &[".exr"])?;
     }
     let (width, height) = check_image_size(a.width, a.height)?;
+    if super::tets::is_tets(&a.input) {
+        return tets::run(&a, width, height);
+    }
     if a.mode == args::RenderMode::Dvr {
         return dvr::run(&a, width, height);
     }
-    if a.csg.csg.is_some() {
-        if is_scene(&a.input) {
-            bail!(
-                "--csg combines two volumes; {} is a scene (use its union/intersection/difference/morph nodes instead)",
-                a.input.display()
-            );
-        }
-        if a.csg.with.as_deref().is_some_and(is_scene) {
-            bail!("--with must be a volume, not a scene");
-        }
-    }
-    a.csg.combine()?;
+    a.check_inputs(is_scene)?;
     let (multiview, default_separation) = a.multiview.multiview()?;
     isokit_render::supersample::grid_side(a.samples)?;
     if a.samples > 1 && multiview.is_some() {
