@@ -57,13 +57,15 @@ pub fn mesh(
     inside_above: bool,
 ) -> Result<isokit_field::TriMesh> {
     let mut g = read_tets(path, array)?;
-    let r = g.report();
-    // Inverted cells are meshed by their own orientation; a degenerate cell or an
-    // over-shared face means the cells overlap or leave gaps.
-    if r.degenerate + r.over_shared_faces > 0 {
+    // Inverted cells are meshed by their own orientation; degenerate ones may leave gaps.
+    // (Overlapping cells need the face topology, a sort of every face: `isokit info`.)
+    let r = g.report_cells();
+    if r.degenerate > 0 {
         eprintln!(
-            "warning: {} degenerate cells, {} faces shared by more than two cells ({} cells inverted): the surface may be open or overlap there",
-            r.degenerate, r.over_shared_faces, r.inverted
+            "warning: {} degenerate cells ({} inverted): the surface may be open there; `isokit info {}` checks the faces too",
+            r.degenerate,
+            r.inverted,
+            path.display()
         );
     }
     let mut iso = iso;

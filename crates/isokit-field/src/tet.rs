@@ -239,27 +239,47 @@ impl TetGrid {
 
     /// Counts what a user should know before trusting the grid (see [`TetReport`]).
     pub fn report(&self) -> TetReport {
+        let mut r = self.report_cells();
+        let faces = self.faces();
+        r.boundary_faces = faces.boundary;
+        r.over_shared_faces = faces.over_shared;
+        r
+    }
+
+    /// [`TetGrid::report`] without the face topology (`boundary_faces` and
+    /// `over_shared_faces` are 0): the cells' orientation and size, the points used and the
+    /// values, in one parallel pass over the cells, without sorting the faces.
+    pub fn report_cells(&self) -> TetReport {
+        let (inverted, degenerate) = self
+            .tets
+            .par_iter()
+            .enumerate()
+            .map(|(c, t)| {
+                let d = self.det(c);
+                let p = t.map(|i| self.points[i as usize].as_dvec3());
+                let longest = (0..4)
+                    .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
+                    .map(|(a, b)| p[a].distance(p[b]))
+                    .fold(0.0, f64::max);
+                if d.abs() <= 1e-9 * longest.powi(3) {
+                    (0, 1)
+                } else {
+                    (usize::from(d < 0.0), 0)
+                }
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let mut used = vec![false; self.points.len()];
+        for t in &self.tets {
+            t.iter().for_each(|&i| used[i as usize] = true);
+        }
         let mut r = TetReport {
             cells: self.tets.len(),
             points: self.points.len(),
+            inverted,
+            degenerate,
+            unused_points: used.iter().filter(|u| !**u).count(),
             ..TetReport::default()
         };
-        let mut used = vec![false; self.points.len()];
-        for (c, t) in self.tets.iter().enumerate() {
-            t.iter().for_each(|&i| used[i as usize] = true);
-            let d = self.det(c);
-            let p = t.map(|i| self.points[i as usize].as_dvec3());
-            let longest = (0..4)
-                .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
-                .map(|(a, b)| p[a].distance(p[b]))
-                .fold(0.0, f64::max);
-            if d.abs() <= 1e-9 * longest.powi(3) {
-                r.degenerate += 1;
-            } else if d < 0.0 {
-                r.inverted += 1;
-            }
-        }
-        r.unused_points = used.iter().filter(|u| !**u).count();
         for &v in &self.values {
             if v.is_finite() {
                 r.range = Some(r.range.map_or((v, v), |(a, b)| (a.min(v), b.max(v))));
@@ -267,9 +287,6 @@ impl TetGrid {
                 r.non_finite_values += 1;
             }
         }
-        let faces = self.faces();
-        r.boundary_faces = faces.boundary;
-        r.over_shared_faces = faces.over_shared;
         r
     }
 
@@ -408,6 +425,16 @@ mod tests {
         // twice (a fourth and fifth use: over-shared) and two faces with a repeated point
         // that nothing else has (boundary).
         assert_eq!((r.boundary_faces, r.over_shared_faces), (2, 1));
+        let cells = t.report_cells();
+        assert_eq!((cells.boundary_faces, cells.over_shared_faces), (0, 0));
+        assert_eq!(
+            TetReport {
+                boundary_faces: 2,
+                over_shared_faces: 1,
+                ..cells
+            },
+            r
+        );
         assert!(!r.is_valid());
         let n = t.faces().neighbours;
         assert_eq!(n[0], [1, 1, NO_NEIGHBOUR, 1]);

@@ -39,7 +39,8 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         );
     }
     let grid = isokit_io::read_tets(&a.input, a.array.as_deref())?;
-    let r = grid.report();
+    // The face topology is built once, by the caster.
+    let r = grid.report_cells();
     let Some((lo, hi)) = r.range else {
         bail!(
             "{}: no finite value in array {}",
