@@ -34,6 +34,22 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
+    /// The camera of a `width` × `height` image: the one given, else one framing `bounds`.
+    pub fn camera_for(
+        &self,
+        bounds: isokit_field::Aabb,
+        width: u32,
+        height: u32,
+    ) -> Result<isokit_field::Camera> {
+        Ok(isokit_scene::camera_for(
+            self.spec()?.as_ref(),
+            bounds,
+            self.projection()?,
+            width,
+            height,
+        )?)
+    }
+
     /// The projection.
     pub fn projection(&self) -> Result<ProjectionKind> {
         self.projection.parse().map_err(anyhow::Error::msg)

@@ -13,7 +13,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::{Aabb, FieldError, Grid};
+use crate::{Aabb, FieldError, Grid, finite_min_max};
 
 /// Most cells a [`TetGrid`] holds (a face is keyed by `4 · cell + face` in 32 bits).
 pub const MAX_CELLS: usize = 1 << 30;
@@ -194,13 +194,7 @@ impl TetGrid {
                         TetSplit::Five if (x + y + z) % 2 == 0 => &FIVE_EVEN,
                         TetSplit::Five => &FIVE_ODD,
                     };
-                    for t in table {
-                        let mut t = t.map(corner);
-                        if det(&points, &t) < 0.0 {
-                            t.swap(2, 3);
-                        }
-                        tets.push(t);
-                    }
+                    tets.extend(table.iter().map(|t| positive(t.map(corner), &points)));
                 }
             }
         }
@@ -253,15 +247,10 @@ impl TetGrid {
         let (inverted, degenerate) = self
             .tets
             .par_iter()
-            .enumerate()
-            .map(|(c, t)| {
-                let d = self.det(c);
+            .map(|t| {
                 let p = t.map(|i| self.points[i as usize].as_dvec3());
-                let longest = (0..4)
-                    .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
-                    .map(|(a, b)| p[a].distance(p[b]))
-                    .fold(0.0, f64::max);
-                if d.abs() <= 1e-9 * longest.powi(3) {
+                let d = orientation(&p);
+                if is_degenerate(&p, d) {
                     (0, 1)
                 } else {
                     (usize::from(d < 0.0), 0)
@@ -280,13 +269,8 @@ impl TetGrid {
             unused_points: used.iter().filter(|u| !**u).count(),
             ..TetReport::default()
         };
-        for &v in &self.values {
-            if v.is_finite() {
-                r.range = Some(r.range.map_or((v, v), |(a, b)| (a.min(v), b.max(v))));
-            } else {
-                r.non_finite_values += 1;
-            }
-        }
+        r.range = finite_min_max(&self.values);
+        r.non_finite_values = self.values.iter().filter(|v| !v.is_finite()).count();
         r
     }
 
@@ -360,8 +344,30 @@ pub struct TetFaces {
 }
 
 fn det(points: &[Vec3], t: &[u32; 4]) -> f64 {
-    let p: [DVec3; 4] = t.map(|i| points[i as usize].as_dvec3());
+    orientation(&t.map(|i| points[i as usize].as_dvec3()))
+}
+
+/// `det(p1 − p0, p2 − p0, p3 − p0)` of a cell's points: positive in VTK's order.
+pub fn orientation(p: &[DVec3; 4]) -> f64 {
     (p[1] - p[0]).cross(p[2] - p[0]).dot(p[3] - p[0])
+}
+
+/// True when a cell of points `p` and determinant `det` has no volume within rounding:
+/// `|det| ≤ 1e-9 · (longest edge)³` (what [`TetReport::degenerate`] counts).
+pub fn is_degenerate(p: &[DVec3; 4], det: f64) -> bool {
+    let longest2 = (0..4)
+        .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
+        .map(|(a, b)| p[a].distance_squared(p[b]))
+        .fold(0.0, f64::max);
+    det.abs() <= 1e-9 * longest2.sqrt().powi(3)
+}
+
+/// Cell `t` with its last two points swapped where needed for a positive orientation.
+pub fn positive(mut t: [u32; 4], points: &[Vec3]) -> [u32; 4] {
+    if det(points, &t) < 0.0 {
+        t.swap(2, 3);
+    }
+    t
 }
 
 #[cfg(test)]

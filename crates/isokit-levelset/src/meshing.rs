@@ -465,7 +465,7 @@ pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
 
 /// Crossing parameter from the inside sample `a` (`a < iso`) towards the outside sample `b`,
 /// in `[0, 1]`.
-fn crossing(a: f32, b: f32, iso: f32) -> f64 {
+pub(crate) fn crossing(a: f32, b: f32, iso: f32) -> f64 {
     let (a, b, iso) = (a as f64, b as f64, iso as f64);
     if b.is_nan() {
         return 0.5;
@@ -582,7 +582,7 @@ fn triangulate(
 
 /// Smallest distance of an edge vertex from the edge's end nodes, in cell units: crossings
 /// nearer a node (a sample at or next to the isovalue) are moved to it.
-const NODE_GAP: f64 = 1.0 / 1024.0;
+pub(crate) const NODE_GAP: f64 = 1.0 / 1024.0;
 
 /// Cells are processed in cubic blocks of `DENSE_BLOCK` cells a side for dense grids.
 const DENSE_BLOCK: usize = 16;

@@ -14,14 +14,12 @@
 //! gives distinct corners on its edges and no triangle collapses. Triangles face the outside
 //! (`value ≥ iso`), by each cell's own orientation, inverted cells included.
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
+use isokit_field::tet::positive;
 use isokit_field::{Job, TetGrid, TriMesh};
 use rayon::prelude::*;
 
-use crate::meshing::MeshingError;
-
-/// Smallest distance of a corner from its edge's points, as a fraction of the edge.
-const NODE_GAP: f64 = 1.0 / 1024.0;
+use crate::meshing::{self, MeshingError, NODE_GAP};
 
 /// Cells per unit of progress and cancellation check.
 const CHUNK: usize = 1 << 14;
@@ -115,20 +113,9 @@ pub fn mesh_tets_job(grid: &TetGrid, iso: f32, job: &Job) -> Result<TriMesh, Mes
 }
 
 /// Crossing parameter from the inside value `a` towards the outside value `b`, kept
-/// [`NODE_GAP`] off both ends.
+/// [`NODE_GAP`] off both ends (marching cubes' rule).
 fn crossing(a: f32, b: f32, iso: f32) -> f64 {
-    let (a, b, iso) = (f64::from(a), f64::from(b), f64::from(iso));
-    let t = if b.is_nan() {
-        0.5
-    } else {
-        match (a.is_finite(), b.is_finite()) {
-            (true, true) => (iso - a) / (b - a),
-            (true, false) => 0.0,
-            (false, true) => 1.0,
-            (false, false) => 0.5,
-        }
-    };
-    t.clamp(NODE_GAP, 1.0 - NODE_GAP)
+    meshing::crossing(a, b, iso).clamp(NODE_GAP, 1.0 - NODE_GAP)
 }
 
 /// The triangles of one cell, facing the outside.
@@ -187,16 +174,4 @@ fn cell_triangles(
         }
         _ => {}
     }
-}
-
-/// `t` with its last two points swapped where needed for a positive orientation.
-fn positive(mut t: [u32; 4], points: &[Vec3]) -> [u32; 4] {
-    if det(t.map(|i| points[i as usize].as_dvec3())) < 0.0 {
-        t.swap(2, 3);
-    }
-    t
-}
-
-fn det(p: [DVec3; 4]) -> f64 {
-    (p[1] - p[0]).cross(p[2] - p[0]).dot(p[3] - p[0])
 }

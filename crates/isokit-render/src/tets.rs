@@ -29,6 +29,8 @@
 use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
 use crate::{GBuffer, RenderError};
 use glam::{DMat3, DVec3, Vec3};
+use isokit_field::curvature::Inside;
+use isokit_field::tet::is_degenerate;
 use isokit_field::{Aabb, Job, TetGrid};
 use isokit_kdtree::tree::{BuildParams, KdTree, QueryStats};
 use isokit_kdtree::triangle::ray_triangle;
@@ -54,8 +56,9 @@ pub enum TetNormals {
 /// in a kd-tree, the scalar with the inside below the isovalue, the point gradients.
 pub struct TetCaster<'g> {
     grid: &'g TetGrid,
-    /// The scalar, negated when the inside is above the isovalue.
-    values: Vec<f32>,
+    /// 1, or −1 when the inside is above the isovalue: the scalar times this has the
+    /// inside below `iso`.
+    sign: f32,
     iso: f32,
     neighbours: Vec<[u32; 4]>,
     /// `(cell, face)` of every boundary face, the kd-tree's primitives.
@@ -79,12 +82,12 @@ pub struct TetHit {
 }
 
 impl<'g> TetCaster<'g> {
-    /// Prepares `grid` for the isosurface `value = iso`, inside below it (or above it with
-    /// `inside_above`, as for densities).
+    /// Prepares `grid` for the isosurface `value = iso`, inside below it (distance fields)
+    /// or above it (densities), as `inside` says.
     pub fn new(
         grid: &'g TetGrid,
         iso: f32,
-        inside_above: bool,
+        inside: Inside,
         normals: TetNormals,
     ) -> Result<Self, RenderError> {
         if !iso.is_finite() {
@@ -94,8 +97,10 @@ impl<'g> TetCaster<'g> {
                 why: "the isovalue must be finite",
             });
         }
-        let sign = if inside_above { -1.0 } else { 1.0 };
-        let values: Vec<f32> = grid.values().iter().map(|v| sign * v).collect();
+        let sign = match inside {
+            Inside::Below => 1.0,
+            Inside::Above => -1.0,
+        };
         // Faces of more than two cells (overlapping cells) are left unconnected, which ends
         // a ray's walk there rather than guessing.
         let neighbours = grid.faces().neighbours;
@@ -117,10 +122,10 @@ impl<'g> TetCaster<'g> {
             })
             .collect();
         let tree = KdTree::build(&boxes, BuildParams::default());
-        let gradients = point_gradients(grid, &values);
+        let gradients = point_gradients(grid, sign);
         Ok(Self {
             grid,
-            values,
+            sign,
             iso: sign * iso,
             neighbours,
             boundary,
@@ -206,12 +211,7 @@ impl<'g> TetCaster<'g> {
         let p = self.corners(c);
         let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
         let det = m.determinant();
-        // As `TetGrid::report` counts degenerate cells: |det| ≤ 1e-9 · (longest edge)³.
-        let longest = (0..4)
-            .flat_map(|a| (a + 1..4).map(move |b| (a, b)))
-            .map(|(a, b)| p[a].distance_squared(p[b]))
-            .fold(0.0, f64::max);
-        if det.abs() <= 1e-9 * longest.powf(1.5) {
+        if is_degenerate(&p, det) {
             return Step::NONE;
         }
         let inv = m.inverse();
@@ -234,7 +234,7 @@ impl<'g> TetCaster<'g> {
         };
         let t_out = t_out.max(t_in);
         let idx = self.grid.tets()[c as usize];
-        let v = idx.map(|i| f64::from(self.values[i as usize]));
+        let v = idx.map(|i| f64::from(self.sign * self.grid.values()[i as usize]));
         if v.iter().any(|x| !x.is_finite()) {
             return Step {
                 hit: None,
@@ -262,7 +262,7 @@ impl<'g> TetCaster<'g> {
         } else {
             (t_in + f_in / (f_in - f_out) * (t_out - t_in)).clamp(t_in, t_out)
         };
-        let lambda = (0..4).map(|k| alpha[k] + beta[k] * t).collect::<Vec<_>>();
+        let lambda: [f64; 4] = std::array::from_fn(|k| alpha[k] + beta[k] * t);
         // The cell's gradient: Σ v_k ∇λ_k, with ∇λ_{1..3} the rows of M⁻¹.
         let rows = inv.transpose();
         let g1 = [rows.x_axis, rows.y_axis, rows.z_axis];
@@ -351,14 +351,14 @@ impl Step {
 }
 
 /// At each point the volume-weighted mean of its cells' gradients.
-fn point_gradients(grid: &TetGrid, values: &[f32]) -> Vec<Vec3> {
+fn point_gradients(grid: &TetGrid, sign: f32) -> Vec<Vec3> {
     let mut sum = vec![DVec3::ZERO; grid.points().len()];
     let mut weight = vec![0.0f64; grid.points().len()];
     for t in grid.tets() {
         let p = t.map(|i| grid.points()[i as usize].as_dvec3());
         let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
         let det = m.determinant();
-        let v = t.map(|i| f64::from(values[i as usize]));
+        let v = t.map(|i| f64::from(sign * grid.values()[i as usize]));
         if det == 0.0 || v.iter().any(|x| !x.is_finite()) {
             continue;
         }

@@ -8,6 +8,7 @@ use isokit_field::primitives::Sphere;
 use isokit_field::{Camera, Grid, Job, Projection, TetGrid, TetSplit, sample_into};
 use isokit_kdtree::mesh::{MeshOptions, MeshSdf};
 use isokit_kdtree::tree::QueryStats;
+use isokit_render::Inside;
 use isokit_render::tets::{TetCaster, TetNormals};
 use isokit_render::{camera_uniforms, kernel::pixel_ray};
 
@@ -26,7 +27,7 @@ fn hits_are_the_marching_tetrahedra_surface_along_the_same_rays() {
         let grid = sphere_tets(25, 0.6, split);
         let mesh = isokit_levelset::tets::mesh_tets(&grid, 0.0).unwrap();
         let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
-        let caster = TetCaster::new(&grid, 0.0, false, TetNormals::Flat).unwrap();
+        let caster = TetCaster::new(&grid, 0.0, Inside::Below, TetNormals::Flat).unwrap();
         let camera = Camera::look_at(
             Vec3::new(2.5, 1.7, 1.2),
             Vec3::ZERO,
@@ -109,7 +110,7 @@ fn a_linear_field_on_a_jittered_grid_with_inverted_cells_is_hit_on_its_plane() {
     let grid = TetGrid::new(points, cells, values, "plane").unwrap();
     assert!(grid.report().inverted > 0);
     for normals in [TetNormals::Flat, TetNormals::Smooth] {
-        let caster = TetCaster::new(&grid, 0.0, false, normals).unwrap();
+        let caster = TetCaster::new(&grid, 0.0, Inside::Below, normals).unwrap();
         let mut hits = 0;
         for i in 0..400 {
             let (a, b) = ((i % 20) as f64 / 20.0 - 0.5, (i / 20) as f64 / 20.0 - 0.5);
@@ -128,7 +129,7 @@ fn a_linear_field_on_a_jittered_grid_with_inverted_cells_is_hit_on_its_plane() {
         }
         assert_eq!(hits, 400);
         // Inside above: the same points, the normal reversed.
-        let above = TetCaster::new(&grid, 0.0, true, normals).unwrap();
+        let above = TetCaster::new(&grid, 0.0, Inside::Above, normals).unwrap();
         let (hit, _) = above.trace(DVec3::new(0.0, -3.0, 0.0), DVec3::Y);
         let hit = hit.unwrap();
         assert!(hit.normal.dot(normal) < -1.0 + 1e-5, "{hit:?}");
@@ -152,7 +153,7 @@ fn rays_leave_a_grid_through_a_gap_and_find_the_surface_beyond() {
     assert!(cells.len() < full.tets().len());
     let values = full.points().iter().map(|p| p.x - 0.5).collect();
     let grid = TetGrid::new(full.points().to_vec(), cells, values, "x").unwrap();
-    let caster = TetCaster::new(&grid, 0.0, false, TetNormals::Smooth).unwrap();
+    let caster = TetCaster::new(&grid, 0.0, Inside::Below, TetNormals::Smooth).unwrap();
     for (y, z) in [(0.0, 0.0), (0.13, -0.21), (-0.33, 0.31)] {
         let (hit, _) = caster.trace(DVec3::new(-3.0, y, z), DVec3::X);
         let hit = hit.expect("a hit beyond the gap");
@@ -177,8 +178,8 @@ fn rays_leave_a_grid_through_a_gap_and_find_the_surface_beyond() {
 #[test]
 fn the_gbuffer_holds_the_traced_hits_and_bad_requests_are_refused() {
     let grid = sphere_tets(13, 0.6, TetSplit::Six);
-    assert!(TetCaster::new(&grid, f32::NAN, false, TetNormals::Smooth).is_err());
-    let caster = TetCaster::new(&grid, 0.0, false, TetNormals::Smooth).unwrap();
+    assert!(TetCaster::new(&grid, f32::NAN, Inside::Below, TetNormals::Smooth).is_err());
+    let caster = TetCaster::new(&grid, 0.0, Inside::Below, TetNormals::Smooth).unwrap();
     // 6 × 12² boundary squares, two triangles each.
     assert_eq!(caster.boundary_faces(), 2 * 6 * 144);
     let camera = Camera::look_at(
@@ -234,7 +235,7 @@ fn a_surface_through_the_points_is_hit_where_marching_tetrahedra_put_it() {
         grid.values_mut().copy_from_slice(&values);
         let mesh = isokit_levelset::tets::mesh_tets(&grid, 3.0).unwrap();
         let sdf = MeshSdf::new(&mesh, MeshOptions::default()).unwrap();
-        let caster = TetCaster::new(&grid, 3.0, false, TetNormals::Flat).unwrap();
+        let caster = TetCaster::new(&grid, 3.0, Inside::Below, TetNormals::Flat).unwrap();
         let l1 = |p: DVec3| (p - DVec3::splat(4.0)).abs().element_sum();
         let (mut both, mut touching, mut worst) = (0, 0, 0.0f64);
         // Axis-aligned rays through points and along faces, and oblique ones.

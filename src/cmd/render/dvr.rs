@@ -46,13 +46,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     };
     let grid = a.volume.read_grid(&a.input)?;
     let tf = TransferFunction::load(tf_arg, &grid).with_context(|| format!("--tf {tf_arg}"))?;
-    let camera = isokit_scene::camera_for(
-        a.camera.spec()?.as_ref(),
-        grid.bounds(),
-        a.camera.projection()?,
-        width,
-        height,
-    )?;
+    let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     let opts = DvrOptions {
         step: a.step,
         classification: match a.classification {

@@ -3,7 +3,7 @@
 
 use super::Args;
 use super::args::RenderMode;
-use crate::cmd::args::{Backend, InsideArg};
+use crate::cmd::args::Backend;
 use anyhow::{Result, bail};
 use isokit_render::tets::{TetCaster, TetNormals};
 use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
@@ -39,9 +39,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         );
     }
     let grid = isokit_io::read_tets(&a.input, a.array.as_deref())?;
-    // The face topology is built once, by the caster.
-    let r = grid.report_cells();
-    let Some((lo, hi)) = r.range else {
+    let Some((lo, hi)) = isokit_field::finite_min_max(grid.values()) else {
         bail!(
             "{}: no finite value in array {}",
             a.input.display(),
@@ -53,16 +51,10 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     } else {
         0.5 * (lo + hi)
     });
-    let camera = isokit_scene::camera_for(
-        a.camera.spec()?.as_ref(),
-        grid.bounds(),
-        a.camera.projection()?,
-        width,
-        height,
-    )?;
+    let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     let u = camera_uniforms(&camera)?;
     let t = Instant::now();
-    let caster = TetCaster::new(&grid, iso, a.inside == InsideArg::Above, TetNormals::Smooth)?;
+    let caster = TetCaster::new(&grid, iso, a.inside.inside(), TetNormals::Smooth)?;
     let prepare = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let gb = caster.render(&u, &crate::cmd::progress::job())?;
@@ -83,7 +75,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let per_ray = visited as f64 / f64::from(width * height);
     eprintln!(
         "{} cells, {} boundary faces, array {} at iso {iso}: ray cast through tetrahedra (cpu), {width}x{height} {} image: {hits} surface pixels, {per_ray:.1} cells/ray; prepare {prepare:.2} s, trace {trace:.3} s, shade {shade_s:.3} s -> {}",
-        r.cells,
+        grid.tets().len(),
         caster.boundary_faces(),
         grid.array(),
         mode.name(),
@@ -92,7 +84,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     if a.stats {
         let v = json!({
             "device": "cpu",
-            "cells": r.cells,
+            "cells": grid.tets().len(),
             "boundary_faces": caster.boundary_faces(),
             "iso": iso,
             "width": width,
