@@ -485,15 +485,35 @@ impl KdTree {
         origin: DVec3,
         dir: DVec3,
         t_max: f64,
+        hit: impl FnMut(u32, f64) -> Option<f64>,
+        stats: &mut QueryStats,
+    ) -> Option<(u32, f64)> {
+        self.ray_first_in(origin, dir, 0.0, t_max, hit, stats)
+    }
+
+    /// [`KdTree::ray_first`] for `t` in `[t_min, t_max]`: nodes the ray has left before
+    /// `t_min` are not visited (`hit` must still refuse hits before `t_min`: a node's
+    /// interval is only as exact as the rounding of its planes).
+    pub fn ray_first_in(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_min: f64,
+        t_max: f64,
         mut hit: impl FnMut(u32, f64) -> Option<f64>,
         stats: &mut QueryStats,
     ) -> Option<(u32, f64)> {
         if self.nodes.is_empty() || !origin.is_finite() || !dir.is_finite() || dir == DVec3::ZERO {
             return None;
         }
-        // Clip against the root box.
+        // Clip against the root box; the start held back a little against rounding.
         let (lo, hi) = (self.bounds.min.as_dvec3(), self.bounds.max.as_dvec3());
-        let (mut t0, mut t1) = (0.0f64, t_max);
+        let start = if t_min > 0.0 {
+            t_min - 1e-9 * (1.0 + t_min)
+        } else {
+            0.0
+        };
+        let (mut t0, mut t1) = (start.max(0.0), t_max);
         for a in 0..3 {
             if dir[a] == 0.0 {
                 if origin[a] < lo[a] || origin[a] > hi[a] {
@@ -923,6 +943,14 @@ mod tests {
                     .filter_map(|i| hit(i, o, d).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
                 let got = t.ray_first(o, d, 100.0, |i, _| hit(i, o, d), &mut st);
+                assert_eq!(got.map(|g| g.1), brute.map(|b| b.1));
+                // From t_min on: the first hit beyond it, the nodes before it skipped.
+                let t_min = r.below(3) as f64;
+                let beyond = |i: u32| hit(i, o, d).filter(|&t| t > t_min);
+                let brute = (0..800u32)
+                    .filter_map(|i| beyond(i).map(|t| (i, t)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let got = t.ray_first_in(o, d, t_min, 100.0, |i, _| beyond(i), &mut st);
                 assert_eq!(got.map(|g| g.1), brute.map(|b| b.1));
             }
         }
