@@ -147,6 +147,12 @@ impl TransferFunction {
     /// read within the memory budget) or else a preset ([`TransferFunction::preset`] over the
     /// grid's value range and spacing).
     pub fn load(spec: &str, grid: &Grid) -> Result<Self, RenderError> {
+        Self::load_for(spec, value_range(grid), grid.spacing())
+    }
+
+    /// [`TransferFunction::load`] for data of any kind: presets over the value range
+    /// `range` and the length `spacing` (a tetrahedral grid's mean edge, for instance).
+    pub fn load_for(spec: &str, range: (f32, f32), spacing: f32) -> Result<Self, RenderError> {
         let path = std::path::Path::new(spec);
         if path.is_file() {
             let bytes = isokit_io::reader::read_file(path)?;
@@ -159,7 +165,7 @@ impl TransferFunction {
             })?;
             return Self::from_json(&text);
         }
-        Self::preset(spec, value_range(grid), grid.spacing())
+        Self::preset(spec, range, spacing)
     }
 
     /// A preset by name ([`TF_PRESETS`]). `ct-bone` and `ct-skin` are in Hounsfield units;
@@ -638,7 +644,7 @@ pub(crate) enum Within {
 
 impl Within {
     /// The distance into a step of length `len` at which its opacity reaches `alpha`.
-    fn opacity_at(&self, tf: &TransferFunction, len: f32, alpha: f32) -> f32 {
+    pub(crate) fn opacity_at(&self, tf: &TransferFunction, len: f32, alpha: f32) -> f32 {
         match *self {
             Within::Constant(sigma) if sigma > 0.0 => (-(1.0 - alpha).ln() / sigma).min(len),
             Within::Constant(_) => len,

@@ -25,6 +25,9 @@
 //! of its longest edge cubed, as [`TetGrid::report`] counts them) ends the walk there, and
 //! the ray goes on from the next boundary face beyond it. The camera must be outside the
 //! grid (rays start at the first boundary face they meet).
+//!
+//! [`dvr`] renders the same walk as a volume: each cell's segment of the ray is one entry
+//! of a pre-integration table.
 
 use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
 use crate::{GBuffer, RenderError};
@@ -35,8 +38,11 @@ use isokit_field::{Aabb, Job, TetGrid};
 use isokit_kdtree::tree::{BuildParams, KdTree, QueryStats};
 use isokit_kdtree::triangle::ray_triangle;
 use rayon::prelude::*;
+use std::ops::ControlFlow;
 
 use isokit_field::tet::NO_NEIGHBOUR as NONE;
+
+pub mod dvr;
 
 /// The points of face `k` (the face opposite point `k`) of a cell, seen from outside the
 /// cell counter-clockwise for a positively oriented cell.
@@ -52,18 +58,224 @@ pub enum TetNormals {
     Flat,
 }
 
-/// A tetrahedral grid prepared for ray casting: neighbours across faces, the boundary faces
-/// in a kd-tree, the scalar with the inside below the isovalue, the point gradients.
+/// The cells a ray crosses, in order: neighbours across faces and the boundary faces in a
+/// kd-tree (shared by the isosurface caster and volume rendering through the cells).
+pub(crate) struct Walk {
+    neighbours: Vec<[u32; 4]>,
+    /// `(cell, face)` of every boundary face, the kd-tree's primitives.
+    boundary: Vec<(u32, u8)>,
+    tree: KdTree,
+}
+
+/// One cell a ray crosses: the ray's barycentric coordinates in it are `α + β t`, and it
+/// runs through the cell from `t_in` to `t_out`, leaving through the face opposite point
+/// `exit`.
+pub(crate) struct Crossing {
+    pub(crate) cell: u32,
+    pub(crate) inv: DMat3,
+    pub(crate) alpha: [f64; 4],
+    pub(crate) beta: [f64; 4],
+    pub(crate) t_in: f64,
+    pub(crate) t_out: f64,
+    exit: usize,
+    /// The first cell after the ray entered the grid through a boundary face.
+    pub(crate) entered: bool,
+}
+
+impl Crossing {
+    /// The linear interpolant of the point values `v` at ray parameter `t`.
+    pub(crate) fn value(&self, v: &[f64; 4], t: f64) -> f64 {
+        (0..4)
+            .map(|k| (self.alpha[k] + self.beta[k] * t) * v[k])
+            .sum()
+    }
+
+    /// The barycentric coordinates at ray parameter `t`.
+    pub(crate) fn lambda(&self, t: f64) -> [f64; 4] {
+        std::array::from_fn(|k| self.alpha[k] + self.beta[k] * t)
+    }
+}
+
+impl Walk {
+    /// Faces of more than two cells (overlapping cells) are left unconnected, which ends a
+    /// ray's walk there rather than guessing.
+    pub(crate) fn new(grid: &TetGrid) -> Self {
+        let neighbours = grid.faces().neighbours;
+        let boundary: Vec<(u32, u8)> = neighbours
+            .iter()
+            .enumerate()
+            .flat_map(|(c, n)| {
+                (0..4u8)
+                    .filter(move |&k| n[k as usize] == NONE)
+                    .map(move |k| (c as u32, k))
+            })
+            .collect();
+        let boxes: Vec<Aabb> = boundary
+            .iter()
+            .map(|&(c, k)| {
+                let t = grid.tets()[c as usize];
+                let corners = FACES[k as usize].map(|i| grid.points()[t[i] as usize]);
+                Aabb::from_points(&corners)
+            })
+            .collect();
+        let tree = KdTree::build(&boxes, BuildParams::default());
+        Self {
+            neighbours,
+            boundary,
+            tree,
+        }
+    }
+
+    /// Boundary faces (each a face of one cell only).
+    pub(crate) fn boundary_faces(&self) -> usize {
+        self.boundary.len()
+    }
+
+    /// The first boundary face beyond `t_min` through which the ray enters the grid.
+    fn entry(&self, grid: &TetGrid, o: DVec3, d: DVec3, t_min: f64) -> Option<(u32, f64)> {
+        let mut stats = QueryStats::default();
+        self.tree
+            .ray_first_in(
+                o,
+                d,
+                t_min,
+                f64::MAX,
+                |id, best| {
+                    let (c, k) = self.boundary[id as usize];
+                    let p = corners(grid, c);
+                    let [a, b, e] = FACES[k as usize].map(|i| p[i]);
+                    // Entering: the ray runs towards the cell's opposite point.
+                    let inward = (p[k as usize] - a).dot((b - a).cross(e - a));
+                    let towards = d.dot((b - a).cross(e - a));
+                    if inward * towards <= 0.0 {
+                        return None;
+                    }
+                    ray_triangle(o, d, a, b, e, best)
+                        .map(|h| h.t)
+                        .filter(|&t| t > t_min)
+                },
+                &mut stats,
+            )
+            .map(|(id, t)| (self.boundary[id as usize].0, t))
+    }
+
+    /// Calls `visit` on the cells the ray `o + t d` (`d` of unit length) crosses, front to
+    /// back, until it breaks; returns the number of cells visited. Where the walk leaves
+    /// the grid it goes on from the next boundary face beyond; a degenerate cell is not
+    /// visited and ends the walk there (it goes on from the next boundary face beyond its
+    /// entry).
+    pub(crate) fn walk(
+        &self,
+        grid: &TetGrid,
+        o: DVec3,
+        d: DVec3,
+        mut visit: impl FnMut(&Crossing) -> ControlFlow<()>,
+    ) -> u32 {
+        let cells = grid.tets().len() as u64;
+        let mut visited = 0u32;
+        let mut t_min = 0.0;
+        // Each re-entry starts beyond the last exit; the walk is bounded by the cell count
+        // (a ray crosses a convex cell once) against rounding loops.
+        while let Some((mut c, mut t_in)) = self.entry(grid, o, d, t_min) {
+            let mut entered = true;
+            loop {
+                visited += 1;
+                if u64::from(visited) > 4 * cells + 64 {
+                    return visited;
+                }
+                let Some(x) = cross(grid, c, o, d, t_in, entered) else {
+                    t_min = t_in;
+                    break;
+                };
+                if visit(&x).is_break() {
+                    return visited;
+                }
+                t_min = x.t_out;
+                match self.neighbours[c as usize][x.exit] {
+                    NONE => break,
+                    n => {
+                        c = n;
+                        t_in = t_min;
+                        entered = false;
+                    }
+                }
+            }
+        }
+        visited
+    }
+}
+
+fn corners(grid: &TetGrid, c: u32) -> [DVec3; 4] {
+    grid.tets()[c as usize].map(|i| grid.points()[i as usize].as_dvec3())
+}
+
+/// The ray's way through cell `c` from `t_in`; `None` for a degenerate cell (|det| ≤ 1e-9
+/// of its longest edge cubed) or one the ray does not leave.
+fn cross(grid: &TetGrid, c: u32, o: DVec3, d: DVec3, t_in: f64, entered: bool) -> Option<Crossing> {
+    let p = corners(grid, c);
+    let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    if is_degenerate(&p, m.determinant()) {
+        return None;
+    }
+    let inv = m.inverse();
+    let (a3, b3) = (inv * (o - p[0]), inv * d);
+    let alpha = [1.0 - a3.element_sum(), a3.x, a3.y, a3.z];
+    let beta = [-b3.element_sum(), b3.x, b3.y, b3.z];
+    // The exit: the first barycentric coordinate to fall to 0.
+    let mut exit = None;
+    let mut t_out = f64::INFINITY;
+    for k in 0..4 {
+        if beta[k] < 0.0 {
+            let t = -alpha[k] / beta[k];
+            if t < t_out {
+                (t_out, exit) = (t, Some(k));
+            }
+        }
+    }
+    Some(Crossing {
+        cell: c,
+        inv,
+        alpha,
+        beta,
+        t_in,
+        t_out: t_out.max(t_in),
+        exit: exit?,
+        entered,
+    })
+}
+
+/// The values of cell `c`'s points times `sign`.
+pub(crate) fn cell_values(grid: &TetGrid, c: u32, sign: f32) -> [f64; 4] {
+    grid.tets()[c as usize].map(|i| f64::from(sign * grid.values()[i as usize]))
+}
+
+/// The gradient of the linear interpolant of `v` in a cell whose `inv` is the inverse of
+/// its edge matrix: `Σ v_k ∇λ_k`, with `∇λ_{1..3}` the rows of `inv`.
+pub(crate) fn cell_gradient(inv: &DMat3, v: &[f64; 4]) -> DVec3 {
+    let rows = inv.transpose();
+    [rows.x_axis, rows.y_axis, rows.z_axis]
+        .iter()
+        .zip(&v[1..])
+        .map(|(g, &vk)| *g * (vk - v[0]))
+        .sum()
+}
+
+/// The point gradients of `idx` interpolated with the barycentric coordinates `lambda`.
+pub(crate) fn interpolated_gradient(gradients: &[Vec3], idx: [u32; 4], lambda: &[f64; 4]) -> DVec3 {
+    (0..4)
+        .map(|k| gradients[idx[k] as usize].as_dvec3() * lambda[k].clamp(0.0, 1.0))
+        .sum()
+}
+
+/// A tetrahedral grid prepared for ray casting: the walk, the scalar with the inside below
+/// the isovalue, the point gradients.
 pub struct TetCaster<'g> {
     grid: &'g TetGrid,
     /// 1, or −1 when the inside is above the isovalue: the scalar times this has the
     /// inside below `iso`.
     sign: f32,
     iso: f32,
-    neighbours: Vec<[u32; 4]>,
-    /// `(cell, face)` of every boundary face, the kd-tree's primitives.
-    boundary: Vec<(u32, u8)>,
-    tree: KdTree,
+    walk: Walk,
     gradients: Vec<Vec3>,
     normals: TetNormals,
 }
@@ -101,159 +313,64 @@ impl<'g> TetCaster<'g> {
             Inside::Below => 1.0,
             Inside::Above => -1.0,
         };
-        // Faces of more than two cells (overlapping cells) are left unconnected, which ends
-        // a ray's walk there rather than guessing.
-        let neighbours = grid.faces().neighbours;
-        let boundary: Vec<(u32, u8)> = neighbours
-            .iter()
-            .enumerate()
-            .flat_map(|(c, n)| {
-                (0..4u8)
-                    .filter(move |&k| n[k as usize] == NONE)
-                    .map(move |k| (c as u32, k))
-            })
-            .collect();
-        let boxes: Vec<Aabb> = boundary
-            .iter()
-            .map(|&(c, k)| {
-                let t = grid.tets()[c as usize];
-                let corners = FACES[k as usize].map(|i| grid.points()[t[i] as usize]);
-                Aabb::from_points(&corners)
-            })
-            .collect();
-        let tree = KdTree::build(&boxes, BuildParams::default());
-        let gradients = point_gradients(grid, sign);
         Ok(Self {
             grid,
             sign,
             iso: sign * iso,
-            neighbours,
-            boundary,
-            tree,
-            gradients,
+            walk: Walk::new(grid),
+            gradients: point_gradients(grid, sign),
             normals,
         })
     }
 
     /// Boundary faces (each a face of one cell only).
     pub fn boundary_faces(&self) -> usize {
-        self.boundary.len()
-    }
-
-    fn corners(&self, c: u32) -> [DVec3; 4] {
-        self.grid.tets()[c as usize].map(|i| self.grid.points()[i as usize].as_dvec3())
-    }
-
-    /// The first boundary face beyond `t_min` through which the ray enters the grid.
-    fn entry(&self, o: DVec3, d: DVec3, t_min: f64) -> Option<(u32, f64)> {
-        let mut stats = QueryStats::default();
-        self.tree
-            .ray_first(
-                o,
-                d,
-                f64::MAX,
-                |id, best| {
-                    let (c, k) = self.boundary[id as usize];
-                    let p = self.corners(c);
-                    let [a, b, e] = FACES[k as usize].map(|i| p[i]);
-                    // Entering: the ray runs towards the cell's opposite point.
-                    let inward = (p[k as usize] - a).dot((b - a).cross(e - a));
-                    let towards = d.dot((b - a).cross(e - a));
-                    if inward * towards <= 0.0 {
-                        return None;
-                    }
-                    ray_triangle(o, d, a, b, e, best)
-                        .map(|h| h.t)
-                        .filter(|&t| t > t_min)
-                },
-                &mut stats,
-            )
-            .map(|(id, t)| (self.boundary[id as usize].0, t))
+        self.walk.boundary_faces()
     }
 
     /// The first hit of the ray `o + t d` (`d` of unit length) on the isosurface, and the
     /// number of cells it visited.
     pub fn trace(&self, o: DVec3, d: DVec3) -> (Option<TetHit>, u32) {
-        let cells = self.grid.tets().len() as u64;
-        let mut visited = 0u32;
-        let mut t_min = 0.0;
-        // Each re-entry starts beyond the last exit; the walk is bounded by the cell count
-        // (a ray crosses a convex cell once) against rounding loops.
-        while let Some((mut c, mut t_in)) = self.entry(o, d, t_min) {
-            // Inside or not where the ray enters the cell, as the cell before saw it at its
-            // exit: a surface lying in a shared face (its points at the isovalue) is found
-            // once even where the two cells round the value there to opposite signs.
-            let mut inside = None;
-            loop {
-                visited += 1;
-                if u64::from(visited) > 4 * cells + 64 {
-                    return (None, visited);
-                }
-                let step = self.cross_cell(c, o, d, t_in, inside);
-                inside = step.inside_out;
-                if let Some(hit) = step.hit {
-                    return (Some(hit), visited);
-                }
-                t_min = step.t_out.max(t_in);
-                match step.exit.map(|k| self.neighbours[c as usize][k]) {
-                    Some(n) if n != NONE => {
-                        c = n;
-                        t_in = t_min;
-                    }
-                    _ => break,
-                }
+        // Inside or not where the ray enters a cell, as the cell before saw it at its exit:
+        // a surface lying in a shared face (its points at the isovalue) is found once even
+        // where the two cells round the value there to opposite signs.
+        let mut inside = None;
+        let mut hit = None;
+        let visited = self.walk.walk(self.grid, o, d, |x| {
+            if x.entered {
+                inside = None;
             }
-        }
-        (None, visited)
+            let (h, inside_out) = self.cross_cell(x, o, d, inside);
+            inside = inside_out;
+            hit = h;
+            if hit.is_some() {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        (hit, visited)
     }
 
-    fn cross_cell(&self, c: u32, o: DVec3, d: DVec3, t_in: f64, inside: Option<bool>) -> Step {
-        let p = self.corners(c);
-        let m = DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-        let det = m.determinant();
-        if is_degenerate(&p, det) {
-            return Step::NONE;
-        }
-        let inv = m.inverse();
-        let (a3, b3) = (inv * (o - p[0]), inv * d);
-        let alpha = [1.0 - a3.element_sum(), a3.x, a3.y, a3.z];
-        let beta = [-b3.element_sum(), b3.x, b3.y, b3.z];
-        // The exit: the first barycentric coordinate to fall to 0.
-        let mut exit = None;
-        let mut t_out = f64::INFINITY;
-        for k in 0..4 {
-            if beta[k] < 0.0 {
-                let t = -alpha[k] / beta[k];
-                if t < t_out {
-                    (t_out, exit) = (t, Some(k));
-                }
-            }
-        }
-        let Some(_) = exit else {
-            return Step::NONE;
-        };
-        let t_out = t_out.max(t_in);
-        let idx = self.grid.tets()[c as usize];
-        let v = idx.map(|i| f64::from(self.sign * self.grid.values()[i as usize]));
+    /// The hit in one cell, if any, and whether the ray is inside where it leaves the cell
+    /// (`None`: not known, a non-finite value).
+    fn cross_cell(
+        &self,
+        x: &Crossing,
+        o: DVec3,
+        d: DVec3,
+        inside: Option<bool>,
+    ) -> (Option<TetHit>, Option<bool>) {
+        let (t_in, t_out) = (x.t_in, x.t_out);
+        let v = cell_values(self.grid, x.cell, self.sign);
         if v.iter().any(|x| !x.is_finite()) {
-            return Step {
-                hit: None,
-                t_out,
-                exit,
-                inside_out: None,
-            };
+            return (None, None);
         }
         let iso = f64::from(self.iso);
-        let value = |t: f64| (0..4).map(|k| (alpha[k] + beta[k] * t) * v[k]).sum::<f64>() - iso;
-        let (f_in, f_out) = (value(t_in), value(t_out));
+        let (f_in, f_out) = (x.value(&v, t_in) - iso, x.value(&v, t_out) - iso);
         let inside_in = inside.unwrap_or(f_in < 0.0);
         if inside_in == (f_out < 0.0) {
-            return Step {
-                hit: None,
-                t_out,
-                exit,
-                inside_out: Some(f_out < 0.0),
-            };
+            return (None, Some(f_out < 0.0));
         }
         // Where this cell's own sign at the entry disagrees with the state carried in, the
         // value there is within rounding of the isovalue: the hit is the entry.
@@ -262,33 +379,19 @@ impl<'g> TetCaster<'g> {
         } else {
             (t_in + f_in / (f_in - f_out) * (t_out - t_in)).clamp(t_in, t_out)
         };
-        let lambda: [f64; 4] = std::array::from_fn(|k| alpha[k] + beta[k] * t);
-        // The cell's gradient: Σ v_k ∇λ_k, with ∇λ_{1..3} the rows of M⁻¹.
-        let rows = inv.transpose();
-        let g1 = [rows.x_axis, rows.y_axis, rows.z_axis];
-        let flat = g1
-            .iter()
-            .zip(&v[1..])
-            .map(|(g, &vk)| *g * (vk - v[0]))
-            .sum::<DVec3>();
-        let smooth = (0..4)
-            .map(|k| self.gradients[idx[k] as usize].as_dvec3() * lambda[k].clamp(0.0, 1.0))
-            .sum::<DVec3>();
+        let idx = self.grid.tets()[x.cell as usize];
+        let smooth = interpolated_gradient(&self.gradients, idx, &x.lambda(t));
         let normal = match self.normals {
             TetNormals::Smooth if smooth.length_squared() > 0.0 => smooth.normalize(),
-            _ => flat.normalize_or_zero(),
+            _ => cell_gradient(&x.inv, &v).normalize_or_zero(),
         };
-        Step {
-            hit: Some(TetHit {
-                t,
-                position: o + t * d,
-                normal,
-                cell: c,
-            }),
-            t_out,
-            exit,
-            inside_out: Some(f_out < 0.0),
-        }
+        let hit = TetHit {
+            t,
+            position: o + t * d,
+            normal,
+            cell: x.cell,
+        };
+        (Some(hit), Some(f_out < 0.0))
     }
 
     /// The G-buffer of the camera in `u` ([`crate::camera_uniforms`]), rows in parallel,
@@ -330,28 +433,8 @@ fn sample(h: TetHit) -> GSample {
     }
 }
 
-/// What crossing one cell gave.
-struct Step {
-    hit: Option<TetHit>,
-    /// Where the ray leaves the cell.
-    t_out: f64,
-    /// Through the face opposite this point (`None`: it cannot be told).
-    exit: Option<usize>,
-    /// Whether the ray is inside where it leaves (`None`: not known, a non-finite value).
-    inside_out: Option<bool>,
-}
-
-impl Step {
-    const NONE: Step = Step {
-        hit: None,
-        t_out: f64::NEG_INFINITY,
-        exit: None,
-        inside_out: None,
-    };
-}
-
 /// At each point the volume-weighted mean of its cells' gradients.
-fn point_gradients(grid: &TetGrid, sign: f32) -> Vec<Vec3> {
+pub(crate) fn point_gradients(grid: &TetGrid, sign: f32) -> Vec<Vec3> {
     let mut sum = vec![DVec3::ZERO; grid.points().len()];
     let mut weight = vec![0.0f64; grid.points().len()];
     for t in grid.tets() {
