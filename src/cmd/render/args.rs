@@ -28,6 +28,15 @@ pub enum ClassificationArg {
     Preintegrated,
 }
 
+impl From<ClassificationArg> for isokit_render::dvr::Classification {
+    fn from(c: ClassificationArg) -> Self {
+        match c {
+            ClassificationArg::Post => Self::Post,
+            ClassificationArg::Preintegrated => Self::Preintegrated,
+        }
+    }
+}
+
 /// Arguments of `isokit render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -40,7 +49,8 @@ pub struct Args {
     /// Output image (.png).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// What to draw: the isosurface, or a direct volume rendering (volumes only).
+    /// What to draw: the isosurface, or a direct volume rendering (volumes and tetrahedral
+    /// grids).
     #[arg(long, value_enum, default_value_t = RenderMode::Isosurface)]
     pub mode: RenderMode,
     /// --mode dvr: the transfer function, a JSON file `{"points": [[value, r, g, b,
@@ -49,9 +59,10 @@ pub struct Args {
     /// distance-shell (signed distances).
     #[arg(long)]
     pub tf: Option<String>,
-    /// --mode dvr: post-classification or pre-integration.
-    #[arg(long, value_enum, default_value_t = ClassificationArg::Post)]
-    pub classification: ClassificationArg,
+    /// --mode dvr: post-classification or pre-integration [default: post for volumes,
+    /// preintegrated for tetrahedral grids].
+    #[arg(long, value_enum)]
+    pub classification: Option<ClassificationArg>,
     /// --mode dvr: step along the ray in world units [default: one voxel].
     #[arg(long)]
     pub step: Option<f32>,

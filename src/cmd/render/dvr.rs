@@ -5,7 +5,7 @@
 //! ray where the opacity first passes 0.5.
 
 use super::Args;
-use super::args::{ClassificationArg, RenderMode};
+use super::args::RenderMode;
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr};
@@ -49,10 +49,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     let opts = DvrOptions {
         step: a.step,
-        classification: match a.classification {
-            ClassificationArg::Post => Classification::Post,
-            ClassificationArg::Preintegrated => Classification::Preintegrated,
-        },
+        classification: a.classification.map_or(Classification::Post, |c| c.into()),
         shade,
         ..DvrOptions::default()
     };

@@ -2,12 +2,13 @@
 //! and shaded (`isokit_scene::Renderer`); `--watch` renders again whenever the input or a
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
 //! (Sigg 2006, Sec. 6.4.3). `--mode dvr` renders a volume with a transfer function
-//! (`dvr.rs`); tetrahedral grids are ray cast through their cells (`tets.rs`).
+//! (`dvr.rs`); tetrahedral grids are ray cast through their cells (`tets.rs`, `tets_dvr.rs`).
 
 mod args;
 mod dvr;
 mod summary;
 mod tets;
+mod tets_dvr;
 
 pub use args::Args;
 

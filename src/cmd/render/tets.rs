@@ -10,10 +10,9 @@ use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
 use serde_json::json;
 use std::time::Instant;
 
-/// Renders `a.input` (a tetrahedral grid).
-pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
-    for (given, flag) in [
-        (a.mode == RenderMode::Dvr, "--mode dvr"),
+/// Refuses the flags tetrahedral grids do not take (`extra`: those of one mode).
+pub(super) fn refuse_flags(a: &Args, extra: &[(bool, &str)]) -> Result<()> {
+    let common = [
         (a.backend == Backend::Gpu, "--backend gpu"),
         (a.watch, "--watch"),
         (a.csg.csg.is_some(), "--csg"),
@@ -21,13 +20,33 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         (a.multiview.multiview()?.0.is_some(), "--views"),
         (a.res.is_some(), "--res"),
         (a.warm_frames > 0, "--warm-frames"),
-    ] {
+    ];
+    for &(given, flag) in common.iter().chain(extra) {
         if given {
             bail!(
-                "{flag} is not available for tetrahedral grids (ray cast through their cells on the CPU, one ray per pixel)"
+                "{flag} is not available for tetrahedral grids (rendered through their cells on the CPU, one ray per pixel)"
             );
         }
     }
+    Ok(())
+}
+
+/// Renders `a.input` (a tetrahedral grid).
+pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
+    if a.mode == RenderMode::Dvr {
+        return super::tets_dvr::run(a, width, height);
+    }
+    refuse_flags(
+        a,
+        &[
+            (a.tf.is_some(), "--tf (for --mode dvr)"),
+            (
+                a.classification.is_some(),
+                "--classification (for --mode dvr)",
+            ),
+            (a.step.is_some(), "--step (for --mode dvr)"),
+        ],
+    )?;
     let mode = match a.shading.as_deref() {
         None => ShadingMode::Phong,
         Some(name) => crate::cmd::args::shading_mode(name)?,
