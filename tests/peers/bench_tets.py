@@ -41,7 +41,7 @@ def torus(p):
     return np.hypot(q, p[:, 2]) - 0.25
 
 
-def write_grid(n, path):
+def write_grid(n, path, field=torus, jitter=0.2):
     image = vtk.vtkImageData()
     image.SetDimensions(n, n, n)
     image.SetOrigin(-1, -1, -1)
@@ -52,9 +52,10 @@ def write_grid(n, path):
     tri.Update()
     ug = tri.GetOutput()
     pts = vtk_to_numpy(ug.GetPoints().GetData()).astype(np.float64)
-    pts += np.random.default_rng(2026).uniform(-0.2 * h, 0.2 * h, pts.shape)
+    if jitter > 0:
+        pts += np.random.default_rng(2026).uniform(-jitter * h, jitter * h, pts.shape)
     ug.GetPoints().SetData(numpy_to_vtk(pts.astype(np.float32), deep=True))
-    a = numpy_to_vtk(torus(pts).astype(np.float32), deep=True)
+    a = numpy_to_vtk(field(pts).astype(np.float32), deep=True)
     a.SetName("distance")
     ug.GetPointData().SetScalars(a)
     w = vtk.vtkXMLUnstructuredGridWriter()
