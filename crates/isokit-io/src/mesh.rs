@@ -133,6 +133,15 @@ pub fn write_ply_colored(path: &Path, mesh: &TriMesh, colors: &[[u8; 3]]) -> Res
     ply::write_ply_mesh_colored(path, mesh, Some(colors), false)
 }
 
+/// Writes a binary PLY mesh whose faces carry the two regions they separate, as `property
+/// int region_a` and `property int region_b` after `vertex_indices` (`regions` holds one
+/// pair per triangle, else an error and the file is not touched), atomically. Other PLY
+/// readers (trimesh, Open3D, VTK) read the extra face properties or skip them; the readers
+/// here skip them.
+pub fn write_ply_regions(path: &Path, mesh: &TriMesh, regions: &[[i32; 2]]) -> Result<(), IoError> {
+    ply::write_ply_mesh_regions(path, mesh, regions)
+}
+
 /// Writes an ASCII PLY mesh (`float x y z`, `list uchar int vertex_indices`) atomically.
 pub fn write_ply_ascii(path: &Path, mesh: &TriMesh) -> Result<(), IoError> {
     ply::write_ply_mesh(path, mesh, true)

@@ -494,7 +494,39 @@ pub(crate) fn write_ply_mesh_colored(
     colors: Option<&[[u8; 3]]>,
     ascii: bool,
 ) -> Result<(), IoError> {
+    write_ply(path, mesh, colors, None, ascii)
+}
+
+/// A binary PLY mesh whose faces carry two int32 properties `region_a` and `region_b`
+/// after `vertex_indices` (one pair per triangle, checked).
+pub(crate) fn write_ply_mesh_regions(
+    path: &Path,
+    mesh: &TriMesh,
+    regions: &[[i32; 2]],
+) -> Result<(), IoError> {
+    write_ply(path, mesh, None, Some(regions), false)
+}
+
+fn write_ply(
+    path: &Path,
+    mesh: &TriMesh,
+    colors: Option<&[[u8; 3]]>,
+    regions: Option<&[[i32; 2]]>,
+    ascii: bool,
+) -> Result<(), IoError> {
     crate::mesh::check_indices(mesh, path)?;
+    if let Some(r) = regions
+        && r.len() != mesh.triangles.len()
+    {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "{} region pairs for {} triangles",
+                r.len(),
+                mesh.triangles.len()
+            ),
+        ));
+    }
     if let Some(c) = colors
         && c.len() != mesh.positions.len()
     {
@@ -519,12 +551,17 @@ pub(crate) fn write_ply_mesh_colored(
         } else {
             ""
         };
+        let region_props = if regions.is_some() {
+            "property int region_a\nproperty int region_b\n"
+        } else {
+            ""
+        };
         write!(
             w,
             "ply\nformat {fmt} 1.0\ncomment written by isokit\nelement vertex {}\n\
              property float x\nproperty float y\nproperty float z\n\
              property float nx\nproperty float ny\nproperty float nz\n{color_props}element face {}\n\
-             property list uchar {} vertex_indices\nend_header\n",
+             property list uchar {} vertex_indices\n{region_props}end_header\n",
             mesh.positions.len(),
             mesh.triangles.len(),
             index_type(mesh.positions.len())
@@ -540,8 +577,12 @@ pub(crate) fn write_ply_mesh_colored(
                     None => writeln!(w)?,
                 }
             }
-            for t in &mesh.triangles {
-                writeln!(w, "3 {} {} {}", t[0], t[1], t[2])?;
+            for (f, t) in mesh.triangles.iter().enumerate() {
+                write!(w, "3 {} {} {}", t[0], t[1], t[2])?;
+                match regions {
+                    Some(r) => writeln!(w, " {} {}", r[f][0], r[f][1])?,
+                    None => writeln!(w)?,
+                }
             }
         } else {
             for (i, (p, n)) in mesh.positions.iter().zip(&normals).enumerate() {
@@ -552,13 +593,18 @@ pub(crate) fn write_ply_mesh_colored(
                     w.write_all(&c[i])?;
                 }
             }
-            let mut rec = [0u8; 13];
+            let mut rec = [0u8; 21];
             rec[0] = 3;
-            for t in &mesh.triangles {
+            let len = if regions.is_some() { 21 } else { 13 };
+            for (f, t) in mesh.triangles.iter().enumerate() {
                 for (k, i) in t.iter().enumerate() {
                     rec[1 + 4 * k..5 + 4 * k].copy_from_slice(&i.to_le_bytes());
                 }
-                w.write_all(&rec)?;
+                if let Some(r) = regions {
+                    rec[13..17].copy_from_slice(&r[f][0].to_le_bytes());
+                    rec[17..21].copy_from_slice(&r[f][1].to_le_bytes());
+                }
+                w.write_all(&rec[..len])?;
             }
         }
         Ok(())

@@ -13,6 +13,8 @@
 //! - [`meshing`]: watertight, 2-manifold isosurface meshes for export (marching cubes).
 //! - [`dual`]: dual contouring with Hermite data, sharp edges and corners from exact fields.
 //! - [`tets`]: marching tetrahedra on unstructured tetrahedral grids, exact in each cell.
+//! - [`labels`]: the non-manifold surface between the regions of a label volume (surface
+//!   nets on labels), each face carrying its two regions.
 //! - [`intersect`]: exact self-intersection test of a triangle mesh (Shewchuk's predicates).
 //! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
@@ -31,6 +33,7 @@ pub mod deform;
 pub mod dual;
 pub mod evolve;
 pub mod intersect;
+pub mod labels;
 pub mod meshing;
 pub mod morph;
 pub mod offset;
