@@ -1,5 +1,6 @@
 //! `isokit mesh FIELD -o out.obj [--mesher mc|dual]`: the isosurface of a volume as a
-//! triangle mesh; of a tetrahedral grid (`.vtk`, `.vtu`) by marching tetrahedra.
+//! triangle mesh; of a tetrahedral grid (`.vtk`, `.vtu`) by marching tetrahedra; with
+//! `--labels`, the surface between the regions of a label volume (`labels.rs`).
 
 use super::check_output;
 use anyhow::{Result, bail};
@@ -46,6 +47,15 @@ pub struct Args {
     /// 2-manifold except in a rare ambiguous configuration).
     #[arg(long, value_enum, default_value_t = super::mesher_args::MesherArg::Mc)]
     pub mesher: super::mesher_args::MesherArg,
+    /// The volume holds labels (a whole number per sample, 0 outside): mesh the surface
+    /// between its regions, non-manifold where three or more meet, into a PLY whose faces
+    /// carry `region_a` and `region_b` (int32, a < b).
+    #[arg(long)]
+    pub labels: bool,
+    /// --labels: relaxation passes of the vertices, each kept in its cell (0: the
+    /// voxel-aligned staircase) [default: 16].
+    #[arg(long)]
+    pub smooth: Option<usize>,
     #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
 }
@@ -58,6 +68,12 @@ pub fn run(a: Args) -> Result<()> {
     )?;
     if !a.iso.is_finite() {
         bail!("--iso {} must be finite", a.iso);
+    }
+    if a.labels {
+        return super::labels::run(&a);
+    }
+    if a.smooth.is_some() {
+        bail!("--smooth applies to --labels");
     }
     if super::tets::is_tets(&a.field) {
         if a.open || a.mesher != super::mesher_args::MesherArg::Mc {

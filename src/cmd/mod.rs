@@ -9,6 +9,7 @@ pub mod convert;
 pub mod csg_args;
 pub mod demo;
 pub mod info;
+pub mod labels;
 pub mod mesh;
 pub mod mesh_args;
 pub mod mesher_args;

@@ -1,0 +1,153 @@
+//! `isokit mesh LABELS.nrrd --labels -o out.ply`: the PLY's faces carry `region_a` and
+//! `region_b`, and the interfaces of three touching blocks have their exact areas.
+
+mod common;
+
+use common::{assert_clear_error, isokit, isokit_ok, scratch};
+use glam::Vec3;
+use isokit_field::Grid;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Region 1 for i < 5, 2 for i ≥ 5 and j < 5, 3 for i ≥ 5 and j ≥ 5 over the samples
+/// 1..=10 × 1..=8 × 1..=6 of a 12 × 10 × 8 volume of spacing 0.5; 0 around them.
+fn write_blocks(path: &Path, bad: bool) {
+    let mut g = Grid::new([12, 10, 8], Vec3::ZERO, 0.5).unwrap();
+    for k in 1..=6 {
+        for j in 1..=8 {
+            for i in 1..=10 {
+                g.set(
+                    i,
+                    j,
+                    k,
+                    if i < 5 {
+                        1.0
+                    } else if j < 5 {
+                        2.0
+                    } else {
+                        3.0
+                    },
+                );
+            }
+        }
+    }
+    if bad {
+        g.set(2, 2, 2, 0.25);
+    }
+    isokit::io::write_volume(path, &isokit::io::Volume::from(g)).unwrap();
+}
+
+/// Area per region pair, read from the binary PLY by its header.
+fn areas(ply: &Path) -> BTreeMap<(i32, i32), f64> {
+    let bytes = std::fs::read(ply).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let header = std::str::from_utf8(&bytes[..end]).unwrap();
+    assert!(header.contains(
+        "property list uchar int vertex_indices\nproperty int region_a\nproperty int region_b\n"
+    ));
+    let count = |what: &str| -> usize {
+        let line = header.lines().find(|l| l.starts_with(what)).unwrap();
+        line.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    let (nv, nf) = (count("element vertex"), count("element face"));
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let i32_at = |o: usize| i32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+    let vertex = |i: i32| {
+        let o = end + 24 * i as usize;
+        Vec3::new(f32_at(o), f32_at(o + 4), f32_at(o + 8)).as_dvec3()
+    };
+    let faces = end + 24 * nv;
+    assert_eq!(bytes.len(), faces + 21 * nf);
+    let mut out = BTreeMap::new();
+    for f in 0..nf {
+        let o = faces + 21 * f;
+        assert_eq!(bytes[o], 3);
+        let [a, b, c] = [0, 1, 2].map(|k| vertex(i32_at(o + 1 + 4 * k)));
+        let (ra, rb) = (i32_at(o + 13), i32_at(o + 17));
+        assert!(ra < rb, "{ra} {rb}");
+        *out.entry((ra, rb)).or_insert(0.0) += 0.5 * (b - a).cross(c - a).length();
+    }
+    out
+}
+
+#[test]
+fn labels_mesh_into_a_ply_whose_faces_carry_their_regions() {
+    let d = scratch("labels-cli");
+    let vol = d.join("labels.nrrd");
+    write_blocks(&vol, false);
+    let ply = d.join("regions.ply");
+    let v = vol.to_str().unwrap();
+    let out = isokit_ok(&[
+        "mesh",
+        v,
+        "--labels",
+        "--smooth",
+        "0",
+        "-o",
+        ply.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("between 6 region pairs"), "{err}");
+    // In spacings² (0.25 each): halfway between the samples.
+    let want = [
+        ((0, 1), 160.0),
+        ((0, 2), 108.0),
+        ((0, 3), 108.0),
+        ((1, 2), 24.0),
+        ((1, 3), 24.0),
+        ((2, 3), 36.0),
+    ];
+    let got = areas(&ply);
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (pair, a) in want {
+        assert!(
+            (got[&pair] / 0.25 - a).abs() < 1e-6 * a,
+            "{pair:?}: {}",
+            got[&pair]
+        );
+    }
+    // The project's own reader (and any PLY reader) takes the mesh, skipping the regions.
+    let mesh = isokit::io::read_mesh(&ply).unwrap();
+    assert_eq!(mesh.triangles.len(), 2 * 460);
+    // Smoothed (the default): the same pairs, the interfaces between blocks still flat
+    // where they are away from the outside.
+    isokit_ok(&["mesh", v, "--labels", "-o", ply.to_str().unwrap()]);
+    assert_eq!(areas(&ply).len(), 6);
+}
+
+#[test]
+fn labels_refuse_what_does_not_apply_and_labels_that_are_not_whole() {
+    let d = scratch("labels-cli-errors");
+    let vol = d.join("labels.nrrd");
+    write_blocks(&vol, false);
+    let v = vol.to_str().unwrap();
+    let obj = d.join("out.obj");
+    let ply = d.join("out.ply");
+    let p = ply.to_str().unwrap();
+    for (args, needle) in [
+        (
+            vec!["mesh", v, "--labels", "-o", obj.to_str().unwrap()],
+            ".ply",
+        ),
+        (
+            vec!["mesh", v, "--labels", "--iso", "1", "-o", p],
+            "--iso does not apply to --labels",
+        ),
+        (
+            vec!["mesh", v, "--smooth", "3", "-o", p],
+            "--smooth applies to --labels",
+        ),
+    ] {
+        assert_clear_error(&isokit(&args), needle);
+    }
+    write_blocks(&vol, true);
+    assert_clear_error(
+        &isokit(&["mesh", v, "--labels", "-o", p]),
+        "labels must be whole numbers",
+    );
+    assert!(!ply.exists() && !obj.exists());
+}
