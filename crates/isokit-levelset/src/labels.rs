@@ -9,9 +9,9 @@
 //! the method of VTK's `vtkSurfaceNets3D`): one vertex in each cell of the lattice (the cube
 //! between 8 samples) whose samples hold more than one label, one quadrilateral for each
 //! lattice edge whose two samples differ, joining the vertices of the 4 cells around that
-//! edge. Samples beyond the lattice count as label 0 (outside), so every region other than 0
-//! is closed. Faces are oriented with their normal from the higher label towards the lower
-//! (from every region towards 0, outwards).
+//! edge. Labels are whole numbers from 0; samples beyond the lattice count as label 0
+//! (outside), so every region other than 0 is closed. Faces are oriented with their normal
+//! from the higher label towards the lower (from every region towards 0, outwards).
 //!
 //! Vertices start at their cells' centres (the surface between voxel-aligned regions is
 //! then exact: halfway between the samples) and are then relaxed `smoothing` times towards
@@ -68,27 +68,29 @@ impl LabelMesh {
     }
 }
 
-/// The labels of `grid` as integers: each finite sample must be a whole number within
-/// ±2^24 (where f32 holds every integer exactly).
-fn labels(grid: &Grid) -> Result<Vec<i32>, FieldError> {
-    grid.data()
-        .iter()
+/// The labels as integers: each sample must be a whole number from 0 to 2^24 − 1 (f32
+/// holds every integer below 2^24 exactly; a larger one may be a neighbour rounded).
+fn labels(data: &[f32]) -> Result<Vec<i32>, FieldError> {
+    data.iter()
         .map(|&v| {
-            if v.is_finite() && v.fract() == 0.0 && v.abs() <= 16_777_216.0 {
+            if v.is_finite() && v.fract() == 0.0 && (0.0..16_777_216.0).contains(&v) {
                 Ok(v as i32)
             } else {
                 Err(FieldError::BadParameter {
                     name: "label",
                     value: v.to_string(),
-                    why: "labels must be whole numbers within ±2^24 (one region per sample)",
+                    why: "labels must be whole numbers from 0 to 2^24 - 1 (one region per sample, 0 outside)",
                 })
             }
         })
         .collect()
 }
 
-/// Bytes per quadrilateral made (two triangles, their regions, the vertex map's share).
-const QUAD_BYTES: u128 = 2 * (12 + 8) + 4 * 4;
+/// What is held per quadrilateral, counted against the memory budget as they are made: the
+/// quadrilateral (24 bytes), its two triangles and regions (40), and for about one vertex per
+/// quadrilateral its cell, crossing sum, position, links and the smoothing's copy (~130),
+/// with room for the vectors' growth.
+const QUAD_BYTES: u128 = 320;
 
 /// Meshes the regions of the label volume `grid` (see the [module](self) docs), reporting
 /// progress to `job` (stage `label surface`, in slices).
@@ -109,6 +111,27 @@ const QUAD_BYTES: u128 = 2 * (12 + 8) + 4 * 4;
 /// assert!((wall.2 - 16.0).abs() < 1e-9);
 /// ```
 pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<LabelMesh, FieldError> {
+    let h = grid.spacing();
+    label_surface_spaced(
+        grid.dims(),
+        grid.origin(),
+        Vec3::splat(h),
+        grid.data(),
+        opts,
+        job,
+    )
+}
+
+/// [`label_surface`] of samples `data` (x fastest) on a lattice of `dims` samples from
+/// `origin`, `spacing` apart along each axis (which may differ, as a CT's slices often do).
+pub fn label_surface_spaced(
+    dims: [usize; 3],
+    origin: Vec3,
+    spacing: Vec3,
+    data: &[f32],
+    opts: &LabelOptions,
+    job: &Job,
+) -> Result<LabelMesh, FieldError> {
     if !(0.0..=1.0).contains(&opts.relaxation) {
         return Err(FieldError::BadParameter {
             name: "relaxation",
@@ -116,8 +139,29 @@ pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<Labe
             why: "must be from 0 to 1",
         });
     }
-    let lab = labels(grid)?;
-    let n = grid.dims().map(|d| d as i64);
+    if !(spacing.is_finite() && spacing.min_element() > 0.0 && origin.is_finite()) {
+        return Err(FieldError::BadParameter {
+            name: "lattice",
+            value: format!("origin {origin}, spacing {spacing}"),
+            why: "needs a finite origin and finite positive spacings",
+        });
+    }
+    let count = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
+    if count != Some(data.len()) {
+        return Err(FieldError::DataLength {
+            dims,
+            want: count.unwrap_or(usize::MAX),
+            got: data.len(),
+        });
+    }
+    // The integer copy of the labels.
+    isokit_field::memory::check(
+        "label surface",
+        data.len() as u128 * 4,
+        "use a smaller volume or raise the memory budget",
+    )?;
+    let lab = labels(data)?;
+    let n = dims.map(|d| d as i64);
     let at = |s: [i64; 3]| -> i32 {
         if (0..3).all(|a| (0..n[a]).contains(&s[a])) {
             lab[(s[0] + n[0] * (s[1] + n[1] * s[2])) as usize]
@@ -125,38 +169,88 @@ pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<Labe
             0
         }
     };
+    let nets = surface_nets(n, true, "label surface", job, |s, t| {
+        let (here, there) = (at(s), at(t));
+        (here != there).then_some((here, there, 0.5))
+    })?;
+    let (cells, quads) = (nets.cells, nets.quads);
+    let centre =
+        |c: [i64; 3]| origin + (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * spacing;
+    let mut positions: Vec<Vec3> = cells.iter().map(|&c| centre(c)).collect();
+    if opts.smoothing > 0 {
+        smooth(
+            &mut positions,
+            &cells,
+            &quads,
+            &at,
+            centre,
+            spacing,
+            opts,
+            job,
+        )?;
+    }
+    Ok(triangulate(positions, &quads))
+}
+
+/// What [`surface_nets`] makes: the cells holding a vertex (by their lowest sample), the
+/// quadrilaterals with their region pairs, and per cell the sum and count of the crossing
+/// points on its edges.
+pub(crate) struct Nets {
+    pub(crate) cells: Vec<[i64; 3]>,
+    pub(crate) quads: Vec<([u32; 4], [i32; 2])>,
+    pub(crate) crossings: Vec<(glam::DVec3, u32)>,
+}
+
+/// Surface nets over a lattice of `n` samples: for each edge from sample `s` to `t = s + e_a`
+/// that `edge(s, t)` says the surface crosses (`Some((region at s, region at t, where
+/// along the edge from s, 0 to 1))`), a quadrilateral through the vertices of the 4 cells
+/// around it, oriented with its normal from the higher region towards the lower. With
+/// `pad` the edges reach one sample beyond the lattice on every side (where `edge` decides
+/// what lies there); without it only edges between samples of the lattice count. Cells are
+/// those from −1 to n − 1 along each axis; the crossing points are in lattice units (sample
+/// `s` at `s`).
+pub(crate) fn surface_nets(
+    n: [i64; 3],
+    pad: bool,
+    stage: &'static str,
+    job: &Job,
+    mut edge: impl FnMut([i64; 3], [i64; 3]) -> Option<(i32, i32, f32)>,
+) -> Result<Nets, FieldError> {
     // Cells are keyed by their lowest sample, −1 to n − 1 along each axis.
     let key = |c: [i64; 3]| ((c[2] + 1) * (n[1] + 1) + (c[1] + 1)) * (n[0] + 1) + (c[0] + 1);
     let cell_count = (n[0] + 1) as u128 * (n[1] + 1) as u128 * (n[2] + 1) as u128;
     let mut vertex = VertexMap::new(cell_count);
     let mut cells: Vec<[i64; 3]> = Vec::new();
+    let mut crossings: Vec<(glam::DVec3, u32)> = Vec::new();
     let mut quads: Vec<([u32; 4], [i32; 2])> = Vec::new();
-    let counter = job.counter("label surface", (n[2] + 1) as u64);
-    for z in -1..n[2] {
+    let first = if pad { -1 } else { 0 };
+    let counter = job.counter(stage, (n[2] - first) as u64);
+    for z in first..n[2] {
         job.check()?;
-        for y in -1..n[1] {
-            for x in -1..n[0] {
+        for y in first..n[1] {
+            for x in first..n[0] {
                 let s = [x, y, z];
-                let here = at(s);
                 for a in 0..3 {
                     let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                    // The edge from s to s + e_a; both ends beyond the lattice are 0.
-                    if s[b] < 0 || s[c] < 0 {
+                    // The edge from s to s + e_a: its ends beyond the lattice only with
+                    // `pad`, and never both (those meet no sample).
+                    if s[b] < 0 || s[c] < 0 || (!pad && (s[a] < 0 || s[a] + 1 >= n[a])) {
                         continue;
                     }
                     let mut t = s;
                     t[a] += 1;
-                    let there = at(t);
-                    if here == there {
+                    let Some((here, there, along)) = edge(s, t) else {
                         continue;
-                    }
+                    };
                     if quads.len().is_multiple_of(4096) {
                         isokit_field::memory::check(
-                            "label surface",
+                            stage,
                             (quads.len() as u128 + 4096) * QUAD_BYTES,
-                            "use a smaller volume or raise ISOKIT_MEMORY",
+                            "use a smaller volume or raise the memory budget (--max-memory, ISOKIT_MAX_MEMORY)",
                         )?;
                     }
+                    let mut point = glam::DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+                    point[a] += f64::from(along);
                     // The 4 cells around the edge, counter-clockwise seen from +e_a.
                     let mut ring = [[0i64; 3]; 4];
                     for (k, (db, dc)) in [(-1, -1), (0, -1), (0, 0), (-1, 0)].iter().enumerate() {
@@ -165,8 +259,17 @@ pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<Labe
                         cell[c] += dc;
                         ring[k] = cell;
                     }
-                    let mut q = ring.map(|cell| vertex.get_or_insert(key(cell), &mut cells, cell));
-                    // Normal from the higher label to the lower: +e_a when s holds the
+                    let mut q = ring.map(|cell| {
+                        let v = vertex.get_or_insert(key(cell), &mut cells, cell);
+                        if v as usize == crossings.len() {
+                            crossings.push((glam::DVec3::ZERO, 0));
+                        }
+                        let e = &mut crossings[v as usize];
+                        e.0 += point;
+                        e.1 += 1;
+                        v
+                    });
+                    // Normal from the higher region to the lower: +e_a when s holds the
                     // higher.
                     if here < there {
                         q.reverse();
@@ -177,16 +280,18 @@ pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<Labe
         }
         counter.advance(1);
     }
-    let (origin, h) = (grid.origin(), grid.spacing());
-    let centre =
-        |c: [i64; 3]| origin + (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * h;
-    let mut positions: Vec<Vec3> = cells.iter().map(|&c| centre(c)).collect();
-    if opts.smoothing > 0 {
-        smooth(&mut positions, &cells, &quads, &at, centre, h, opts, job)?;
-    }
+    Ok(Nets {
+        cells,
+        quads,
+        crossings,
+    })
+}
+
+/// Each quadrilateral as two triangles along its shorter diagonal, with its region pair.
+pub(crate) fn triangulate(positions: Vec<Vec3>, quads: &[([u32; 4], [i32; 2])]) -> LabelMesh {
     let mut triangles = Vec::with_capacity(2 * quads.len());
     let mut regions = Vec::with_capacity(2 * quads.len());
-    for (q, r) in &quads {
+    for (q, r) in quads {
         let p = q.map(|i| positions[i as usize]);
         let tris = if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
             [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
@@ -196,10 +301,10 @@ pub fn label_surface(grid: &Grid, opts: &LabelOptions, job: &Job) -> Result<Labe
         triangles.extend(tris);
         regions.extend([*r, *r]);
     }
-    Ok(LabelMesh {
+    LabelMesh {
         mesh: TriMesh::new(positions, triangles),
         regions,
-    })
+    }
 }
 
 /// The vertex of each cell that has one: a dense index over all cells where that fits a
@@ -246,7 +351,7 @@ fn smooth(
     quads: &[([u32; 4], [i32; 2])],
     at: &impl Fn([i64; 3]) -> i32,
     centre: impl Fn([i64; 3]) -> Vec3,
-    h: f32,
+    spacing: Vec3,
     opts: &LabelOptions,
     job: &Job,
 ) -> Result<(), FieldError> {
@@ -277,7 +382,7 @@ fn smooth(
             }
         }
     }
-    let half = Vec3::splat(0.5 * h);
+    let half = 0.5 * spacing;
     for _ in 0..opts.smoothing {
         job.check()?;
         let old = positions.to_vec();

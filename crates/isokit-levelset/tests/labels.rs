@@ -200,3 +200,39 @@ fn labels_that_are_not_whole_numbers_are_refused() {
     };
     assert!(label_surface(&blocks(), &bad, &Job::new()).is_err());
 }
+
+#[test]
+fn a_region_filling_the_volume_is_closed_by_the_outside_beyond_its_edges() {
+    // Every sample label 5: the surface is the box around the samples, half a spacing out,
+    // on an anisotropic lattice (spacings 1, 2 and 0.5).
+    let data = vec![5.0f32; 3 * 4 * 5];
+    let spacing = Vec3::new(1.0, 2.0, 0.5);
+    let m = isokit_levelset::labels::label_surface_spaced(
+        [3, 4, 5],
+        Vec3::ZERO,
+        spacing,
+        &data,
+        &flat(),
+        &Job::new(),
+    )
+    .unwrap();
+    let pairs = m.pairs();
+    assert_eq!(pairs.len(), 1);
+    let (lx, ly, lz) = (3.0, 8.0, 2.5);
+    let area = 2.0 * (lx * ly + lx * lz + ly * lz);
+    assert!((pairs[0].2 - area).abs() < 1e-9, "{} {area}", pairs[0].2);
+    let (vol, closed) = region_volume(&m, 5);
+    assert!(closed);
+    assert!((vol - lx * ly * lz).abs() < 1e-9, "{vol}");
+    // Negative labels are refused (0 is the outside, regions count up from it).
+    let neg = vec![-2.0f32; 8];
+    let r = isokit_levelset::labels::label_surface_spaced(
+        [2, 2, 2],
+        Vec3::ZERO,
+        Vec3::ONE,
+        &neg,
+        &flat(),
+        &Job::new(),
+    );
+    assert!(r.is_err());
+}
