@@ -15,6 +15,8 @@
 //! - [`tets`]: marching tetrahedra on unstructured tetrahedral grids, exact in each cell.
 //! - [`labels`]: the non-manifold surface between the regions of a label volume (surface
 //!   nets on labels), each face carrying its two regions.
+//! - [`segmented`]: segmented distance fields (003): surfaces with boundaries and junctions
+//!   in one volume, their meshes and their morph.
 //! - [`intersect`]: exact self-intersection test of a triangle mesh (Shewchuk's predicates).
 //! - [`weld`]: merging coincident vertices, as mesh tools do on load, to check meshes by it.
 //! - [`profile`]: solids from 2D profiles (extrude, revolve), exact for exact profiles.
@@ -40,5 +42,6 @@ pub mod offset;
 pub mod profile;
 pub mod reinit;
 pub mod repeat;
+pub mod segmented;
 pub mod tets;
 pub mod weld;
