@@ -87,8 +87,8 @@ pub use image::{
 pub use isokit_field::{DEGENERATE_REL_TOL, MeshReport, PointCloud, TriMesh, generate};
 pub use kind::{FileKind, detect_kind};
 pub use mesh::{
-    MeshFormat, read_mesh, read_mesh_bytes, write_mesh, write_mesh_colored, write_ply_ascii,
-    write_ply_colored, write_ply_regions, write_stl_ascii,
+    MeshFormat, read_mesh, read_mesh_bytes, read_ply_face_properties, write_mesh,
+    write_mesh_colored, write_ply_ascii, write_ply_colored, write_ply_regions, write_stl_ascii,
 };
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};

@@ -133,6 +133,23 @@ pub fn write_ply_colored(path: &Path, mesh: &TriMesh, colors: &[[u8; 3]]) -> Res
     ply::write_ply_mesh_colored(path, mesh, Some(colors), false)
 }
 
+/// Reads a PLY mesh with the scalar face properties `names` (e.g. `region_front` and
+/// `region_back`): the mesh and, per name, one value per triangle (a polygon's value for
+/// each triangle it is cut into). A missing property is an error naming it.
+pub fn read_ply_face_properties(
+    path: &Path,
+    names: &[&str],
+) -> Result<(TriMesh, Vec<Vec<f64>>), IoError> {
+    if MeshFormat::from_path(path)? != MeshFormat::Ply {
+        return Err(IoError::invalid_input(
+            path,
+            "face properties are read from PLY files (.ply)",
+        ));
+    }
+    let bytes = read_file(path)?;
+    ply::read_ply_mesh_with(&bytes, path, names)
+}
+
 /// Writes a binary PLY mesh whose faces carry the two regions they separate, as `property
 /// int region_a` and `property int region_b` after `vertex_indices` (`regions` holds one
 /// pair per triangle, else an error and the file is not touched), atomically. Other PLY

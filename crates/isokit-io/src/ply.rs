@@ -267,9 +267,21 @@ struct PlyData {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
     triangles: Vec<[u32; 3]>,
+    /// Per requested face property, its value for each triangle (a polygon's for each of
+    /// the triangles it is cut into).
+    face_values: Vec<Vec<f64>>,
 }
 
 fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoError> {
+    read_ply_with(bytes, path, want_faces, &[])
+}
+
+fn read_ply_with(
+    bytes: &[u8],
+    path: &Path,
+    want_faces: bool,
+    face_props: &[&str],
+) -> Result<PlyData, IoError> {
     let header = parse_header(bytes, path)?;
     let body_bytes = &bytes[header.body.min(bytes.len())..];
     let remaining = body_bytes.len();
@@ -314,6 +326,7 @@ fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoEr
     let mut normals: Option<Vec<Vec3>> = None;
     let mut triangles = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
+    let mut face_values: Vec<Vec<f64>> = vec![Vec::new(); face_props.len()];
 
     for e in &header.elements {
         let is_vertex = e.name == "vertex" && positions.is_none();
@@ -404,13 +417,28 @@ fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoEr
                 .ok_or_else(|| {
                     IoError::malformed(path, "PLY face element has no vertex_indices list")
                 })?;
+            let wanted: Vec<usize> = face_props
+                .iter()
+                .map(|name| {
+                    e.find(name)
+                        .filter(|&i| matches!(e.props[i].kind, Kind::Scalar(_)))
+                        .ok_or_else(|| {
+                            IoError::malformed(
+                                path,
+                                format!("PLY face element has no scalar property {name}"),
+                            )
+                        })
+                })
+                .collect::<Result<_, _>>()?;
+            let mut vals = vec![0f64; e.props.len()];
             triangles.reserve(cap);
             for i in 0..e.count {
                 let ctx = || format!("face {i}");
+                let before = triangles.len();
                 for (k, p) in e.props.iter().enumerate() {
                     match p.kind {
                         Kind::Scalar(t) => {
-                            body.next(t, &ctx)?;
+                            vals[k] = body.next(t, &ctx)?;
                         }
                         Kind::List { count, item } => {
                             let n = list_len(body.next(count, &ctx)?, path, &ctx)?;
@@ -435,6 +463,9 @@ fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoEr
                         }
                     }
                 }
+                for (out, &k) in face_values.iter_mut().zip(&wanted) {
+                    out.extend(std::iter::repeat_n(vals[k], triangles.len() - before));
+                }
             }
         }
     }
@@ -451,11 +482,33 @@ fn read_ply(bytes: &[u8], path: &Path, want_faces: bool) -> Result<PlyData, IoEr
             format!("PLY triangle {i} {t:?} refers to a vertex beyond the {nv} vertices"),
         ));
     }
+    if !face_props.is_empty() && !header.elements.iter().any(|e| e.name == "face") {
+        return Err(IoError::malformed(path, "PLY file has no face element"));
+    }
     Ok(PlyData {
         positions,
         normals,
         triangles,
+        face_values,
     })
+}
+
+/// A PLY mesh and, for each name in `face_props`, the value of that scalar face property
+/// for each triangle (a polygon's value repeated for each triangle it is cut into); a
+/// missing property is an error naming it.
+pub(crate) fn read_ply_mesh_with(
+    bytes: &[u8],
+    path: &Path,
+    face_props: &[&str],
+) -> Result<(TriMesh, Vec<Vec<f64>>), IoError> {
+    let d = read_ply_with(bytes, path, true, face_props)?;
+    Ok((
+        TriMesh {
+            positions: d.positions,
+            triangles: d.triangles,
+        },
+        d.face_values,
+    ))
 }
 
 pub(crate) fn read_ply_mesh(bytes: &[u8], path: &Path) -> Result<TriMesh, IoError> {

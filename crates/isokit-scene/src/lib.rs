@@ -68,6 +68,7 @@ mod render;
 mod reuse;
 mod sample;
 mod scene;
+pub mod segmented;
 mod source;
 mod vocab;
 pub mod watch;
