@@ -933,6 +933,7 @@ mod tests {
         for p in params() {
             let t = KdTree::build(&boxes, p);
             let mut st = QueryStats::default();
+            let (mut from, mut whole) = (QueryStats::default(), QueryStats::default());
             for _ in 0..300 {
                 let o = r.point_in(Vec3::splat(-2.0), Vec3::splat(2.0)).as_dvec3();
                 let mut d = r.unit_vector().as_dvec3();
@@ -950,9 +951,16 @@ mod tests {
                 let brute = (0..800u32)
                     .filter_map(|i| beyond(i).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
-                let got = t.ray_first_in(o, d, t_min, 100.0, |i, _| beyond(i), &mut st);
+                let got = t.ray_first_in(o, d, t_min, 100.0, |i, _| beyond(i), &mut from);
                 assert_eq!(got.map(|g| g.1), brute.map(|b| b.1));
+                let all = t.ray_first(o, d, 100.0, |i, _| beyond(i), &mut whole);
+                assert_eq!(all.map(|g| g.1), brute.map(|b| b.1));
             }
+            // Starting at t_min visits fewer nodes than filtering from 0.
+            assert!(
+                from.nodes_visited < whole.nodes_visited,
+                "{from:?} {whole:?}"
+            );
         }
     }
 

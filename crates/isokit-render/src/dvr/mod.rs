@@ -450,6 +450,11 @@ impl PreintegrationTable3 {
         })
     }
 
+    /// The longest segment the table holds.
+    pub fn max_len(&self) -> f32 {
+        self.max_len
+    }
+
     /// Premultiplied colour and opacity of a segment from `vf` to `vb` of length `len`
     /// (values clamped to the range, lengths to `[0, max_len]`).
     pub fn lookup(&self, vf: f32, vb: f32, len: f32) -> Vec4 {

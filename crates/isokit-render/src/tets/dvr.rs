@@ -9,7 +9,10 @@
 //! value, length) ([`PreintegrationTable3`]; Engel, Kraus and Ertl 2001 Sec. 4, after Röttger,
 //! Kraus and Ertl 2000, "Hardware-Accelerated Volume and Isosurface Rendering Based on
 //! Cell-Projection"), interpolated trilinearly. The lengths the table spans run from 0 to
-//! the grid's longest edge (no segment in a tetrahedron is longer). With `table_size` 0
+//! the 95th percentile of the cells' longest edges (a segment in a tetrahedron is no longer
+//! than its longest edge); a longer segment is cut into equal pieces that fit, each still
+//! linear in value, so a few long cells of a graded mesh do not coarsen the length axis for
+//! all the others. With `table_size` 0
 //! each segment is integrated on its own instead ([`TransferFunction::segment`], the
 //! table's entries' own rule): slower, and without the table's interpolation error.
 //!
@@ -69,35 +72,46 @@ pub struct TetVolume<'g> {
     walk: Walk,
     gradients: Vec<Vec3>,
     longest_edge: f32,
+    /// The 95th percentile of the cells' longest edges: the table's longest segment.
+    table_edge: f32,
     mean_edge: f32,
 }
 
 impl<'g> TetVolume<'g> {
     /// Prepares `grid` (its faces' topology, the boundary faces' kd-tree, the gradients).
     pub fn new(grid: &'g TetGrid) -> Self {
-        let (longest, sum) = grid
+        let per_cell: Vec<(f32, f64)> = grid
             .tets()
             .par_iter()
             .map(|t| {
                 let p = t.map(|i| grid.points()[i as usize]);
-                let mut e = [0.0f32; 6];
-                let mut n = 0;
+                let (mut longest, mut sum) = (0.0f32, 0.0f64);
                 for a in 0..4 {
                     for b in a + 1..4 {
-                        e[n] = p[a].distance(p[b]);
-                        n += 1;
+                        let e = p[a].distance(p[b]);
+                        longest = longest.max(e);
+                        sum += f64::from(e);
                     }
                 }
-                let longest = e.iter().copied().fold(0.0f32, f32::max);
-                (longest, e.iter().map(|&x| f64::from(x)).sum::<f64>())
+                (longest, sum)
             })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1 + b.1));
+            .collect();
+        let sum: f64 = per_cell.iter().map(|c| c.1).sum();
+        let mut longest_edges: Vec<f32> = per_cell.iter().map(|c| c.0).collect();
+        let longest = longest_edges.iter().copied().fold(0.0f32, f32::max);
+        let table_edge = if longest_edges.is_empty() {
+            0.0
+        } else {
+            let k = (longest_edges.len() * 95 / 100).min(longest_edges.len() - 1);
+            *longest_edges.select_nth_unstable_by(k, f32::total_cmp).1
+        };
         let edges = 6.0 * grid.tets().len().max(1) as f64;
         Self {
             grid,
             walk: Walk::new(grid),
             gradients: point_gradients(grid, 1.0),
             longest_edge: longest,
+            table_edge,
             mean_edge: (sum / edges) as f32,
         }
     }
@@ -142,8 +156,10 @@ impl<'g> TetVolume<'g> {
             (Classification::Preintegrated, n) if n > 0 => {
                 let (lo, hi) =
                     isokit_field::finite_min_max(self.grid.values()).unwrap_or((0.0, 1.0));
-                // A little beyond the longest edge: the exits are found in f64.
-                let max_len = (self.longest_edge * (1.0 + 1e-5)).max(f32::MIN_POSITIVE);
+                // Up to the 95th percentile of the cells' longest edges (a little beyond:
+                // exits are found in f64), so a few long cells do not stretch the length
+                // axis for all the others; longer segments are cut into pieces.
+                let max_len = (self.table_edge * (1.0 + 1e-5)).max(f32::MIN_POSITIVE);
                 Some(PreintegrationTable3::new(
                     tf,
                     lo,
@@ -201,6 +217,9 @@ impl<'g> TetVolume<'g> {
         let mut depth = f32::INFINITY;
         let mut segments = 0u32;
         let dir = d.as_vec3();
+        // A segment longer than the table's lengths is cut into pieces that fit (the value
+        // stays linear along each).
+        let max_len = table.map_or(f32::INFINITY, |t| t.max_len());
         self.walk.walk(self.grid, o, d, |x| {
             let v = cell_values(self.grid, x.cell, 1.0);
             let len = (x.t_out - x.t_in) as f32;
@@ -208,58 +227,71 @@ impl<'g> TetVolume<'g> {
                 return ControlFlow::Continue(());
             }
             segments += 1;
-            let (vf, vb) = (x.value(&v, x.t_in) as f32, x.value(&v, x.t_out) as f32);
-            let (seg, within) = match opts.classification {
-                Classification::Post => {
-                    let (e, sigma) = tf.eval(0.5 * (vf + vb));
-                    let alpha = 1.0 - (-sigma * len).exp();
-                    ((e * alpha).extend(alpha), Within::Constant(sigma))
-                }
-                Classification::Preintegrated => {
-                    let seg = match table {
-                        Some(t) => t.lookup(vf, vb, len),
-                        None => tf.segment(vf, vb, len, SUB_STEPS as usize),
-                    };
-                    (seg, Within::Linear(vf, vb))
-                }
-            };
-            let seg = if opts.shade && seg.w > SHADE_MIN_OPACITY {
+            let (v_in, v_out) = (x.value(&v, x.t_in) as f32, x.value(&v, x.t_out) as f32);
+            let shading = (opts.shade).then(|| {
                 let mid = x.lambda(0.5 * (x.t_in + x.t_out));
                 let idx = self.grid.tets()[x.cell as usize];
-                let g = interpolated_gradient(&self.gradients, idx, &mid);
-                shade_sample(seg, g.as_vec3(), dir)
+                interpolated_gradient(&self.gradients, idx, &mid).as_vec3()
+            });
+            let pieces = if len > max_len {
+                (len / max_len).ceil().min(1e6) as u32
             } else {
-                seg
+                1
             };
-            c += trans * seg.truncate();
-            let before = trans;
-            trans *= 1.0 - seg.w;
-            if before > 0.5 && trans <= 0.5 {
-                let alpha = 1.0 - 0.5 / before;
-                depth = x.t_in as f32
-                    + match (table, &within) {
+            let piece = len / pieces as f32;
+            for k in 0..pieces {
+                let at = |f: f32| v_in + (v_out - v_in) * f;
+                let (vf, vb) = (
+                    at(k as f32 / pieces as f32),
+                    at((k + 1) as f32 / pieces as f32),
+                );
+                let (seg, within) = match opts.classification {
+                    Classification::Post => {
+                        let (e, sigma) = tf.eval(0.5 * (vf + vb));
+                        let alpha = 1.0 - (-sigma * piece).exp();
+                        ((e * alpha).extend(alpha), Within::Constant(sigma))
+                    }
+                    Classification::Preintegrated => {
+                        let seg = match table {
+                            Some(t) => t.lookup(vf, vb, piece),
+                            None => tf.segment(vf, vb, piece, SUB_STEPS as usize),
+                        };
+                        (seg, Within::Linear(vf, vb))
+                    }
+                };
+                let seg = match shading {
+                    Some(g) if seg.w > SHADE_MIN_OPACITY => shade_sample(seg, g, dir),
+                    _ => seg,
+                };
+                c += trans * seg.truncate();
+                let before = trans;
+                trans *= 1.0 - seg.w;
+                if before > 0.5 && trans <= 0.5 {
+                    let alpha = 1.0 - 0.5 / before;
+                    let into = match (table, &within) {
                         // Bisection on the table's own entries: consistent with the
                         // composited segment, and no integration per step.
                         (Some(t), Within::Linear(..)) => {
                             let (mut lo, mut hi) = (0.0f32, 1.0f32);
                             for _ in 0..24 {
                                 let m = 0.5 * (lo + hi);
-                                if t.lookup(vf, vf + (vb - vf) * m, len * m).w >= alpha {
+                                if t.lookup(vf, vf + (vb - vf) * m, piece * m).w >= alpha {
                                     hi = m;
                                 } else {
                                     lo = m;
                                 }
                             }
-                            hi * len
+                            hi * piece
                         }
-                        _ => within.opacity_at(tf, len, alpha),
+                        _ => within.opacity_at(tf, piece, alpha),
                     };
+                    depth = x.t_in as f32 + k as f32 * piece + into;
+                }
+                if 1.0 - trans >= opts.termination {
+                    return ControlFlow::Break(());
+                }
             }
-            if 1.0 - trans >= opts.termination {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
+            ControlFlow::Continue(())
         });
         (c.extend(1.0 - trans), depth, segments)
     }
