@@ -56,6 +56,14 @@ pub struct Args {
     /// voxel-aligned staircase) [default: 16].
     #[arg(long)]
     pub smooth: Option<usize>,
+    /// The input is a PLY mesh of surface patches whose faces carry `region_front` and
+    /// `region_back` (the regions on either side): sample its segmented distance field and
+    /// mesh it into a PLY like `--labels` does (non-manifold junctions, open boundaries).
+    #[arg(long, conflicts_with = "labels")]
+    pub segmented: bool,
+    /// --segmented: samples along the longest side of the patches' box (padded by 10%).
+    #[arg(long)]
+    pub res: Option<usize>,
     #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
 }
@@ -72,8 +80,11 @@ pub fn run(a: Args) -> Result<()> {
     if a.labels {
         return super::labels::run(&a);
     }
-    if a.smooth.is_some() {
-        bail!("--smooth applies to --labels");
+    if a.segmented {
+        return super::labels::run_segmented(&a);
+    }
+    if a.smooth.is_some() || a.res.is_some() {
+        bail!("--smooth applies to --labels, --res to --segmented");
     }
     if super::tets::is_tets(&a.field) {
         if a.open || a.mesher != super::mesher_args::MesherArg::Mc {
