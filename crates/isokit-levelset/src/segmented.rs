@@ -88,11 +88,18 @@ impl Segmentation {
         Some((r as i32, d))
     }
 
+    /// The largest `d_u + d_v` of Eq. 7 between samples `w` apart, the larger region
+    /// `r`: `w (1 + 1e-4)` plus the rounding of both samples' `D r + d` in f32 (4 ulps of
+    /// `D (r + 1)`), so no edge perpendicular to a surface is lost at high region indices.
+    fn reach(&self, w: f32, r: i32) -> f32 {
+        w * (1.0 + 1e-4) + 4.0 * f32::EPSILON * self.period * (r + 1) as f32
+    }
+
     /// Whether the surface passes between neighbouring samples `u` and `v` a distance `w`
     /// apart (003 Eq. 5 and 7), and where: `(region of u, region of v, t from u)` (Eq. 6).
     pub fn crossing(&self, u: f32, v: f32, w: f32) -> Option<(i32, i32, f32)> {
         let ((i, du), (j, dv)) = (self.decode(u)?, self.decode(v)?);
-        if i == j || du + dv > w * (1.0 + 1e-4) {
+        if i == j || du + dv > self.reach(w, i.max(j)) {
             return None;
         }
         let sum = du + dv;
@@ -125,6 +132,14 @@ impl Segmentation {
 pub fn mesh_segmented(grid: &Grid, seg: &Segmentation, job: &Job) -> Result<LabelMesh, FieldError> {
     let n = grid.dims().map(|d| d as i64);
     let w = grid.spacing();
+    if seg.delta < w {
+        // Clamped distances would sum below the spacing wherever two regions meet.
+        return Err(FieldError::BadParameter {
+            name: "segmentation delta",
+            value: format!("{} for spacing {w}", seg.delta),
+            why: "must be at least the lattice spacing (003 Eq. 4: larger than the interval of grid points)",
+        });
+    }
     let at = |s: [i64; 3]| grid.get(s[0] as usize, s[1] as usize, s[2] as usize);
     let nets = surface_nets(n, false, "segmented surface", job, |s, t| {
         seg.crossing(at(s), at(t), w)
@@ -201,7 +216,11 @@ fn open_rims(
                     continue;
                 };
                 let total = du + dv;
-                if ri == rj || total <= w * (1.0 + 1e-4) || du >= seg.delta || dv >= seg.delta {
+                if ri == rj
+                    || total <= seg.reach(w, ri.max(rj))
+                    || du >= seg.delta
+                    || dv >= seg.delta
+                {
                     continue;
                 }
                 let mut e = DVec3::new(s0[0] as f64, s0[1] as f64, s0[2] as f64);
@@ -230,7 +249,9 @@ fn open_rims(
 /// `d_a`, `j` in `b` at `d_b`) the blend is that of the signed distances to the interface
 /// between them, `(1 − t)(−d_a) + t d_b` seen from `i`: the sample is in `i` while
 /// `t d_b < (1 − t) d_a`, in `j` after, at the blend's magnitude. For two regions (inside
-/// and outside) this is the linear morph of signed distances.
+/// and outside), where both distances are below `δ`, this is the linear morph of signed
+/// distances; deeper than `δ` it blends clamped values (as the fields hold nothing more),
+/// which is exact for the surface only where it passes within `δ` of both operands' samples.
 pub fn morph_segmented(a: &Grid, b: &Grid, seg: &Segmentation, t: f32) -> Result<Grid, FieldError> {
     if a.dims() != b.dims() || a.origin() != b.origin() || a.spacing() != b.spacing() {
         return Err(FieldError::BadParameter {
