@@ -5,21 +5,25 @@
 //! side of it where the sample lies; [`Segmentation::encode`] makes the value (003 Eq. 4),
 //! which `isokit_levelset::segmented::mesh_segmented` meshes.
 //!
-//! The side: among the triangles within 1e-9 (relative) of the nearest distance (several
-//! where the nearest point is an edge or a vertex), the one whose plane the sample is
-//! farthest off, relative to the distance, decides: its front region where the sample is on
-//! its normal's side, its back region otherwise. A sample in the plane of all of them
-//! (beyond a boundary's rim, in the surface's own plane) takes the smallest of their regions,
-//! as 003 does where the index is not unique. Regions are taken as given: the paper's
-//! renumbering of regions that touch without a patch between them (its steps 4–6) is left
-//! to the caller's numbering.
+//! The side: the triangles within 1e-9 (relative) of the nearest distance (several where
+//! the nearest point is an edge or a corner) are grouped by their (front, back) pair; each
+//! group's angle-weighted pseudonormal at the nearest point (Bærentzen and Aanæs 2005) gives
+//! its side, and the group the sample is farthest off, relative to the distance, decides:
+//! its front region where the sample is on its normal's side, its back region otherwise. A
+//! sample off none of them (beyond a boundary's rim, in the surface's own plane) takes the
+//! smallest of their regions, as 003 does where the index is not unique.
+//!
+//! Regions that meet where no patch separates them (the outsides of a cube's faces when each
+//! face is given its own front region) are merged into the smallest of them, 003's steps
+//! 4–5 on the lattice ([`Patches::sample`]); its step 6 (renumbering from 0) is not done:
+//! the indices stay the caller's.
 
 use crate::SceneError;
 use glam::{DVec3, Vec3};
 use isokit_field::{Grid, Job, TriMesh};
 use isokit_kdtree::mesh::{MeshOptions, MeshSdf, SignMode};
 use isokit_kdtree::tree::QueryStats;
-use isokit_kdtree::triangle::{closest_point, unit_normal};
+use isokit_kdtree::triangle::unit_normal;
 use isokit_levelset::segmented::Segmentation;
 use rayon::prelude::*;
 
@@ -81,20 +85,36 @@ impl Patches {
             self.sdf.within(p, d + tol, stats)
         };
         let (pos, tri) = (self.sdf.positions(), self.sdf.triangles());
-        let mut best: Option<(f64, i32)> = None; // (|offset| / d, region)
-        let mut smallest = i32::MAX;
+        // Per (front, back) pair among the nearest triangles, their pseudonormal at the
+        // nearest point: the sum of their normals, each weighted by its angle there where
+        // that point is one of its corners (Bærentzen and Aanæs 2005), so the side is right
+        // at the edges and corners of each patch, also at sharp ones.
+        let q = hit.point;
+        let mut groups: Vec<((i32, i32), DVec3)> = Vec::new();
         for (t, _) in near {
             let [a, b, c] = tri[t as usize].map(|i| pos[i as usize]);
-            let (Some(n), q) = (unit_normal(a, b, c), closest_point(p, a, b, c)) else {
+            let Some(n) = unit_normal(a, b, c) else {
                 continue;
             };
-            let offset = (p - q.point).dot(n) / d.max(1e-300);
-            let region = if offset >= 0.0 {
-                self.front[t as usize]
-            } else {
-                self.back[t as usize]
+            let corner = [(a, b, c), (b, c, a), (c, a, b)]
+                .into_iter()
+                .find(|(v, _, _)| v.distance(q) <= tol);
+            let weight = match corner {
+                Some((v, x, y)) => (x - v).angle_between(y - v),
+                None => 1.0,
             };
-            smallest = smallest.min(self.front[t as usize].min(self.back[t as usize]));
+            let key = (self.front[t as usize], self.back[t as usize]);
+            match groups.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, sum)) => *sum += weight * n,
+                None => groups.push((key, weight * n)),
+            }
+        }
+        let mut best: Option<(f64, i32)> = None; // (|offset| / d, region)
+        let mut smallest = i32::MAX;
+        for ((front, back), normal) in groups {
+            smallest = smallest.min(front.min(back));
+            let offset = (p - q).dot(normal.normalize_or_zero()) / d.max(1e-300);
+            let region = if offset >= 0.0 { front } else { back };
             if best.is_none_or(|(o, _)| offset.abs() > o) {
                 best = Some((offset.abs(), region));
             }
@@ -108,8 +128,17 @@ impl Patches {
     }
 
     /// Fills `grid` (its lattice) with the segmented distance (003 Eq. 4), samples in
-    /// parallel, reporting progress to `job` (stage `segmented distance`, in slices).
-    pub fn sample(&self, grid: &mut Grid, seg: &Segmentation, job: &Job) -> Result<(), SceneError> {
+    /// parallel, reporting progress to `job` (stage `segmented distance`, in slices). Then
+    /// 003's steps 4–5: two neighbouring samples in different regions that are not the
+    /// front and back of any patch (say the outsides of two faces of a cube, numbered apart)
+    /// meet where no surface is, so their regions merge, into the smallest index, until no
+    /// such pair is left. Returns the merges made, `(from, into)`.
+    pub fn sample(
+        &self,
+        grid: &mut Grid,
+        seg: &Segmentation,
+        job: &Job,
+    ) -> Result<Vec<(i32, i32)>, SceneError> {
         let [nx, ny, nz] = grid.dims();
         let (origin, h) = (grid.origin(), grid.spacing());
         let counter = job.counter("segmented distance", nz as u64);
@@ -131,6 +160,65 @@ impl Patches {
                 }
                 counter.advance(1);
                 Ok(())
-            })
+            })?;
+        Ok(self.merge_touching(grid, seg))
+    }
+
+    /// 003 Sec. 3.3.2, steps 4–5, on the lattice (see [`Patches::sample`]).
+    fn merge_touching(&self, grid: &mut Grid, seg: &Segmentation) -> Vec<(i32, i32)> {
+        let pairs: std::collections::HashSet<(i32, i32)> = self
+            .front
+            .iter()
+            .zip(&self.back)
+            .map(|(&f, &b)| (f.min(b), f.max(b)))
+            .collect();
+        let mut parent: Vec<i32> = (0..isokit_levelset::segmented::MAX_REGIONS).collect();
+        fn root(parent: &mut [i32], mut r: i32) -> i32 {
+            while parent[r as usize] != r {
+                parent[r as usize] = parent[parent[r as usize] as usize];
+                r = parent[r as usize];
+            }
+            r
+        }
+        let [nx, ny, nz] = grid.dims();
+        let region = |i: usize, j: usize, k: usize| seg.decode(grid.get(i, j, k)).map(|x| x.0);
+        let mut merges = Vec::new();
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let Some(a) = region(i, j, k) else { continue };
+                    for (di, dj, dk) in [(1, 0, 0), (0, 1, 0), (0, 0, 1)] {
+                        let (x, y, z) = (i + di, j + dj, k + dk);
+                        if x >= nx || y >= ny || z >= nz {
+                            continue;
+                        }
+                        let Some(b) = region(x, y, z) else { continue };
+                        if a == b || pairs.contains(&(a.min(b), a.max(b))) {
+                            continue;
+                        }
+                        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                        if ra != rb {
+                            let (into, from) = (ra.min(rb), ra.max(rb));
+                            parent[from as usize] = into;
+                            merges.push((from, into));
+                        }
+                    }
+                }
+            }
+        }
+        if !merges.is_empty() {
+            for v in grid.data_mut() {
+                if let Some((r, d)) = seg.decode(*v) {
+                    let to = root(&mut parent, r);
+                    if to != r {
+                        *v = seg.encode(d, to).unwrap_or(f32::NAN);
+                    }
+                }
+            }
+            for m in merges.iter_mut() {
+                m.1 = root(&mut parent, m.1);
+            }
+        }
+        merges
     }
 }

@@ -190,3 +190,84 @@ fn patches_with_wrong_counts_or_regions_are_refused() {
     assert!(Patches::new(&mesh, vec![1, -1], vec![0, 0], "m").is_err());
     assert!(Patches::new(&TriMesh::default(), vec![], vec![], "m").is_err());
 }
+
+#[test]
+fn the_side_is_right_around_a_sharp_corner() {
+    // A thin three-sided spike (base radius 0.15, height 1.5) as patches, outside 0 and
+    // inside 1: near its apex the nearest point is the apex itself for many directions,
+    // where one face's normal alone would call some outside points inside.
+    let apex = Vec3::new(0.0, 0.0, 1.5);
+    let base: Vec<Vec3> = (0..3)
+        .map(|k| {
+            let a = std::f32::consts::TAU * k as f32 / 3.0;
+            Vec3::new(0.15 * a.cos(), 0.15 * a.sin(), 0.0)
+        })
+        .collect();
+    let centre = (apex + base[0] + base[1] + base[2]) / 4.0;
+    let mut mesh = TriMesh {
+        positions: vec![apex, base[0], base[1], base[2]],
+        triangles: vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]],
+    };
+    let mut planes = vec![];
+    for t in mesh.triangles.iter_mut() {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let mut n = (b - a).cross(c - a).normalize();
+        if (a - centre).dot(n) < 0.0 {
+            t.swap(1, 2);
+            n = -n;
+        }
+        planes.push((a, n));
+    }
+    let p = Patches::new(&mesh, vec![0; 4], vec![1; 4], "spike").unwrap();
+    let mut st = QueryStats::default();
+    let mut checked = 0;
+    for i in 0..40 {
+        for j in 0..24 {
+            for r in [0.05f32, 0.1, 0.2] {
+                let th = (80.0f32 * i as f32 / 39.0).to_radians();
+                let ph = std::f32::consts::TAU * j as f32 / 24.0;
+                let q = apex + r * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                let inside = planes.iter().all(|(a, n)| (q - *a).dot(*n) < 0.0);
+                let (_, region) = p.query(q.as_dvec3(), &mut st).unwrap();
+                assert_eq!(region, i32::from(inside), "{q}");
+                checked += usize::from(!inside);
+            }
+        }
+    }
+    assert!(checked > 2000, "{checked}");
+    assert_eq!(p.query(DVec3::new(0.0, 0.0, 0.3), &mut st).unwrap().1, 1);
+}
+
+#[test]
+fn regions_that_meet_without_a_patch_between_them_merge() {
+    // A cube whose six faces each give their outside its own region (1 to 6), inside 0:
+    // the outsides meet beyond the edges with no patch between them, so they merge into 1,
+    // and the mesh is the closed cube between 0 and 1 (without merging: fins of pairs such
+    // as (1, 3) along every edge).
+    let c = [-0.5f32, 0.5];
+    let v = |x: usize, y: usize, z: usize| Vec3::new(c[x], c[y], c[z]);
+    let mut mesh = TriMesh::default();
+    let faces = [
+        [v(0, 0, 0), v(0, 1, 0), v(1, 1, 0), v(1, 0, 0)], // z = -0.5, normal -z
+        [v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)], // z = +0.5
+        [v(0, 0, 0), v(1, 0, 0), v(1, 0, 1), v(0, 0, 1)], // y = -0.5
+        [v(0, 1, 0), v(0, 1, 1), v(1, 1, 1), v(1, 1, 0)], // y = +0.5
+        [v(0, 0, 0), v(0, 0, 1), v(0, 1, 1), v(0, 1, 0)], // x = -0.5
+        [v(1, 0, 0), v(1, 1, 0), v(1, 1, 1), v(1, 0, 1)], // x = +0.5
+    ];
+    for f in faces {
+        quad(&mut mesh, f);
+    }
+    let front: Vec<i32> = (1..=6).flat_map(|r| [r, r]).collect();
+    let p = Patches::new(&mesh, front, vec![0; 12], "cube").unwrap();
+    let mut g = lattice();
+    let seg = Segmentation::for_spacing(H).unwrap();
+    let merges = p.sample(&mut g, &seg, &Job::new()).unwrap();
+    assert_eq!(merges.len(), 5, "{merges:?}");
+    assert!(merges.iter().all(|m| m.1 == 1));
+    let m = mesh_segmented(&g, &seg, &Job::new()).unwrap();
+    let pairs = m.pairs();
+    assert_eq!(pairs.len(), 1, "{pairs:?}");
+    assert_eq!(pairs[0].0, [0, 1]);
+    assert!(edges(&m).values().all(|f| f.len() == 2));
+}
