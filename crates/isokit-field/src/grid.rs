@@ -181,8 +181,11 @@ impl Grid {
         } else {
             1.0
         };
-        let dims: [usize; 3] =
-            std::array::from_fn(|a| ((size[a] / spacing).ceil() as usize + 1).clamp(2, res.max(2)));
+        let dims: [usize; 3] = std::array::from_fn(|a| {
+            ((size[a] / spacing).ceil() as usize)
+                .saturating_add(1)
+                .clamp(2, res.max(2))
+        });
         // Centre the lattice on the box.
         let span = Vec3::new(
             (dims[0] - 1) as f32,
