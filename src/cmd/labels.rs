@@ -76,7 +76,15 @@ fn report(a: &Args, m: &LabelMesh, secs: f64, how: &str) -> Result<()> {
 
 /// Meshes the patches in `a.field` through their segmented distance field.
 pub fn run_segmented(a: &Args) -> Result<()> {
-    refuse(a, "--segmented", &[(a.smooth.is_some(), "--smooth")])?;
+    refuse(
+        a,
+        "--segmented",
+        &[
+            (a.smooth.is_some(), "--smooth"),
+            (a.volume.origin.is_some(), "--origin"),
+            (a.volume.spacing.is_some(), "--spacing"),
+        ],
+    )?;
     let (mesh, props) =
         isokit_io::read_ply_face_properties(&a.field, &["region_front", "region_back"])?;
     if mesh.triangles.is_empty() {
@@ -105,8 +113,18 @@ pub fn run_segmented(a: &Args) -> Result<()> {
     let name = a.field.display().to_string();
     let patches = Patches::new(&mesh, front, back, &name)?;
     let job = super::progress::job();
-    patches.sample(&mut grid, &seg, &job)?;
+    let merges = patches.sample(&mut grid, &seg, &job)?;
+    for (from, into) in &merges {
+        eprintln!(
+            "note: region {from} meets region {into} where no patch separates them: merged into {into}"
+        );
+    }
     let m = mesh_segmented(&grid, &seg, &job)?;
+    if m.mesh.triangles.is_empty() {
+        eprintln!(
+            "warning: no surface between regions (are region_front and region_back the same on every face?); the mesh is empty"
+        );
+    }
     let d = grid.dims();
     report(
         a,

@@ -61,7 +61,8 @@ pub struct Args {
     /// mesh it into a PLY like `--labels` does (non-manifold junctions, open boundaries).
     #[arg(long, conflicts_with = "labels")]
     pub segmented: bool,
-    /// --segmented: samples along the longest side of the patches' box (padded by 10%).
+    /// --segmented: samples along the longest side of the patches' box, padded on each side
+    /// by 10% of its diagonal [default: 64].
     #[arg(long)]
     pub res: Option<usize>,
     #[command(flatten)]
