@@ -196,7 +196,8 @@ fn render_ray_casts_the_grid_and_refuses_what_it_cannot_do() {
             "--samples is not available for tetrahedral grids",
         ),
         (&["--mode", "dvr"], "--mode dvr needs --tf"),
-        (&["--step", "0.1"], "--step (for --mode dvr)"),
+        (&["--step", "0.1"], "--step applies to --mode dvr"),
+        (&["--tf", "distance-shell"], "--tf applies to --mode dvr"),
     ] {
         let mut args = vec!["render", g.as_str(), "-o", p];
         args.extend_from_slice(extra);

@@ -5,7 +5,7 @@
 //! segmented distance field (`isokit_scene::segmented`, `isokit_levelset::segmented`).
 
 use super::mesh::{Args, Inside};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use isokit_levelset::labels::{LabelMesh, LabelOptions, label_surface_spaced};
 use isokit_levelset::segmented::{Segmentation, mesh_segmented};
 use isokit_scene::segmented::Patches;
@@ -47,7 +47,8 @@ pub fn run(a: &Args) -> Result<()> {
         opts.smoothing = n;
     }
     let job = super::progress::job();
-    let m = label_surface_spaced(v.dims, v.origin, v.spacing, &v.data, &opts, &job)?;
+    let m = label_surface_spaced(v.dims, v.origin, v.spacing, &v.data, &opts, &job)
+        .with_context(|| a.field.display().to_string())?;
     let secs = t.elapsed().as_secs_f64();
     if m.mesh.triangles.is_empty() {
         eprintln!("warning: every sample is label 0 (outside); the mesh is empty");

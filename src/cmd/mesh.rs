@@ -84,8 +84,17 @@ pub fn run(a: Args) -> Result<()> {
     if a.segmented {
         return super::labels::run_segmented(&a);
     }
-    if a.smooth.is_some() || a.res.is_some() {
-        bail!("--smooth applies to --labels, --res to --segmented");
+    if a.smooth.is_some() {
+        bail!("--smooth applies to --labels");
+    }
+    if a.res.is_some() {
+        bail!("--res applies to --segmented");
+    }
+    if isokit_io::MeshFormat::from_path(&a.field).is_ok() {
+        bail!(
+            "{} is a mesh, not a field: `isokit sdf` samples a mesh's distance, and --segmented meshes surface patches (a PLY with region_front and region_back)",
+            a.field.display()
+        );
     }
     if super::tets::is_tets(&a.field) {
         if a.open || a.mesher != super::mesher_args::MesherArg::Mc {

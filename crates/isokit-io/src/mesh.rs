@@ -141,10 +141,10 @@ pub fn read_ply_face_properties(
     names: &[&str],
 ) -> Result<(TriMesh, Vec<Vec<f64>>), IoError> {
     if MeshFormat::from_path(path)? != MeshFormat::Ply {
-        return Err(IoError::invalid_input(
-            path,
-            "face properties are read from PLY files (.ply)",
-        ));
+        return Err(IoError::UnknownFormat {
+            path: path.to_path_buf(),
+            expected: ".ply (face properties are read from PLY files)",
+        });
     }
     let bytes = read_file(path)?;
     ply::read_ply_mesh_with(&bytes, path, names)

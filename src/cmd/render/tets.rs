@@ -36,17 +36,16 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     if a.mode == RenderMode::Dvr {
         return super::tets_dvr::run(a, width, height);
     }
-    refuse_flags(
-        a,
-        &[
-            (a.tf.is_some(), "--tf (for --mode dvr)"),
-            (
-                a.classification.is_some(),
-                "--classification (for --mode dvr)",
-            ),
-            (a.step.is_some(), "--step (for --mode dvr)"),
-        ],
-    )?;
+    for (given, flag) in [
+        (a.tf.is_some(), "--tf"),
+        (a.classification.is_some(), "--classification"),
+        (a.step.is_some(), "--step"),
+    ] {
+        if given {
+            bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
+        }
+    }
+    refuse_flags(a, &[])?;
     let mode = match a.shading.as_deref() {
         None => ShadingMode::Phong,
         Some(name) => crate::cmd::args::shading_mode(name)?,
@@ -71,6 +70,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         0.5 * (lo + hi)
     });
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
+    warn_if_inside(&grid, &camera);
     let u = camera_uniforms(&camera)?;
     let t = Instant::now();
     let caster = TetCaster::new(&grid, iso, a.inside.inside(), TetNormals::Smooth)?;
@@ -118,4 +118,15 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         println!("{v}");
     }
     Ok(())
+}
+
+/// Rays start at the first boundary face they meet: an eye inside the grid's box may see
+/// nothing of the cells around it.
+pub(super) fn warn_if_inside(grid: &isokit_field::TetGrid, camera: &isokit_field::Camera) {
+    let (b, e) = (grid.bounds(), camera.eye());
+    if (0..3).all(|i| e[i] > b.min[i] && e[i] < b.max[i]) {
+        eprintln!(
+            "warning: the camera is inside the grid's bounds; rays start at the first boundary face they meet, so the cells around the eye are not drawn (put --eye outside the grid)"
+        );
+    }
 }

@@ -40,6 +40,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let tf = TransferFunction::load_for(tf_arg, range, volume.mean_edge())
         .with_context(|| format!("--tf {tf_arg}"))?;
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
+    super::tets::warn_if_inside(&grid, &camera);
     let opts = TetDvrOptions {
         classification: a
             .classification
