@@ -10,7 +10,8 @@
 //! two distances are to the same piece of surface between them; where they are not, as
 //! beyond the rim of a disc, there is no surface), at `t = d_u / (d_u + d_v)` along the edge
 //! (Eq. 6). Eq. 7 is printed with a strict `<`; on a lattice edge perpendicular to a plane
-//! `d_u + d_v = w` exactly, so here it is `≤ w (1 + 1e-4)`.
+//! `d_u + d_v = w` exactly, so here it is `≤ w (1 + 1e-4)` plus the f32 rounding of the
+//! samples' `D r` (which grows with the region index).
 //!
 //! [`mesh_segmented`] meshes such a volume by surface nets over those crossings (one
 //! vertex per cell, the mean of its crossing points; one quadrilateral per crossed edge),
