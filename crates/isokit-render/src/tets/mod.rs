@@ -22,8 +22,8 @@
 //! Only the CPU twin exists here. A cell with a non-finite value holds no hit (the walk
 //! goes on through it; marching tetrahedra, which treat NaN as outside, close the surface
 //! around such a point instead, so there the two differ); a degenerate cell (|det| ≤ 1e-9
-//! of its longest edge cubed, as [`TetGrid::report`] counts them) ends the walk there, and
-//! the ray goes on from the next boundary face beyond it. The camera must be outside the
+//! of its longest edge cubed, as [`TetGrid::report`] counts them) has no inside: the walk
+//! steps across it into the neighbour the ray runs on into. The camera must be outside the
 //! grid (rays start at the first boundary face they meet).
 //!
 //! [`dvr`] renders the same walk as a volume: each cell's segment of the ray is one entry
@@ -161,9 +161,9 @@ impl Walk {
 
     /// Calls `visit` on the cells the ray `o + t d` (`d` of unit length) crosses, front to
     /// back, until it breaks; returns the number of cells visited. Where the walk leaves
-    /// the grid it goes on from the next boundary face beyond; a degenerate cell is not
-    /// visited and ends the walk there (it goes on from the next boundary face beyond its
-    /// entry).
+    /// the grid it goes on from the next boundary face beyond; a degenerate (flat) cell is
+    /// not visited: the walk goes on into the neighbour of it that the ray runs into there,
+    /// or, where there is none, from the next boundary face beyond.
     pub(crate) fn walk(
         &self,
         grid: &TetGrid,
@@ -184,8 +184,18 @@ impl Walk {
                     return visited;
                 }
                 let Some(x) = cross(grid, c, o, d, t_in, entered) else {
-                    t_min = t_in;
-                    break;
+                    // A flat cell has no inside to cross: go on into the neighbour of it
+                    // that the ray runs on into from here, if any.
+                    match self.step_across(grid, c, o, d, t_in) {
+                        Some(n) => {
+                            c = n;
+                            continue;
+                        }
+                        None => {
+                            t_min = t_in;
+                            break;
+                        }
+                    }
                 };
                 if visit(&x).is_break() {
                     return visited;
@@ -202,6 +212,28 @@ impl Walk {
             }
         }
         visited
+    }
+}
+
+impl Walk {
+    /// The neighbour of the flat (or unleavable) cell `c` that the ray is inside of just
+    /// beyond `t_in`: it enters that cell no later than `t_in` and leaves it after; of
+    /// several, the one it stays in longest.
+    fn step_across(&self, grid: &TetGrid, c: u32, o: DVec3, d: DVec3, t_in: f64) -> Option<u32> {
+        let tol = 1e-9 * (1.0 + t_in.abs());
+        self.neighbours[c as usize]
+            .iter()
+            .filter(|&&n| n != NONE)
+            .filter_map(|&n| {
+                let x = cross(grid, n, o, d, t_in, false)?;
+                let enter = (0..4)
+                    .filter(|&k| x.beta[k] > 0.0)
+                    .map(|k| -x.alpha[k] / x.beta[k])
+                    .fold(f64::NEG_INFINITY, f64::max);
+                (enter <= t_in + tol && x.t_out > t_in + tol).then_some((n, x.t_out))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(n, _)| n)
     }
 }
 
