@@ -584,6 +584,17 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
             vec!["--tf", "ct-bone", "--shading", "tone"],
             "shades with phong",
         ),
+        (
+            vec![
+                "--tf",
+                "ct-bone",
+                "--classification",
+                "preintegrated",
+                "--table-size",
+                "1",
+            ],
+            "pre-integration table size",
+        ),
     ] {
         let mut args = vec![
             "render",
@@ -595,5 +606,15 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
         ];
         args.extend(extra);
         assert_clear_error(&isokit(&args), want);
+    }
+    // The flags of --mode dvr are refused in the isosurface mode, not ignored.
+    for flag in [
+        &["--tf", "ct-bone"][..],
+        &["--table-size", "64"],
+        &["--step", "0.1"],
+    ] {
+        let mut args = vec!["render", vol.to_str().unwrap(), "-o", "x.png"];
+        args.extend_from_slice(flag);
+        assert_clear_error(&isokit(&args), "applies to --mode dvr");
     }
 }

@@ -13,7 +13,8 @@ pub enum RenderMode {
     /// The ray-cast isosurface, shaded.
     #[default]
     Isosurface,
-    /// Direct volume rendering with a transfer function (--tf), volumes only.
+    /// Direct volume rendering with a transfer function (--tf), volumes and tetrahedral
+    /// grids.
     Dvr,
 }
 
@@ -66,6 +67,11 @@ pub struct Args {
     /// --mode dvr: step along the ray in world units [default: one voxel].
     #[arg(long)]
     pub step: Option<f32>,
+    /// --mode dvr, pre-integrated: entries per value axis of the table [default: 256 for
+    /// volumes, 128 for tetrahedral grids; 0 for grids integrates each cell's segment on its
+    /// own].
+    #[arg(long)]
+    pub table_size: Option<usize>,
     /// Image width in pixels.
     #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
@@ -127,6 +133,21 @@ pub struct Args {
 }
 
 impl Args {
+    /// Refuses the flags of `--mode dvr` in the isosurface mode.
+    pub fn refuse_dvr_flags(&self) -> anyhow::Result<()> {
+        for (given, flag) in [
+            (self.tf.is_some(), "--tf"),
+            (self.classification.is_some(), "--classification"),
+            (self.step.is_some(), "--step"),
+            (self.table_size.is_some(), "--table-size"),
+        ] {
+            if given {
+                anyhow::bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
+            }
+        }
+        Ok(())
+    }
+
     /// Refuses inputs that do not go together: `--csg` with a scene, `--array` with
     /// anything but a tetrahedral grid (which does not come here).
     pub fn check_inputs(&self, is_scene: fn(&std::path::Path) -> bool) -> anyhow::Result<()> {

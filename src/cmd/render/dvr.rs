@@ -51,6 +51,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         step: a.step,
         classification: a.classification.map_or(Classification::Post, |c| c.into()),
         shade,
+        table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
         ..DvrOptions::default()
     };
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;

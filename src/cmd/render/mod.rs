@@ -36,6 +36,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.mode == args::RenderMode::Dvr {
         return dvr::run(&a, width, height);
     }
+    a.refuse_dvr_flags()?;
     a.check_inputs(is_scene)?;
     let (multiview, default_separation) = a.multiview.multiview()?;
     isokit_render::supersample::grid_side(a.samples)?;

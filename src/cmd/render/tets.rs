@@ -36,15 +36,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     if a.mode == RenderMode::Dvr {
         return super::tets_dvr::run(a, width, height);
     }
-    for (given, flag) in [
-        (a.tf.is_some(), "--tf"),
-        (a.classification.is_some(), "--classification"),
-        (a.step.is_some(), "--step"),
-    ] {
-        if given {
-            bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
-        }
-    }
+    a.refuse_dvr_flags()?;
     refuse_flags(a, &[])?;
     let mode = match a.shading.as_deref() {
         None => ShadingMode::Phong,

@@ -46,6 +46,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             .classification
             .map_or(Classification::Preintegrated, |c| c.into()),
         shade,
+        table_size: a.table_size.unwrap_or(TetDvrOptions::default().table_size),
         ..TetDvrOptions::default()
     };
     let t = Instant::now();
