@@ -133,6 +133,25 @@ pub struct Args {
 }
 
 impl Args {
+    /// What `--mode dvr` takes of `--shading` (phong or nothing) and `--tf` (required), for
+    /// volumes and tetrahedral grids alike.
+    pub fn dvr_shading_and_tf(&self) -> anyhow::Result<(bool, &str)> {
+        let shade = match self.shading.as_deref() {
+            None => false,
+            Some("phong") => true,
+            Some(m) => anyhow::bail!(
+                "--shading {m}: --mode dvr shades with phong (the gradient) or not at all"
+            ),
+        };
+        let Some(tf) = self.tf.as_deref() else {
+            anyhow::bail!(
+                "--mode dvr needs --tf FILE|PRESET (a JSON file {{\"points\": [[value, r, g, b, sigma], ...]}}, or one of {})",
+                isokit_render::dvr::TF_PRESETS.join(", ")
+            );
+        };
+        Ok((shade, tf))
+    }
+
     /// Refuses the flags of `--mode dvr` in the isosurface mode.
     pub fn refuse_dvr_flags(&self) -> anyhow::Result<()> {
         for (given, flag) in [

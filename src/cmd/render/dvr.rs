@@ -31,19 +31,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             bail!("{flag} is for --mode isosurface; --mode dvr does not take it");
         }
     }
-    let shade = match a.shading.as_deref() {
-        None => false,
-        Some("phong") => true,
-        Some(m) => {
-            bail!("--shading {m}: --mode dvr shades with phong (the gradient) or not at all")
-        }
-    };
-    let Some(tf_arg) = &a.tf else {
-        bail!(
-            "--mode dvr needs --tf FILE|PRESET (a JSON file {{\"points\": [[value, r, g, b, sigma], ...]}}, or one of {})",
-            isokit_render::dvr::TF_PRESETS.join(", ")
-        );
-    };
+    let (shade, tf_arg) = a.dvr_shading_and_tf()?;
     let grid = a.volume.read_grid(&a.input)?;
     let tf = TransferFunction::load(tf_arg, &grid).with_context(|| format!("--tf {tf_arg}"))?;
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;

@@ -4,9 +4,9 @@
 //! (PNG over black, `--gbuffer` EXR with `R G B A Z`).
 
 use super::Args;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use glam::Vec3;
-use isokit_render::dvr::{Classification, TF_PRESETS, TransferFunction};
+use isokit_render::dvr::{Classification, TransferFunction};
 use isokit_render::tets::dvr::{TetDvrOptions, TetVolume};
 use std::time::Instant;
 
@@ -19,19 +19,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             (a.step.is_some(), "--step (a ray's segments are its cells')"),
         ],
     )?;
-    let shade = match a.shading.as_deref() {
-        None => false,
-        Some("phong") => true,
-        Some(m) => {
-            bail!("--shading {m}: --mode dvr shades with phong (the gradient) or not at all")
-        }
-    };
-    let Some(tf_arg) = &a.tf else {
-        bail!(
-            "--mode dvr needs --tf FILE|PRESET (a JSON file {{\"points\": [[value, r, g, b, sigma], ...]}}, or one of {})",
-            TF_PRESETS.join(", ")
-        );
-    };
+    let (shade, tf_arg) = a.dvr_shading_and_tf()?;
     let grid = isokit_io::read_tets(&a.input, a.array.as_deref())?;
     let range = isokit_field::finite_min_max(grid.values()).unwrap_or((0.0, 1.0));
     let t = Instant::now();
