@@ -228,11 +228,15 @@ impl<'g> TetVolume<'g> {
             }
             segments += 1;
             let (v_in, v_out) = (x.value(&v, x.t_in) as f32, x.value(&v, x.t_out) as f32);
-            let shading = (opts.shade).then(|| {
-                let mid = x.lambda(0.5 * (x.t_in + x.t_out));
-                let idx = self.grid.tets()[x.cell as usize];
-                interpolated_gradient(&self.gradients, idx, &mid).as_vec3()
-            });
+            // The gradient at the segment's middle, made only for a piece that is shaded.
+            let mut gradient: Option<Vec3> = None;
+            let mut shading = || {
+                *gradient.get_or_insert_with(|| {
+                    let mid = x.lambda(0.5 * (x.t_in + x.t_out));
+                    let idx = self.grid.tets()[x.cell as usize];
+                    interpolated_gradient(&self.gradients, idx, &mid).as_vec3()
+                })
+            };
             let pieces = if len > max_len {
                 (len / max_len).ceil().min(1e6) as u32
             } else {
@@ -259,9 +263,10 @@ impl<'g> TetVolume<'g> {
                         (seg, Within::Linear(vf, vb))
                     }
                 };
-                let seg = match shading {
-                    Some(g) if seg.w > SHADE_MIN_OPACITY => shade_sample(seg, g, dir),
-                    _ => seg,
+                let seg = if opts.shade && seg.w > SHADE_MIN_OPACITY {
+                    shade_sample(seg, shading(), dir)
+                } else {
+                    seg
                 };
                 c += trans * seg.truncate();
                 let before = trans;
