@@ -6,7 +6,7 @@
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
 // alike); the rays, the pre-integration table and the empty-block flags come from the host.
 
-// Rust: dvr/gpu.rs DvrParams (96 bytes).
+// Rust: dvr/gpu.rs DvrParams (112 bytes).
 struct DvrParams {
     dims: vec3<u32>,
     count: u32,          // rays
@@ -26,6 +26,10 @@ struct DvrParams {
     table_hi: f32,
     table_len: f32,
     shade: u32,          // 1: Blinn-Phong shading by the gradient
+    clip_sign: f32,      // 0: no clip; +1 keep where the clip field is positive, -1 negative
+    clip_pad0: f32,
+    clip_pad1: f32,
+    clip_pad2: f32,
 }
 
 @group(0) @binding(0) var<uniform> P: DvrParams;
@@ -36,12 +40,20 @@ struct DvrParams {
 @group(0) @binding(5) var<storage, read> rays: array<vec4<f32>>;   // per ray: origin, dir
 @group(0) @binding(6) var<storage, read_write> out_rgba: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> out_extra: array<vec4<f32>>; // depth, samples, skipped, hit
+@group(0) @binding(8) var<storage, read> clip: array<f32>;         // the clip field on the volume's lattice
 
 // isokit_field::Grid::get_clamped.
 fn sample_at(c: vec3<i32>) -> f32 {
     let hi = vec3<i32>(P.dims) - vec3<i32>(1);
     let q = clamp(c, vec3<i32>(0), hi);
     return volume[u32(q.x) + P.dims.x * (u32(q.y) + P.dims.y * u32(q.z))];
+}
+
+// Grid::get_clamped of the clip field.
+fn clip_at(c: vec3<i32>) -> f32 {
+    let hi = vec3<i32>(P.dims) - vec3<i32>(1);
+    let q = clamp(c, vec3<i32>(0), hi);
+    return clip[u32(q.x) + P.dims.x * (u32(q.y) + P.dims.y * u32(q.z))];
 }
 
 fn lerp1(a: f32, b: f32, t: f32) -> f32 {
@@ -60,6 +72,39 @@ fn value_at(x: vec3<f32>) -> f32 {
     let x01 = lerp1(sample_at(c + vec3<i32>(0, 0, 1)), sample_at(c + vec3<i32>(1, 0, 1)), a.x);
     let x11 = lerp1(sample_at(c + vec3<i32>(0, 1, 1)), sample_at(c + vec3<i32>(1, 1, 1)), a.x);
     return lerp1(lerp1(x00, x10, a.y), lerp1(x01, x11, a.y), a.z);
+}
+
+// Clip::keep: the clip field's trilinear value at world position x times the kept sign.
+fn keep_at(x: vec3<f32>) -> f32 {
+    let p = (x - P.origin) / P.spacing;
+    let f = floor(p);
+    let a = p - f;
+    let hi = vec3<f32>(P.dims) + vec3<f32>(1.0);
+    let c = vec3<i32>(min(max(f, vec3<f32>(-3.0)), hi));
+    let x00 = lerp1(clip_at(c), clip_at(c + vec3<i32>(1, 0, 0)), a.x);
+    let x10 = lerp1(clip_at(c + vec3<i32>(0, 1, 0)), clip_at(c + vec3<i32>(1, 1, 0)), a.x);
+    let x01 = lerp1(clip_at(c + vec3<i32>(0, 0, 1)), clip_at(c + vec3<i32>(1, 0, 1)), a.x);
+    let x11 = lerp1(clip_at(c + vec3<i32>(0, 1, 1)), clip_at(c + vec3<i32>(1, 1, 1)), a.x);
+    return P.clip_sign * lerp1(lerp1(x00, x10, a.y), lerp1(x01, x11, a.y), a.z);
+}
+
+// kept_part: the kept fractions (a, b) of a step from the keep measure at its ends; a > b
+// when nothing of it is kept.
+fn kept_part(kf: f32, kb: f32) -> vec2<f32> {
+    if (kf > 0.0 && kb > 0.0) {
+        return vec2<f32>(0.0, 1.0);
+    }
+    if (!(kf > 0.0) && !(kb > 0.0)) {
+        return vec2<f32>(1.0, 0.0);
+    }
+    if (kf > 0.0) {
+        return vec2<f32>(0.0, min(kf / (kf - kb), 1.0));
+    }
+    let t = max(kf / (kf - kb), 0.0);
+    if (t < 1.0) {
+        return vec2<f32>(t, 1.0);
+    }
+    return vec2<f32>(1.0, 0.0);
 }
 
 fn tf_value(i: u32) -> f32 {
@@ -282,14 +327,26 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
             }
         }
         let s1 = min(s0 + step, t1);
-        let len = s1 - s0;
+        var part = vec2<f32>(0.0, 1.0);
+        if (P.clip_sign != 0.0) {
+            part = kept_part(keep_at(o + s0 * d), keep_at(o + s1 * d));
+            if (!(part.x < part.y)) {
+                have_front = false;
+                k += 1u;
+                continue;
+            }
+        }
+        let a = s0 + part.x * (s1 - s0);
+        let b = s0 + part.y * (s1 - s0);
+        let len = b - a;
+        let clipped = part.x != 0.0 || part.y != 1.0;
         var seg: vec4<f32>;
         var sigma = 0.0;
         var vf = 0.0;
         var vb = 0.0;
         if (!pre) {
             samples += 1u;
-            let ev = tf_eval(value_at(o + (0.5 * (s0 + s1)) * d));
+            let ev = tf_eval(value_at(o + (0.5 * (a + b)) * d));
             sigma = ev.w;
             let alpha = 1.0 - exp(-sigma * len);
             seg = vec4<f32>(ev.xyz * alpha, alpha);
@@ -304,20 +361,26 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
             samples += 1u;
             front = vb;
             have_front = true;
-            if (abs(len - P.table_len) <= 1e-6 * P.table_len) {
+            if (clipped) {
+                let va = vf + (vb - vf) * part.x;
+                let vz = vf + (vb - vf) * part.y;
+                vf = va;
+                vb = vz;
+                seg = segment(vf, vb, len);
+            } else if (abs(len - P.table_len) <= 1e-6 * P.table_len) {
                 seg = table_lookup(vf, vb);
             } else {
                 seg = segment(vf, vb, len);
             }
         }
         if (P.shade == 1u && seg.w > SHADE_MIN_OPACITY) {
-            seg = shade_sample(seg, gradient(o + (0.5 * (s0 + s1)) * d), d);
+            seg = shade_sample(seg, gradient(o + (0.5 * (a + b)) * d), d);
         }
         c += trans * seg.xyz;
         let before = trans;
         trans *= 1.0 - seg.w;
         if (before > 0.5 && trans <= 0.5) {
-            depth = s0 + opacity_at(!pre, sigma, vf, vb, len, 1.0 - 0.5 / before);
+            depth = a + opacity_at(!pre, sigma, vf, vb, len, 1.0 - 0.5 / before);
             hit = 1.0;
         }
         if (1.0 - trans >= P.termination) {

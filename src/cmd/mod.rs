@@ -5,6 +5,7 @@ pub mod args;
 pub mod bench;
 pub mod bench_render;
 pub mod camera_args;
+pub mod clip_args;
 pub mod convert;
 pub mod csg_args;
 pub mod demo;

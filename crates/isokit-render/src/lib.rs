@@ -96,6 +96,7 @@
 #![warn(missing_docs)]
 
 mod cache;
+pub mod clip;
 pub mod dvr;
 mod error;
 mod flow;

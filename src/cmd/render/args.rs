@@ -122,6 +122,8 @@ pub struct Args {
     #[command(flatten)]
     pub csg: CsgArgs,
     #[command(flatten)]
+    pub clip: crate::cmd::clip_args::ClipArgs,
+    #[command(flatten)]
     pub volume: crate::cmd::volume_args::VolumeIn,
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]

@@ -8,7 +8,7 @@ use super::Args;
 use super::args::RenderMode;
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr};
+use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr_clipped};
 
 /// Renders `a.input` (a volume) in `dvr` mode.
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
@@ -35,6 +35,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let grid = a.volume.read_grid(&a.input)?;
     let tf = TransferFunction::load(tf_arg, &grid).with_context(|| format!("--tf {tf_arg}"))?;
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
+    let clip = a.clip.load(&grid, &a.volume)?;
     let opts = DvrOptions {
         step: a.step,
         classification: a.classification.map_or(Classification::Post, |c| c.into()),
@@ -46,8 +47,8 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let backend = renderer.backend();
     let t = std::time::Instant::now();
     let img = match renderer.gpu() {
-        Some(gpu) => gpu.render_dvr(&grid, &camera, &tf, &opts)?,
-        None => render_dvr(&grid, &camera, &tf, &opts)?,
+        Some(gpu) => gpu.render_dvr_clipped(&grid, &camera, &tf, &opts, clip.as_ref())?,
+        None => render_dvr_clipped(&grid, &camera, &tf, &opts, clip.as_ref())?,
     };
     let seconds = t.elapsed().as_secs_f64();
     img.to_image(Vec3::ZERO).write_png(&a.output)?;
@@ -57,10 +58,11 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let d = grid.dims();
     let (lo, hi) = isokit_render::dvr::value_range(&grid);
     eprintln!(
-        "{} x {} x {} volume, values {lo} .. {hi}: direct volume rendering ({}, step {}, {backend}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
+        "{} x {} x {} volume, values {lo} .. {hi}{}: direct volume rendering ({}, step {}, {backend}), {} samples, {} empty blocks skipped, {seconds:.2} s -> {}",
         d[0],
         d[1],
         d[2],
+        clip_note(a),
         img.classification.name(),
         img.step,
         img.samples,
@@ -69,8 +71,21 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     );
     if a.stats {
         let mut v = img.stats(backend, seconds);
+        if let Some(c) = a.clip.file() {
+            v["clip"] = c.display().to_string().into();
+            v["clip_invert"] = a.clip.clip_invert.into();
+        }
         v["output"] = a.output.display().to_string().into();
         println!("{v}");
     }
     Ok(())
+}
+
+/// `", clipped by FILE"` (`"… inverted"`) for the summary line, or nothing.
+pub(super) fn clip_note(a: &Args) -> String {
+    match a.clip.file() {
+        Some(c) if a.clip.clip_invert => format!(", clipped by {} (inverted)", c.display()),
+        Some(c) => format!(", clipped by {}", c.display()),
+        None => String::new(),
+    }
 }

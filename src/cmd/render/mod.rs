@@ -1,7 +1,7 @@
 //! `isokit render SCENE|VOLUME -o image.png [...]`: the isosurface ray cast into a G-buffer
 //! and shaded (`isokit_scene::Renderer`); `--watch` renders again whenever the input or a
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
-//! (Sigg 2006, Sec. 6.4.3). `--mode dvr` renders a volume with a transfer function
+//! (Sigg 2006, Sec. 6.4.3); `--clip SCENE|VOLUME` cuts a volume open (`volume.rs`). `--mode dvr` renders a volume with a transfer function
 //! (`dvr.rs`); tetrahedral grids are ray cast through their cells (`tets.rs`, `tets_dvr.rs`).
 
 mod args;
@@ -9,13 +9,14 @@ mod dvr;
 mod summary;
 mod tets;
 mod tets_dvr;
+mod volume;
 
 pub use args::Args;
 
 use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_field::Job;
-use isokit_render::{Image, Layout, Volume, check_image_size};
+use isokit_render::{Image, check_image_size};
 use isokit_scene::{Prepared, RenderSettings, RenderTarget, Renderer, Scene, SceneFormat};
 use std::path::{Path, PathBuf};
 
@@ -38,6 +39,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     a.refuse_dvr_flags()?;
     a.check_inputs(is_scene)?;
+    volume::check_clip(&a)?;
     let (multiview, default_separation) = a.multiview.multiview()?;
     isokit_render::supersample::grid_side(a.samples)?;
     if a.samples > 1 && multiview.is_some() {
@@ -111,7 +113,7 @@ fn render_once(
     renderer: &mut Option<Renderer>,
 ) -> Result<Vec<PathBuf>> {
     let name = a.input.display().to_string();
-    let (frame, prepared_views, files, what) = if is_scene(&a.input) {
+    let (frame, prepared_views, files, what, clip_caps) = if is_scene(&a.input) {
         let scene = Scene::load(&a.input)?;
         let files = scene.dependencies().to_vec();
         let p = Renderer::cpu().prepare(RenderTarget::Scene(&scene), s, &super::progress::job())?;
@@ -132,26 +134,16 @@ fn render_once(
             100.0 * st.dense_fraction,
             st.seconds
         );
-        (frame, views, files, what)
+        (frame, views, files, what, None)
     } else {
-        let grid = a.volume.read_grid(&a.input)?;
-        let d = grid.dims();
-        let mut what = format!("{} x {} x {} volume", d[0], d[1], d[2]);
-        let mut volume = Volume::from_grid(grid, Layout::default())?;
-        let mut files = vec![a.input.clone()];
-        if let (Some(c), Some(with)) = (a.csg.combine()?, &a.csg.with) {
-            volume = volume
-                .with_operand(a.volume.read_grid(with)?, c)
-                .with_context(|| format!("--with {}", with.display()))?;
-            what = format!("{what}, {c:?} with {}", with.display());
-            files.push(with.clone());
-        }
+        let (volume, files, what, caps) = volume::load(a, s)?;
         let p = Renderer::cpu().prepare(RenderTarget::Volume(&volume), s, &Job::default())?;
         let renderer = open(renderer, a)?;
         let mut frame = renderer.render_prepared(&p, &name)?;
+        let clip_caps = caps.as_ref().map(|c| c.colour(&mut frame, p.shading()));
         frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
-        (frame, views, files, what)
+        (frame, views, files, what, clip_caps)
     };
     for n in &frame.notes {
         eprintln!("{n}");
@@ -165,7 +157,7 @@ fn render_once(
     if let Some(g) = &a.gbuffer {
         frame.gbuffer.write_exr_with_camera(g, &frame.camera)?;
     }
-    summary::print(a, s, &frame, &what)?;
+    summary::print(a, s, &frame, &what, clip_caps)?;
     Ok(files)
 }
 

@@ -6,11 +6,18 @@ use anyhow::Result;
 use isokit_scene::{Frame, RenderSettings};
 
 /// Prints the line about `frame` (`what`: the input, as the command describes it) and, with
-/// `--stats`, the JSON object (the frame's stats less the scene sampling, plus the output).
-pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<()> {
+/// `--stats`, the JSON object (the frame's stats less the scene sampling, plus the output
+/// and, with `--clip`, `clip_caps`: the pixels showing the clip's cut faces).
+pub fn print(
+    a: &Args,
+    s: &RenderSettings,
+    frame: &Frame,
+    what: &str,
+    clip_caps: Option<usize>,
+) -> Result<()> {
     let st = &frame.stats;
     eprintln!(
-        "{what}; {}: {}x{}{} {} image{}: {} surface + {} cap pixels, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
+        "{what}; {}: {}x{}{} {} image{}: {} surface + {} cap pixels{}, {:.1} samples/ray, {}/{} blocks and {}/{} bricks active, {} pass(es), {} bricks loaded; prepare {:.2} s, trace {:.3} s, shade {:.3} s -> {}{}",
         st.device,
         if s.samples > 1 {
             st.width
@@ -28,6 +35,9 @@ pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<
         },
         st.hits,
         st.caps,
+        clip_caps.map_or(String::new(), |n| format!(
+            " ({n} surface pixels on the clip's cut faces)"
+        )),
         st.samples_per_ray,
         st.blocks_active,
         st.blocks_total,
@@ -48,6 +58,9 @@ pub fn print(a: &Args, s: &RenderSettings, frame: &Frame, what: &str) -> Result<
         if let Some(o) = j.as_object_mut() {
             o.remove("sampling");
             o.insert("output".into(), a.output.display().to_string().into());
+            if let Some(n) = clip_caps {
+                o.insert("clip_caps".into(), n.into());
+            }
         }
         println!("{j}");
     }

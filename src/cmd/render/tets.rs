@@ -16,6 +16,7 @@ pub(super) fn refuse_flags(a: &Args, extra: &[(bool, &str)]) -> Result<()> {
         (a.backend == Backend::Gpu, "--backend gpu"),
         (a.watch, "--watch"),
         (a.csg.csg.is_some(), "--csg"),
+        (a.clip.clip.is_some(), "--clip"),
         (a.samples > 1, "--samples"),
         (a.multiview.multiview()?.0.is_some(), "--views"),
         (a.res.is_some(), "--res"),

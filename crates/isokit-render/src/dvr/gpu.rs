@@ -11,6 +11,7 @@
 
 use super::{DvrImage, DvrOptions, RayResult, TransferFunction, prepare};
 use crate::RenderError;
+use crate::clip::Clip;
 use crate::gpu::{GpuRenderer, WORKGROUP, check_fits, dispatch_grid, scoped};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec4;
@@ -43,6 +44,10 @@ pub(crate) struct DvrParams {
     pub(crate) table_hi: f32,
     pub(crate) table_len: f32,
     pub(crate) shade: u32,
+    pub(crate) clip_sign: f32,
+    pub(crate) clip_pad0: f32,
+    pub(crate) clip_pad1: f32,
+    pub(crate) clip_pad2: f32,
 }
 
 isokit_gpu::wgsl_layout!(DvrParams {
@@ -64,6 +69,10 @@ isokit_gpu::wgsl_layout!(DvrParams {
     table_hi: "f32",
     table_len: "f32",
     shade: "u32",
+    clip_sign: "f32",
+    clip_pad0: "f32",
+    clip_pad1: "f32",
+    clip_pad2: "f32",
 });
 
 /// The direct volume rendering kernel, assembled: `WORKGROUP`, `SUB_STEPS` and the shading
@@ -93,6 +102,19 @@ impl GpuRenderer {
         tf: &TransferFunction,
         opts: &DvrOptions,
     ) -> Result<DvrImage, RenderError> {
+        self.render_dvr_clipped(grid, camera, tf, opts, None)
+    }
+
+    /// [`super::render_dvr_clipped`] on the GPU: the clip field goes up as a second
+    /// storage buffer on the volume's lattice and every step is cut as the CPU twin cuts it.
+    pub fn render_dvr_clipped(
+        &self,
+        grid: &Grid,
+        camera: &Camera,
+        tf: &TransferFunction,
+        opts: &DvrOptions,
+        clip: Option<&Clip>,
+    ) -> Result<DvrImage, RenderError> {
         let (width, height) =
             crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
         if grid.data().iter().any(|v| !v.is_finite()) {
@@ -102,9 +124,14 @@ impl GpuRenderer {
             });
         }
         let p = prepare(grid, tf, opts)?;
+        if let Some(c) = clip {
+            c.fits(grid)?;
+        }
         let gpu = &self.gpu;
         let count = width as usize * height as usize;
         check_fits(gpu, "the volume", 4 * grid.data().len() as u64)?;
+        let clip_data: &[f32] = clip.map_or(&[0.0], |c| c.grid().data());
+        check_fits(gpu, "the clip field", 4 * clip_data.len() as u64)?;
         check_fits(gpu, "the rays", 32 * count as u64)?;
         let pipeline = match self.dvr.get() {
             Some(pl) => pl,
@@ -175,6 +202,8 @@ impl GpuRenderer {
             table_hi,
             table_len,
             shade: u32::from(p.shade),
+            clip_sign: clip.map_or(0.0, Clip::keep_sign),
+            ..DvrParams::default()
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let (_inputs, rgba, extra, bind) = scoped(gpu, "allocating the dvr buffers", || {
@@ -185,11 +214,12 @@ impl GpuRenderer {
                 gpu.upload("dvr table", &table, storage),
                 gpu.upload("dvr empty blocks", &empty, storage),
                 gpu.upload("dvr rays", &rays, storage),
+                gpu.upload("dvr clip", clip_data, storage),
             ];
             let rgba = gpu.buffer("dvr rgba", 16 * count as u64, storage);
             let extra = gpu.buffer("dvr depth", 16 * count as u64, storage);
-            let [a, b, c, d, e, f] = &inputs;
-            let bind = gpu.bind_buffers("dvr", pipeline, &[a, b, c, d, e, f, &rgba, &extra]);
+            let [a, b, c, d, e, f, k] = &inputs;
+            let bind = gpu.bind_buffers("dvr", pipeline, &[a, b, c, d, e, f, &rgba, &extra, k]);
             (inputs, rgba, extra, bind)
         })?;
         gpu.dispatch("dvr", pipeline, &bind, groups)?;

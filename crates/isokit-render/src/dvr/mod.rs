@@ -44,6 +44,7 @@
 pub mod gpu;
 
 use crate::RenderError;
+use crate::clip::Clip;
 use glam::{Vec3, Vec4};
 use isokit_field::{Camera, Grid, filter::trilinear};
 use rayon::prelude::*;
@@ -811,6 +812,7 @@ pub(crate) fn trace_ray(
     grid: &Grid,
     tf: &TransferFunction,
     p: &Prepared,
+    clip: Option<&Clip>,
     ray: isokit_field::Ray,
 ) -> RayResult {
     let b = grid.bounds();
@@ -850,12 +852,25 @@ pub(crate) fn trace_ray(
             }
         }
         let s1 = (s0 + step).min(t1);
-        let len = s1 - s0;
+        // The kept part [a, b] of the step: all of it without a clip.
+        let (fa, fb) = match clip {
+            None => (0.0, 1.0),
+            Some(cl) => match kept_part(cl.keep(ray.at(s0)), cl.keep(ray.at(s1))) {
+                Some(part) => part,
+                None => {
+                    front = None;
+                    k += 1;
+                    continue;
+                }
+            },
+        };
+        let (a, b) = (s0 + fa * (s1 - s0), s0 + fb * (s1 - s0));
+        let len = b - a;
         // The step's colour and opacity, and what locates its opacity within it.
         let (seg, inside) = match &p.table {
             None => {
                 samples += 1;
-                let (e, sigma) = tf.eval(value(ray.at(0.5 * (s0 + s1))));
+                let (e, sigma) = tf.eval(value(ray.at(0.5 * (a + b))));
                 let alpha = 1.0 - (-sigma * len).exp();
                 ((e * alpha).extend(alpha), Within::Constant(sigma))
             }
@@ -867,16 +882,25 @@ pub(crate) fn trace_ray(
                 let vb = value(ray.at(s1));
                 samples += 1;
                 front = Some(vb);
-                let seg = if (len - table.len()).abs() <= 1e-6 * table.len() {
-                    table.lookup(vf, vb)
+                if (fa, fb) != (0.0, 1.0) {
+                    // A clipped step: its kept part on the same linear model.
+                    let (va, vz) = (vf + (vb - vf) * fa, vf + (vb - vf) * fb);
+                    (
+                        tf.segment(va, vz, len, gpu::SUB_STEPS as usize),
+                        Within::Linear(va, vz),
+                    )
+                } else if (len - table.len()).abs() <= 1e-6 * table.len() {
+                    (table.lookup(vf, vb), Within::Linear(vf, vb))
                 } else {
-                    tf.segment(vf, vb, len, gpu::SUB_STEPS as usize)
-                };
-                (seg, Within::Linear(vf, vb))
+                    (
+                        tf.segment(vf, vb, len, gpu::SUB_STEPS as usize),
+                        Within::Linear(vf, vb),
+                    )
+                }
             }
         };
         let seg = if p.shade && seg.w > SHADE_MIN_OPACITY {
-            let g = gradient(&value, ray.at(0.5 * (s0 + s1)), h);
+            let g = gradient(&value, ray.at(0.5 * (a + b)), h);
             shade_sample(seg, g, ray.dir)
         } else {
             seg
@@ -885,7 +909,7 @@ pub(crate) fn trace_ray(
         let before = trans;
         trans *= 1.0 - seg.w;
         if before > 0.5 && trans <= 0.5 {
-            depth = s0 + inside.opacity_at(tf, len, 1.0 - 0.5 / before);
+            depth = a + inside.opacity_at(tf, len, 1.0 - 0.5 / before);
         }
         if 1.0 - trans >= p.termination {
             break;
@@ -893,6 +917,23 @@ pub(crate) fn trace_ray(
         k += 1;
     }
     (c.extend(1.0 - trans), depth, samples, skipped)
+}
+
+/// The kept part of a step, as fractions `(a, b)` of it, from the clip's keep measure at
+/// its ends (`kf` at the front, `kb` at the back; kept where positive), taken linear
+/// between them; `None` when nothing of it is kept (the twin of `kept_part` in
+/// `dvr.wgsl`).
+pub(crate) fn kept_part(kf: f32, kb: f32) -> Option<(f32, f32)> {
+    match (kf > 0.0, kb > 0.0) {
+        (true, true) => Some((0.0, 1.0)),
+        (false, false) => None,
+        // One end kept: the crossing k = 0 at t = kf / (kf − kb), within (0, 1].
+        (true, false) => Some((0.0, (kf / (kf - kb)).min(1.0))),
+        (false, true) => {
+            let t = (kf / (kf - kb)).max(0.0);
+            (t < 1.0).then_some((t, 1.0))
+        }
+    }
 }
 
 impl DvrImage {
@@ -942,13 +983,46 @@ pub fn render_dvr(
     tf: &TransferFunction,
     opts: &DvrOptions,
 ) -> Result<DvrImage, RenderError> {
+    render_dvr_clipped(grid, camera, tf, opts, None)
+}
+
+/// [`render_dvr`] with the volume clipped by `clip` ([`crate::clip`]): every step is cut to
+/// the part of it the clip keeps (the clip's field linear between the step's ends), so no
+/// sample where the clip cuts contributes. A clip that keeps everything changes nothing.
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Camera, Grid, Projection, primitives::{Plane, Sphere}, sample_into};
+/// use isokit_render::{clip::Clip, dvr::{DvrOptions, TransferFunction, render_dvr_clipped}};
+///
+/// let mut grid = Grid::new([24; 3], Vec3::splat(-1.0), 2.0 / 23.0).unwrap();
+/// sample_into(&Sphere::new(Vec3::ZERO, 0.6).unwrap(), &mut grid);
+/// let tf = TransferFunction::from_json(
+///     r#"{"points": [[-0.01, 1, 0.5, 0.2, 5], [0, 0, 0, 0, 0]]}"#).unwrap();
+/// let cam = Camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y,
+///     Projection::Perspective { fov_y_degrees: 40.0 }, 16, 16).unwrap();
+/// // Keep z < 0 (the plane's value z is positive in front): half the sphere's depth.
+/// let clip = Clip::from_field(&Plane::new(Vec3::NEG_Z, 0.0).unwrap(), &grid, false).unwrap();
+/// let img = render_dvr_clipped(&grid, &cam, &tf, &DvrOptions::default(), Some(&clip)).unwrap();
+/// assert!((img.rgba[8 * 16 + 8].w - (1.0 - (-3.0f32).exp())).abs() < 0.01);
+/// ```
+pub fn render_dvr_clipped(
+    grid: &Grid,
+    camera: &Camera,
+    tf: &TransferFunction,
+    opts: &DvrOptions,
+    clip: Option<&Clip>,
+) -> Result<DvrImage, RenderError> {
     let (width, height) = crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
     let p = prepare(grid, tf, opts)?;
+    if let Some(c) = clip {
+        c.fits(grid)?;
+    }
     let rays: Vec<RayResult> = (0..width * height)
         .into_par_iter()
         .map(|pix| {
             let ray = camera.ray((pix % width) as f32 + 0.5, (pix / width) as f32 + 0.5);
-            trace_ray(grid, tf, &p, ray)
+            trace_ray(grid, tf, &p, clip, ray)
         })
         .collect();
     Ok(DvrImage::from_rays(width, height, &p, &rays))
