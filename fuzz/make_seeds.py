@@ -128,6 +128,17 @@ put("nifti", "u8_scaled.nii", nifti((2, 2, 2), 2, 8, bytes(range(8))))
 put("nifti_gz", "f32.nii.gz", gz(nii))
 put("nifti_gz", "concatenated_members.nii.gz", gz(nii[:200]) + gz(nii[200:]))
 
+# INRIMAGE-4
+def inr(lines, data):
+    h = "#INRIMAGE-4#{\n" + lines
+    h += "\n" * (-(len(h) + 4) % 256) + "##}\n"
+    return h.encode() + data
+put("inr", "f32_4x4x4.inr", inr("XDIM=4\nYDIM=4\nZDIM=4\nVDIM=1\nTYPE=float\nPIXSIZE=32 bits\nCPU=decm\nVX=0.5\nVY=0.5\nVZ=0.75\nTX=1\nTY=2\nTZ=3\n", raw))
+put("inr", "u8_sun_scaled.inr", inr("XDIM=2\nYDIM=2\nZDIM=2\nTYPE=unsigned fixed\nPIXSIZE=8 bits\nSCALE=2**0\nCPU=sun\n", bytes(range(8))))
+put("inr", "i16_gz.inr", gz(inr("XDIM=2\nYDIM=2\nZDIM=2\nTYPE=signed fixed\nPIXSIZE=16 bits\nCPU=pc\n", b"".join(struct.pack("<h", i - 4) for i in range(8)))))
+put("inr", "claims_too_much.inr", inr("XDIM=100000\nYDIM=100000\nZDIM=100000\nTYPE=float\nPIXSIZE=32 bits\n", b""))
+put("inr", "unclosed.inr", "#INRIMAGE-4#{\nXDIM=2\nYDIM=2\n")
+
 # Molecules
 pdb = gzip.open(os.path.join(ROOT, "data/molecules/1a8o.pdb.gz")).read()
 atoms = [l for l in pdb.splitlines(keepends=True) if l.startswith((b"ATOM", b"HETATM"))]

@@ -15,7 +15,7 @@
 #   cd fuzz && cargo +nightly fuzz run obj corpus/obj -- -max_total_time=600
 set -euo pipefail
 cd "$(dirname "$0")/.."
-targets=(obj ply stl off gltf glb xyz nrrd npy nifti nifti_gz vtk vtu pdb mmcif molecule_gz scene_json scene_toml)
+targets=(obj ply stl off gltf glb xyz nrrd npy nifti nifti_gz inr vtk vtu pdb mmcif molecule_gz scene_json scene_toml)
 export CARGO_TARGET_DIR="${FUZZ_TARGET_DIR:-$PWD/fuzz/target}"
 bin="$CARGO_TARGET_DIR/release/isokit-fuzz-afl"
 

@@ -2,7 +2,7 @@
 //!
 //! Every reader of user files as a function of bytes ([`TARGETS`]): OBJ, PLY (mesh and
 //! cloud), STL, OFF, glTF, GLB, XYZ, NRRD (attached data, gzip and detached headers),
-//! NPY, NIfTI (plain and gzip), tetrahedral grids (legacy VTK and VTK XML), PDB, mmCIF,
+//! NPY, NIfTI (plain and gzip), INRIMAGE (plain and gzip), tetrahedral grids (legacy VTK and VTK XML), PDB, mmCIF,
 //! gzipped molecules, and scene files in JSON and TOML. A target feeds the bytes to the same entry point the command uses and checks what
 //! the project promises of any input: no panic, and an error that is one line. Successful
 //! reads go one step further (a mesh is validated, a volume becomes a grid, a molecule a
@@ -44,6 +44,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("npy", npy),
     ("nifti", nifti),
     ("nifti_gz", nifti_gz),
+    ("inr", inr),
     ("vtk", vtk),
     ("vtu", vtu),
     ("pdb", pdb),
@@ -200,6 +201,10 @@ pub fn nifti(data: &[u8]) {
 /// Gzipped NIfTI-1 (the bounded inflation).
 pub fn nifti_gz(data: &[u8]) {
     volume(data, VolumeFormat::NiftiGz, "fuzz.nii.gz");
+}
+/// INRIMAGE-4, plain and gzipped (the bounded inflation).
+pub fn inr(data: &[u8]) {
+    volume(data, VolumeFormat::Inr, "fuzz.inr");
 }
 /// Legacy VTK unstructured grids (ASCII and binary).
 pub fn vtk(data: &[u8]) {

@@ -6,7 +6,7 @@
 //! | --- | --- | --- | --- |
 //! | triangle meshes | [`TriMesh`] | [`read_mesh`]: OBJ, glTF/GLB, PLY, STL, OFF | [`write_mesh`]: OBJ, PLY (with normals), STL, OFF, glTF/GLB (with normals); [`write_mesh_colored`]: PLY, glTF/GLB with vertex colours |
 //! | point clouds | [`PointCloud`] | [`read_points`]: PLY, XYZ | [`write_points`]: PLY, XYZ |
-//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`) | [`write_volume`]: NRRD, NPY; [`write_volume_with`]: NRRD (chosen compression, band/inside/sign key/values), NPY + sidecar |
+//! | volumes | [`Volume`] | [`read_volume`]: NRRD (+ `.nhdr`), NPY (with its [`lattice`] sidecar), NIfTI-1 (`.nii`, `.nii.gz`), INRIMAGE-4 (`.inr`, `.inr.gz`) | [`write_volume`]: NRRD, NPY; [`write_volume_with`]: NRRD (chosen compression, band/inside/sign key/values), NPY + sidecar |
 //! | tetrahedral grids | [`TetGrid`](isokit_field::TetGrid) | [`read_tets`]: VTK legacy `.vtk` (ASCII, binary), VTK XML `.vtu` (ASCII, base64, appended raw/base64, zlib) | — |
 //! | arrays (query points) | [`NpyArray`] | [`read_npy`] | [`write_npy_f32`] |
 //! | images | RGBA8 / f32 channels | [`read_png`], [`read_exr`] (first layer, all channels), [`read_exr_info`] (header) | [`write_png`], [`write_exr`] |
@@ -54,6 +54,7 @@ mod error;
 mod gltf_read;
 mod gltf_write;
 mod image;
+pub mod inr;
 mod kind;
 pub mod lattice;
 mod mesh;

@@ -109,13 +109,15 @@ pub(crate) fn read_referenced(
     Ok(out)
 }
 
-/// The lower-case extension, with `.nii.gz` (and other `.X.gz`) kept as one extension
-/// `nii.gz`.
+/// The lower-case extension, with `.nii.gz` and `.inr.gz` kept as one extension (`nii.gz`,
+/// `inr.gz`); other `.X.gz` names give `gz`.
 /// The rest of the name need not be UTF-8 (extensions are ASCII; other bytes are ignored).
 pub(crate) fn extension(path: &Path) -> Option<String> {
     let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
-    if name.ends_with(".nii.gz") && name.len() > ".nii.gz".len() {
-        return Some("nii.gz".to_string());
+    for two in ["nii.gz", "inr.gz"] {
+        if name.ends_with(&format!(".{two}")) && name.len() > two.len() + 1 {
+            return Some(two.to_string());
+        }
     }
     let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
     Some(ext)

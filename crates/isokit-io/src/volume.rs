@@ -7,7 +7,7 @@ use glam::Vec3;
 use isokit_field::{Aabb, FieldError, Grid, checked_len};
 
 use crate::util::{extension, read_file};
-use crate::{IoError, lattice, nifti, npy, nrrd};
+use crate::{IoError, inr, lattice, nifti, npy, nrrd};
 
 /// A dense node-centered volume as stored in files: sample `(i, j, k)` sits at
 /// `origin + spacing * (i, j, k)` (component-wise) and is stored at `i + nx * (j + ny * k)`
@@ -175,11 +175,13 @@ pub enum VolumeFormat {
     Nifti,
     /// Gzip-compressed NIfTI-1 (`.nii.gz`).
     NiftiGz,
+    /// INRIMAGE-4 (`.inr`, or gzipped `.inr.gz`), the format of CGAL's sample images.
+    Inr,
 }
 
 impl VolumeFormat {
     /// The extensions [`VolumeFormat::from_path`] accepts, for messages.
-    pub const EXTENSIONS: &'static str = ".nrrd, .nhdr, .npy, .nii or .nii.gz";
+    pub const EXTENSIONS: &'static str = ".nrrd, .nhdr, .npy, .nii, .nii.gz, .inr or .inr.gz";
 
     /// The format named by a path's extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Self, IoError> {
@@ -189,6 +191,7 @@ impl VolumeFormat {
             Some("npy") => VolumeFormat::Npy,
             Some("nii") => VolumeFormat::Nifti,
             Some("nii.gz") => VolumeFormat::NiftiGz,
+            Some("inr" | "inr.gz") => VolumeFormat::Inr,
             _ => {
                 return Err(IoError::UnknownFormat {
                     path: path.to_path_buf(),
@@ -220,8 +223,10 @@ impl VolumeFormat {
 ///   spacing is positive and the origin is the minimum corner. World coordinates are the
 ///   file's (RAS+ for NIfTI) without conversion. 4-D files are read when `dim[4..]` are
 ///   all 1.
+/// - `.inr` / `.inr.gz`: INRIMAGE-4 (the [`crate::inr`] module says what is read): float and
+///   fixed-point samples, either byte order, spacing `VX VY VZ`, origin `TX TY TZ`.
 ///
-/// Compressed data (NRRD `gzip`, `.nii.gz`) is inflated only up to the size the header
+/// Compressed data (NRRD `gzip`, `.nii.gz`, `.inr.gz`) is inflated only up to the size the header
 /// claims, and that size is first checked against [`isokit_field::MAX_SAMPLES`] (8 GiB of
 /// f32 at most): the buffer grows with the bytes actually inflated, so a small file
 /// claiming a huge volume fails when its data runs out, never by allocating the claim.
@@ -254,6 +259,7 @@ fn read_volume_from(bytes: &[u8], format: VolumeFormat, path: &Path) -> Result<V
         VolumeFormat::Nrrd | VolumeFormat::Nhdr => nrrd::read_nrrd(bytes, path),
         VolumeFormat::Npy => npy::read_npy_volume(bytes, path),
         VolumeFormat::Nifti | VolumeFormat::NiftiGz => nifti::read_nifti(bytes, path),
+        VolumeFormat::Inr => inr::read_inr(bytes, path),
     }
 }
 

@@ -227,6 +227,8 @@ fn detect_kind_by_extension() {
         ("a.stl", FileKind::Mesh),
         ("a.xyz", FileKind::PointCloud),
         ("a.nii.gz", FileKind::Volume),
+        ("a.inr", FileKind::Volume),
+        ("a.INR.gz", FileKind::Volume),
         ("a.NRRD", FileKind::Volume),
         ("a.npy", FileKind::Volume),
         ("a.exr", FileKind::Image),
