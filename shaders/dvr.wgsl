@@ -1,12 +1,17 @@
 // Direct volume rendering (002 Sec. 2.5.3; pre-integration after Engel, Kraus and Ertl 2001):
 // emission and absorption along one ray per invocation through a 1D transfer function,
 // post-classified or with pre-integrated segments, empty blocks skipped, early termination.
+// Volumes on a Cartesian grid or on a spherical lattice (Westermann and Ertl 1998, Sec. 2.2:
+// each sample's world position mapped to the lattice); the entry point spherical_iso finds
+// the isosurface of a spherical volume.
 // Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS,
 // SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS.
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
-// alike); the rays, the pre-integration table and the empty-block flags come from the host.
+// alike) and crates/isokit-render/src/spherical.rs (SphericalVolume's coords, keep, value,
+// segment and trace_iso); the rays, the pre-integration table and the empty-block flags come
+// from the host.
 
-// Rust: dvr/gpu.rs DvrParams (112 bytes).
+// Rust: dvr/gpu.rs DvrParams (160 bytes).
 struct DvrParams {
     dims: vec3<u32>,
     count: u32,          // rays
@@ -27,9 +32,15 @@ struct DvrParams {
     table_len: f32,
     shade: u32,          // 1: Blinn-Phong shading by the gradient
     clip_sign: f32,      // 0: no clip; +1 keep where the clip field is positive, -1 negative
-    clip_pad0: f32,
-    clip_pad1: f32,
-    clip_pad2: f32,
+    lattice: u32,        // 0: Cartesian (origin, spacing); 1: spherical (sph_*), dims (nr, ntheta, nphi)
+    wrap: u32,           // spherical: 1 when the last azimuth cell wraps to the first sample
+    wedge: u32,          // spherical: 1 when the azimuths cover a wedge only
+    sph_lo: vec3<f32>,   // r0, theta0, phi0 (degrees)
+    iso: f32,            // spherical_iso: the isovalue
+    sph_hi: vec3<f32>,   // r1, theta1, phi1
+    iso_sign: f32,       // spherical_iso: +1 inside below the isovalue, -1 above
+    sph_step: vec3<f32>, // delta r, delta theta, delta phi
+    sph_pad: f32,
 }
 
 @group(0) @binding(0) var<uniform> P: DvrParams;
@@ -60,8 +71,107 @@ fn lerp1(a: f32, b: f32, t: f32) -> f32 {
     return a + t * (b - a);
 }
 
-// isokit_field::filter::trilinear at world position x (split and fetch).
+const RAD: f32 = 0.017453292519943295;
+
+// SphericalVolume::coords: radius, polar angle and azimuth from phi0 in [0, 360), degrees.
+fn spherical_coords(x: vec3<f32>) -> vec3<f32> {
+    let r = length(x);
+    var theta = 0.0;
+    if (r > 0.0) {
+        theta = acos(clamp(x.z / r, -1.0, 1.0)) / RAD;
+    }
+    var phi = atan2(x.y, x.x) / RAD - P.sph_lo.z;
+    phi = phi - 360.0 * floor(phi / 360.0);
+    if (phi >= 360.0) {
+        phi = 0.0;
+    }
+    return vec3<f32>(r, theta, phi);
+}
+
+// SphericalVolume::keep: how far inside the domain x lies (world units, positive inside).
+fn spherical_keep(x: vec3<f32>) -> f32 {
+    let c = spherical_coords(x);
+    let r = c.x;
+    let theta = c.y;
+    let phi = c.z;
+    var k = P.sph_hi.x - r;
+    if (P.sph_lo.x > 0.0) {
+        k = min(k, r - P.sph_lo.x);
+    }
+    if (P.sph_lo.y > 0.0) {
+        k = min(k, (theta - P.sph_lo.y) * RAD * r);
+    }
+    if (P.sph_hi.y < 180.0) {
+        k = min(k, (P.sph_hi.y - theta) * RAD * r);
+    }
+    if (P.wedge == 1u) {
+        let span = P.sph_hi.z - P.sph_lo.z;
+        let arc = r * sin(theta * RAD) * RAD;
+        var inside = 0.0;
+        if (phi <= span) {
+            inside = min(phi, span - phi);
+        } else {
+            inside = -min(phi - span, 360.0 - phi);
+        }
+        k = min(k, inside * arc);
+    }
+    return k;
+}
+
+// SphericalVolume::at: r and theta clamped, phi wrapped (periodic) or clamped.
+fn spherical_at(i: i32, j: i32, k: i32) -> f32 {
+    let n = vec3<i32>(P.dims);
+    var kk = clamp(k, 0, n.z - 1);
+    if (P.wrap == 1u) {
+        kk = ((k % n.z) + n.z) % n.z;
+    }
+    let ii = clamp(i, 0, n.x - 1);
+    let jj = clamp(j, 0, n.y - 1);
+    return volume[u32(ii) + P.dims.x * (u32(jj) + P.dims.y * u32(kk))];
+}
+
+// SphericalVolume::value: trilinear in the lattice's coordinates of x.
+fn spherical_value(x: vec3<f32>) -> f32 {
+    let c = spherical_coords(x);
+    let nf = vec3<f32>(P.dims);
+    let u = clamp((c.x - P.sph_lo.x) / P.sph_step.x, 0.0, nf.x - 1.0);
+    let v = clamp((c.y - P.sph_lo.y) / P.sph_step.y, 0.0, nf.y - 1.0);
+    var wmax = nf.z - 1.0;
+    if (P.wrap == 1u) {
+        wmax = nf.z;
+    }
+    let w = clamp(c.z / P.sph_step.z, 0.0, wmax);
+    let f = floor(vec3<f32>(u, v, w));
+    let a = vec3<f32>(u, v, w) - f;
+    let i = i32(f.x);
+    let j = i32(f.y);
+    let k = i32(f.z);
+    let r00 = lerp1(spherical_at(i, j, k), spherical_at(i + 1, j, k), a.x);
+    let r10 = lerp1(spherical_at(i, j + 1, k), spherical_at(i + 1, j + 1, k), a.x);
+    let r01 = lerp1(spherical_at(i, j, k + 1), spherical_at(i + 1, j, k + 1), a.x);
+    let r11 = lerp1(spherical_at(i, j + 1, k + 1), spherical_at(i + 1, j + 1, k + 1), a.x);
+    return lerp1(lerp1(r00, r10, a.y), lerp1(r01, r11, a.y), a.z);
+}
+
+// SphericalVolume::segment: where a ray is within the outer sphere; x > y when it misses.
+fn sphere_segment(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let r = P.sph_hi.x;
+    let b = dot(o, d);
+    let c = dot(o, o) - r * r;
+    let disc = b * b - c;
+    if (!(disc > 0.0)) {
+        return vec2<f32>(1.0, 0.0);
+    }
+    let q = sqrt(disc);
+    return vec2<f32>(max(-b - q, 0.0), -b + q);
+}
+
+// isokit_field::filter::trilinear at world position x (split and fetch), or the spherical
+// lattice's interpolant.
 fn value_at(x: vec3<f32>) -> f32 {
+    if (P.lattice == 1u) {
+        return spherical_value(x);
+    }
     let p = (x - P.origin) / P.spacing;
     let f = floor(p);
     let a = p - f;
@@ -279,8 +389,19 @@ fn shade_sample(seg: vec4<f32>, g: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(seg.xyz * (SHADE_KA + SHADE_KD * ndl) + vec3<f32>(SHADE_KS * spec * seg.w), seg.w);
 }
 
+// Source::keep: the spherical domain's or the clip's keep measure (one of them at most).
+fn keep_of(x: vec3<f32>) -> f32 {
+    if (P.lattice == 1u) {
+        return spherical_keep(x);
+    }
+    return keep_at(x);
+}
+
 fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
-    let tt = slab(o, d, P.bmin, P.bmax);
+    var tt = slab(o, d, P.bmin, P.bmax);
+    if (P.lattice == 1u) {
+        tt = sphere_segment(o, d);
+    }
     let t0 = tt.x;
     let t1 = tt.y;
     if (!(t0 < t1)) {
@@ -328,8 +449,8 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
         }
         let s1 = min(s0 + step, t1);
         var part = vec2<f32>(0.0, 1.0);
-        if (P.clip_sign != 0.0) {
-            part = kept_part(keep_at(o + s0 * d), keep_at(o + s1 * d));
+        if (P.clip_sign != 0.0 || P.lattice == 1u) {
+            part = kept_part(keep_of(o + s0 * d), keep_of(o + s1 * d));
             if (!(part.x < part.y)) {
                 have_front = false;
                 k += 1u;
@@ -399,4 +520,106 @@ fn dvr(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     trace_ray(rays[2u * i].xyz, rays[2u * i + 1u].xyz, i);
+}
+
+// SphericalVolume::solid: the solid's residual max(sign (f - iso), -keep) and 1 where the
+// domain's term is the larger.
+fn spherical_solid(x: vec3<f32>) -> vec2<f32> {
+    let a = P.iso_sign * (spherical_value(x) - P.iso);
+    let b = -spherical_keep(x);
+    if (b > a) {
+        return vec2<f32>(b, 1.0);
+    }
+    return vec2<f32>(a, 0.0);
+}
+
+// SphericalVolume::normal: the owner's outward gradient by central differences half a
+// spacing apart, normalized (zero where it vanishes).
+fn spherical_term(x: vec3<f32>, domain: bool) -> f32 {
+    if (domain) {
+        return -spherical_keep(x);
+    }
+    return P.iso_sign * spherical_value(x);
+}
+
+fn spherical_normal(x: vec3<f32>, domain: bool) -> vec3<f32> {
+    let h = 0.5 * P.spacing;
+    let ex = vec3<f32>(1.0, 0.0, 0.0) * h;
+    let ey = vec3<f32>(0.0, 1.0, 0.0) * h;
+    let ez = vec3<f32>(0.0, 0.0, 1.0) * h;
+    let g = vec3<f32>(
+        spherical_term(x + ex, domain) - spherical_term(x - ex, domain),
+        spherical_term(x + ey, domain) - spherical_term(x - ey, domain),
+        spherical_term(x + ez, domain) - spherical_term(x - ez, domain),
+    );
+    let l = length(g);
+    if (!(l > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    return g / l;
+}
+
+// SphericalVolume::trace_iso: steps from where the ray enters the outer sphere until the
+// solid's residual is no longer positive, then 24 bisections. Writes (normal, domain) and
+// (t, samples, 0, hit).
+@compute @workgroup_size(WORKGROUP)
+fn spherical_iso(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * P.stride;
+    if (i >= P.count) {
+        return;
+    }
+    // The bindings this entry point does not read, used so that both entry points share
+    // one bind group layout.
+    _ = tf[0];
+    _ = table[0];
+    _ = empty[0];
+    _ = clip[0];
+    let o = rays[2u * i].xyz;
+    let d = rays[2u * i + 1u].xyz;
+    let tt = sphere_segment(o, d);
+    let t0 = tt.x;
+    let t1 = tt.y;
+    out_rgba[i] = vec4<f32>(0.0);
+    out_extra[i] = vec4<f32>(0.0);
+    if (!(t0 < t1)) {
+        return;
+    }
+    let n = u32(max(ceil((t1 - t0) / P.step), 1.0));
+    var samples = 1u;
+    var found = !(spherical_solid(o + t0 * d).x > 0.0);
+    var lo = t0;
+    var hi = t0;
+    var ta = t0;
+    var k = 1u;
+    while (!found && k <= n) {
+        let t = min(t0 + f32(k) * P.step, t1);
+        samples += 1u;
+        if (!(spherical_solid(o + t * d).x > 0.0)) {
+            found = true;
+            lo = ta;
+            hi = t;
+        }
+        ta = t;
+        k += 1u;
+    }
+    if (!found) {
+        out_extra[i] = vec4<f32>(0.0, f32(samples), 0.0, 0.0);
+        return;
+    }
+    for (var it = 0u; it < 24u; it += 1u) {
+        if (lo == hi) {
+            break;
+        }
+        let mid = 0.5 * (lo + hi);
+        samples += 1u;
+        if (spherical_solid(o + mid * d).x > 0.0) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let x = o + hi * d;
+    let domain = spherical_solid(x).y > 0.5;
+    out_rgba[i] = vec4<f32>(spherical_normal(x, domain), select(0.0, 1.0, domain));
+    out_extra[i] = vec4<f32>(hi, f32(samples), 0.0, 1.0);
 }

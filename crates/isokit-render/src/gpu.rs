@@ -192,6 +192,9 @@ pub struct GpuRenderer {
     /// Direct volume rendering, `dvr.wgsl` (host code in `dvr/gpu.rs`), compiled on first
     /// use.
     pub(crate) dvr: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The isosurface of a spherical volume, `dvr.wgsl`'s `spherical_iso` (host code in
+    /// `dvr/gpu.rs`), compiled on first use.
+    pub(crate) spherical_iso: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 impl GpuRenderer {
@@ -215,6 +218,7 @@ impl GpuRenderer {
             resident: None,
             splat: std::sync::OnceLock::new(),
             dvr: std::sync::OnceLock::new(),
+            spherical_iso: std::sync::OnceLock::new(),
         })
     }
 

@@ -24,7 +24,7 @@
 //! | `shade.wgsl`, `common/shade_structs.wgsl`, `common/shade_functions.wgsl` | `shade/cpu.rs` ([`shade()`]) | `shade/gpu.rs` ([`gpu::GpuRenderer::shade`]) |
 //! | `flow.wgsl` | `flow/cpu.rs` ([`shade::flow_image`]) | `flow/gpu.rs` |
 //! | `splat.wgsl`, `splat_shade.wgsl` | `splat/cpu.rs` ([`splat`]), `quadric.rs` ([`quadric::intersect`]) | `splat/gpu.rs` ([`splat::gpu`], also [`gpu::splat`]) |
-//! | `dvr.wgsl` | `dvr/mod.rs` ([`dvr::render_dvr`]) | `dvr/gpu.rs` ([`gpu::GpuRenderer::render_dvr`]) |
+//! | `dvr.wgsl` | `dvr/mod.rs` ([`dvr::render_dvr`], [`dvr::render_dvr_spherical`]), `spherical.rs` ([`spherical::render_iso`]) | `dvr/gpu.rs` ([`gpu::GpuRenderer::render_dvr`], [`gpu::GpuRenderer::render_spherical_iso`]) |
 //!
 //! [`tets`] (ray casting through the cells of a tetrahedral grid) has only its CPU side so far.
 //!
@@ -106,6 +106,7 @@ pub mod quadric;
 mod raycast;
 pub mod setup;
 pub mod shade;
+pub mod spherical;
 pub mod splat;
 pub mod supersample;
 pub mod tets;

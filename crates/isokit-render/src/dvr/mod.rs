@@ -45,6 +45,7 @@ pub mod gpu;
 
 use crate::RenderError;
 use crate::clip::Clip;
+use crate::spherical::SphericalVolume;
 use glam::{Vec3, Vec4};
 use isokit_field::{Camera, Grid, filter::trilinear};
 use rayon::prelude::*;
@@ -709,7 +710,34 @@ pub(crate) fn prepare(
     tf: &TransferFunction,
     opts: &DvrOptions,
 ) -> Result<Prepared, RenderError> {
-    let step = opts.step.unwrap_or(grid.spacing());
+    let b = grid.bounds();
+    let mut p = prepare_for(
+        value_range(grid),
+        grid.spacing(),
+        (b.max - b.min).length(),
+        tf,
+        opts,
+    )?;
+    if grid.dims().iter().any(|&n| n < 2) {
+        return Err(RenderError::BadVolume {
+            dims: grid.dims(),
+            why: "needs at least 2 samples along each axis",
+        });
+    }
+    p.blocks = (opts.block > 0).then(|| Blocks::new(grid, tf, opts.block));
+    Ok(p)
+}
+
+/// Checks the knobs for a volume of values in `range`, one voxel `spacing` long (the
+/// default step) and `diagonal` across, and builds the table (no blocks).
+pub(crate) fn prepare_for(
+    range: (f32, f32),
+    spacing: f32,
+    diagonal: f32,
+    tf: &TransferFunction,
+    opts: &DvrOptions,
+) -> Result<Prepared, RenderError> {
+    let step = opts.step.unwrap_or(spacing);
     if !(step.is_finite() && step > 0.0) {
         return Err(RenderError::bad(
             "step",
@@ -724,14 +752,7 @@ pub(crate) fn prepare(
             "must be an opacity from 0 to 1",
         ));
     }
-    if grid.dims().iter().any(|&n| n < 2) {
-        return Err(RenderError::BadVolume {
-            dims: grid.dims(),
-            why: "needs at least 2 samples along each axis",
-        });
-    }
-    let b = grid.bounds();
-    if ((b.max - b.min).length() / step) as f64 > 1e7 {
+    if (diagonal / step) as f64 > 1e7 {
         return Err(RenderError::bad(
             "step",
             step,
@@ -741,17 +762,16 @@ pub(crate) fn prepare(
     let table = match opts.classification {
         Classification::Post => None,
         Classification::Preintegrated => {
-            let (lo, hi) = value_range(grid);
+            let (lo, hi) = range;
             Some(PreintegrationTable::new(tf, lo, hi, opts.table_size, step)?)
         }
     };
-    let blocks = (opts.block > 0).then(|| Blocks::new(grid, tf, opts.block));
     Ok(Prepared {
         step,
         termination: opts.termination,
         shade: opts.shade,
         table,
-        blocks,
+        blocks: None,
     })
 }
 
@@ -807,18 +827,76 @@ pub fn shade_sample(seg: Vec4, gradient: Vec3, dir: Vec3) -> Vec4 {
 /// passes 0.5, the samples taken and the blocks skipped.
 pub(crate) type RayResult = (Vec4, f32, u32, u32);
 
+/// What a ray integrates through: values at world points, where samples are kept, and the
+/// part of the ray that holds the volume.
+pub(crate) trait Source: Sync {
+    /// The interpolated value at `x`.
+    fn value(&self, x: Vec3) -> f32;
+    /// How far inside the kept region `x` lies (kept where positive), or `None` where
+    /// everything is kept.
+    fn keep(&self, x: Vec3) -> Option<f32>;
+    /// Where the ray is within the volume's support.
+    fn segment(&self, ray: isokit_field::Ray) -> Option<(f32, f32)>;
+    /// The spacing of the central differences that give the shading gradient.
+    fn spacing(&self) -> f32;
+    /// World to the block lattice's coordinates (for empty-space skipping).
+    fn to_grid(&self, x: Vec3) -> Vec3;
+}
+
+/// A volume on a Cartesian grid, clipped or not.
+pub(crate) struct Cartesian<'a> {
+    pub(crate) grid: &'a Grid,
+    pub(crate) clip: Option<&'a Clip>,
+}
+
+impl Source for Cartesian<'_> {
+    fn value(&self, x: Vec3) -> f32 {
+        trilinear(self.grid, self.grid.to_grid(x))
+    }
+    fn keep(&self, x: Vec3) -> Option<f32> {
+        self.clip.map(|c| c.keep(x))
+    }
+    fn segment(&self, ray: isokit_field::Ray) -> Option<(f32, f32)> {
+        let b = self.grid.bounds();
+        slab(ray.origin, ray.dir, b.min, b.max)
+    }
+    fn spacing(&self) -> f32 {
+        self.grid.spacing()
+    }
+    fn to_grid(&self, x: Vec3) -> Vec3 {
+        self.grid.to_grid(x)
+    }
+}
+
+/// A volume on a spherical lattice: its domain is a clip.
+impl Source for SphericalVolume {
+    fn value(&self, x: Vec3) -> f32 {
+        SphericalVolume::value(self, x)
+    }
+    fn keep(&self, x: Vec3) -> Option<f32> {
+        Some(SphericalVolume::keep(self, x))
+    }
+    fn segment(&self, ray: isokit_field::Ray) -> Option<(f32, f32)> {
+        SphericalVolume::segment(self, ray)
+    }
+    fn spacing(&self) -> f32 {
+        SphericalVolume::spacing(self)
+    }
+    fn to_grid(&self, x: Vec3) -> Vec3 {
+        x
+    }
+}
+
 /// One ray through the volume: the CPU twin of `trace_ray` in `shaders/dvr.wgsl`.
 pub(crate) fn trace_ray(
-    grid: &Grid,
+    src: &impl Source,
     tf: &TransferFunction,
     p: &Prepared,
-    clip: Option<&Clip>,
     ray: isokit_field::Ray,
 ) -> RayResult {
-    let b = grid.bounds();
-    let (h, step) = (grid.spacing(), p.step);
-    let value = |x: Vec3| trilinear(grid, grid.to_grid(x));
-    let Some((t0, t1)) = slab(ray.origin, ray.dir, b.min, b.max) else {
+    let (h, step) = (src.spacing(), p.step);
+    let value = |x: Vec3| src.value(x);
+    let Some((t0, t1)) = src.segment(ray) else {
         return (Vec4::ZERO, f32::INFINITY, 0, 0);
     };
     let (mut c, mut trans) = (Vec3::ZERO, 1.0f32);
@@ -837,9 +915,9 @@ pub(crate) fn trace_ray(
                 None => (s0 + step * 0.5).min(t1),
                 Some(_) => s0,
             };
-            if let Some((lo, hi)) = bl.empty_at(grid.to_grid(ray.at(probe))) {
+            if let Some((lo, hi)) = bl.empty_at(src.to_grid(ray.at(probe))) {
                 // Step over the block: to the step that holds its exit.
-                let o = grid.to_grid(ray.origin);
+                let o = src.to_grid(ray.origin);
                 if let Some((_, exit)) = slab(o, ray.dir / h, lo, hi) {
                     let next = ((exit - t0) / step).floor() as u32;
                     if next > k {
@@ -853,9 +931,8 @@ pub(crate) fn trace_ray(
         }
         let s1 = (s0 + step).min(t1);
         // The kept part [a, b] of the step: all of it without a clip.
-        let (fa, fb) = match clip {
-            None => (0.0, 1.0),
-            Some(cl) => match kept_part(cl.keep(ray.at(s0)), cl.keep(ray.at(s1))) {
+        let (fa, fb) = match (src.keep(ray.at(s0)), src.keep(ray.at(s1))) {
+            (Some(kf), Some(kb)) => match kept_part(kf, kb) {
                 Some(part) => part,
                 None => {
                     front = None;
@@ -863,6 +940,7 @@ pub(crate) fn trace_ray(
                     continue;
                 }
             },
+            _ => (0.0, 1.0),
         };
         let (a, b) = (s0 + fa * (s1 - s0), s0 + fb * (s1 - s0));
         let len = b - a;
@@ -1013,17 +1091,65 @@ pub fn render_dvr_clipped(
     opts: &DvrOptions,
     clip: Option<&Clip>,
 ) -> Result<DvrImage, RenderError> {
-    let (width, height) = crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
+    crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
     let p = prepare(grid, tf, opts)?;
     if let Some(c) = clip {
         c.fits(grid)?;
     }
+    Ok(trace_all(&Cartesian { grid, clip }, camera, tf, &p))
+}
+
+/// Every pixel's ray through `src`, in parallel.
+fn trace_all(src: &impl Source, camera: &Camera, tf: &TransferFunction, p: &Prepared) -> DvrImage {
+    let (width, height) = (camera.width(), camera.height());
     let rays: Vec<RayResult> = (0..width * height)
         .into_par_iter()
         .map(|pix| {
             let ray = camera.ray((pix % width) as f32 + 0.5, (pix / width) as f32 + 0.5);
-            trace_ray(grid, tf, &p, clip, ray)
+            trace_ray(src, tf, p, ray)
         })
         .collect();
-    Ok(DvrImage::from_rays(width, height, &p, &rays))
+    DvrImage::from_rays(width, height, p, &rays)
+}
+
+/// [`render_dvr`] of a volume on a spherical lattice ([`crate::spherical`]): the samples'
+/// world positions mapped to the lattice, the domain's boundary cutting each step as a clip
+/// does (nothing outside the domain contributes). The default step is
+/// [`SphericalVolume::spacing`]; no empty-space skipping (`opts.block` is not used).
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Camera, Grid, Projection};
+/// use isokit_render::dvr::{DvrOptions, TransferFunction, render_dvr_spherical};
+/// use isokit_render::spherical::{SphericalLattice, SphericalVolume};
+///
+/// // A uniform medium in the shell 0.5 < r < 1: a ray through the centre crosses 1.
+/// let grid = Grid::filled([4, 5, 8], Vec3::ZERO, 1.0, 1.0).unwrap();
+/// let lattice = SphericalLattice { r: [0.5, 1.0], theta: [0.0, 180.0], phi: [0.0, 315.0] };
+/// let vol = SphericalVolume::new(grid, lattice).unwrap();
+/// let tf = TransferFunction::from_json(r#"{"points": [[0, 1, 1, 1, 2]]}"#).unwrap();
+/// let cam = Camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y,
+///     Projection::Perspective { fov_y_degrees: 30.0 }, 9, 9).unwrap();
+/// let img = render_dvr_spherical(&vol, &cam, &tf, &DvrOptions::default()).unwrap();
+/// assert!((img.rgba[4 * 9 + 4].w - (1.0 - (-2.0f32).exp())).abs() < 1e-3);
+/// ```
+pub fn render_dvr_spherical(
+    vol: &SphericalVolume,
+    camera: &Camera,
+    tf: &TransferFunction,
+    opts: &DvrOptions,
+) -> Result<DvrImage, RenderError> {
+    crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
+    let p = prepare_spherical(vol, tf, opts)?;
+    Ok(trace_all(vol, camera, tf, &p))
+}
+
+/// The knobs checked and the table built for a spherical volume.
+pub(crate) fn prepare_spherical(
+    vol: &SphericalVolume,
+    tf: &TransferFunction,
+    opts: &DvrOptions,
+) -> Result<Prepared, RenderError> {
+    let diagonal = 2.0 * vol.lattice().r[1];
+    prepare_for(vol.value_range(), vol.spacing(), diagonal, tf, opts)
 }
