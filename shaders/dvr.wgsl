@@ -155,7 +155,20 @@ fn spherical_value(x: vec3<f32>) -> f32 {
 
 // SphericalVolume::segment: where a ray is within the outer sphere; x > y when it misses.
 fn sphere_segment(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
-    let r = P.sph_hi.x;
+    return sphere_chord(o, d, P.sph_hi.x);
+}
+
+// SphericalVolume::hole: where a ray is within the inner sphere (r0 > 0); x > y when it
+// misses or there is none.
+fn sphere_hole(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    if (P.lattice == 1u && P.sph_lo.x > 0.0) {
+        return sphere_chord(o, d, P.sph_lo.x);
+    }
+    return vec2<f32>(1.0, 0.0);
+}
+
+// sphere_segment in spherical.rs: where a ray is within the sphere of radius r, from t = 0.
+fn sphere_chord(o: vec3<f32>, d: vec3<f32>, r: f32) -> vec2<f32> {
     let b = dot(o, d);
     let c = dot(o, o) - r * r;
     let disc = b * b - c;
@@ -422,8 +435,18 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
     var front = 0.0;
     var have_front = false;
     let pre = P.preintegrated == 1u;
+    let hole = sphere_hole(o, d);
     while (k < n) {
         let s0 = t0 + f32(k) * step;
+        if (hole.x < hole.y && s0 >= hole.x && s0 < hole.y) {
+            // Steps wholly in the hole keep nothing: on to the step that holds its end.
+            let next = u32(max(floor((hole.y - t0) / step), 0.0));
+            if (next > k) {
+                k = next;
+                have_front = false;
+                continue;
+            }
+        }
         if (P.block > 0u) {
             var probe = s0;
             if (!pre) {
@@ -591,8 +614,19 @@ fn spherical_iso(@builtin(global_invocation_id) id: vec3<u32>) {
     var hi = t0;
     var ta = t0;
     var k = 1u;
+    let hole = sphere_hole(o, d);
     while (!found && k <= n) {
         let t = min(t0 + f32(k) * P.step, t1);
+        if (hole.x < hole.y && t > hole.x && t < hole.y) {
+            // The residual is positive all through the hole: on to the first sample beyond
+            // it, bracketed from the sample before.
+            let next = u32(ceil((hole.y - t0) / P.step));
+            if (next > k) {
+                k = next;
+                ta = min(t0 + f32(k - 1u) * P.step, t1);
+                continue;
+            }
+        }
         samples += 1u;
         if (!(spherical_solid(o + t * d).x > 0.0)) {
             found = true;

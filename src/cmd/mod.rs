@@ -11,6 +11,7 @@ pub mod csg_args;
 pub mod demo;
 pub mod info;
 pub mod labels;
+pub mod lattice_args;
 pub mod mesh;
 pub mod mesh_args;
 pub mod mesher_args;

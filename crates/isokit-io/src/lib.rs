@@ -92,6 +92,9 @@ pub use mesh::{
     write_mesh_colored, write_ply_ascii, write_ply_colored, write_ply_regions, write_stl_ascii,
 };
 pub use npy::{NpyArray, read_npy, read_npy_bytes, write_npy_f32};
+pub use nrrd::{
+    read_key_values as read_nrrd_key_values, write_key_values as write_nrrd_key_values,
+};
 pub use points::{PointFormat, read_points, read_points_bytes, write_points};
 pub use tets::{TetFormat, read_tets, read_tets_bytes};
 pub use util::{shown_path, shown_text};

@@ -72,6 +72,57 @@ fn numbers(v: &str) -> Option<Vec<f64>> {
         .collect()
 }
 
+/// The most header bytes [`read_key_values`] reads.
+const MAX_KEY_VALUE_HEADER: u64 = 1 << 20;
+
+/// The key/value pairs (`key:=value`, NRRD0004 and later) of the NRRD header at `path`, in
+/// the order they appear, read up to the blank line that ends the header (at most 1 MiB):
+/// the data is not read. The keys and values are taken as written (escapes are not
+/// decoded); a file that does not start with the NRRD magic is refused.
+pub fn read_key_values(path: &Path) -> Result<Vec<(String, String)>, IoError> {
+    use std::io::{BufRead, Read};
+    let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let mut reader = std::io::BufReader::new(file).take(MAX_KEY_VALUE_HEADER);
+    let mut out = Vec::new();
+    let mut line = Vec::new();
+    let mut first = true;
+    loop {
+        line.clear();
+        let n = reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| IoError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        let text = line.strip_suffix(b"\n").unwrap_or(&line);
+        let text = text.strip_suffix(b"\r").unwrap_or(text);
+        if first {
+            if !text.starts_with(b"NRRD000") {
+                return Err(IoError::malformed(path, "NRRD: missing the NRRD000x magic"));
+            }
+            first = false;
+            continue;
+        }
+        if text.is_empty() {
+            break;
+        }
+        if text.starts_with(b"#") {
+            continue;
+        }
+        let Ok(text) = std::str::from_utf8(text) else {
+            continue;
+        };
+        // A field ("name: value") may hold ":=" in its value; a key/value pair has its
+        // ":=" before any ": ".
+        if let Some(kv) = text.find(":=")
+            && text.find(": ").is_none_or(|f| kv < f)
+        {
+            out.push((text[..kv].to_string(), text[kv + 2..].to_string()));
+        }
+    }
+    Ok(out)
+}
+
 pub(crate) fn read_nrrd(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
     let bad = |msg: String| IoError::malformed(path, format!("NRRD: {msg}"));
     if bytes.is_empty() {
@@ -407,6 +458,40 @@ pub(crate) fn write_nrrd(
     encoding: NrrdEncoding,
     meta: Option<&Lattice>,
 ) -> Result<(), IoError> {
+    write_nrrd_with(path, vol, encoding, meta, &[])
+}
+
+/// Writes an NRRD file atomically as [`crate::write_nrrd`] does, with the key/value pairs
+/// `pairs` (`key:=value` lines, in order) in its header. A key must be non-empty without
+/// `:=`, and neither a key nor a value may hold a line break.
+pub fn write_key_values(
+    path: &Path,
+    vol: &Volume,
+    encoding: NrrdEncoding,
+    pairs: &[(&str, &str)],
+) -> Result<(), IoError> {
+    for (k, v) in pairs {
+        if k.is_empty() || k.contains(":=") || [k, v].iter().any(|t| t.contains(['\n', '\r'])) {
+            return Err(IoError::invalid_input(
+                path,
+                format!(
+                    "NRRD key/value {}:={} (a key is non-empty without ':=', neither holds a line break)",
+                    crate::shown_text(k),
+                    crate::shown_text(v)
+                ),
+            ));
+        }
+    }
+    write_nrrd_with(path, vol, encoding, None, pairs)
+}
+
+fn write_nrrd_with(
+    path: &Path,
+    vol: &Volume,
+    encoding: NrrdEncoding,
+    meta: Option<&Lattice>,
+    pairs: &[(&str, &str)],
+) -> Result<(), IoError> {
     vol.check()
         .map_err(|e| IoError::invalid_input(path, e.to_string()))?;
     let [nx, ny, nz] = vol.dims;
@@ -432,6 +517,9 @@ pub(crate) fn write_nrrd(
         if let Some(sign) = &m.sign {
             header.push_str(&format!("sign:={sign}\n"));
         }
+    }
+    for (k, v) in pairs {
+        header.push_str(&format!("{k}:={v}\n"));
     }
     header.push('\n');
     atomic_write(path, |w| {

@@ -159,6 +159,46 @@ fn nrrd_header_variants() {
 }
 
 #[test]
+fn nrrd_key_values_are_written_and_read_back_without_the_data() {
+    let dir = TempDir::new("nrrd-kv");
+    let p = dir.path("s.nrrd");
+    let v = sample_volume();
+    let pairs = [
+        ("lattice", "spherical"),
+        ("r-range", "1,1.3"),
+        ("note", "a: b:=c"),
+    ];
+    write_nrrd_key_values(&p, &v, NrrdEncoding::Gzip, &pairs).unwrap();
+    let got = read_nrrd_key_values(&p).unwrap();
+    let want: Vec<(String, String)> = pairs
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    assert_eq!(got, want);
+    assert_eq!(read_volume(&p).unwrap().data, v.data);
+    // A field whose value holds ":=" is not a key/value pair; the header ends at the blank
+    // line, so data that looks like a pair is not read.
+    let q = dir.path("t.nrrd");
+    std::fs::write(
+        &q,
+        "NRRD0004\ncontent: a:=b\nk:=v\n\nx:=not a header line\n",
+    )
+    .unwrap();
+    assert_eq!(
+        read_nrrd_key_values(&q).unwrap(),
+        vec![("k".into(), "v".into())]
+    );
+    for bad in [("", "x"), ("a:=b", "x"), ("k", "line\nbreak")] {
+        let e = write_nrrd_key_values(&p, &v, NrrdEncoding::Raw, &[bad]).unwrap_err();
+        assert!(!e.to_string().contains('\n'), "{e}");
+    }
+    // The file is unchanged by the refused writes.
+    assert_eq!(read_nrrd_key_values(&p).unwrap(), want);
+    std::fs::write(&q, "P6\n").unwrap();
+    assert!(read_nrrd_key_values(&q).is_err());
+}
+
+#[test]
 fn nhdr_with_detached_data() {
     let dir = TempDir::new("nhdr");
     let v = sample_volume();

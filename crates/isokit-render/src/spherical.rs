@@ -200,16 +200,19 @@ impl SphericalVolume {
     /// Where a ray (unit direction) is within the outer sphere, from `t = 0` on; `None`
     /// when it misses (the twin of `sphere_segment` in `dvr.wgsl`).
     pub fn segment(&self, ray: Ray) -> Option<(f32, f32)> {
-        let r = self.lattice.r[1];
-        let b = ray.origin.dot(ray.dir);
-        let c = ray.origin.length_squared() - r * r;
-        let disc = b * b - c;
-        if !positive(disc) {
-            return None;
+        sphere_segment(ray, self.lattice.r[1])
+    }
+
+    /// Where a ray is within the inner sphere (`r0 > 0`), which holds no sample: both
+    /// renderers pass over the steps wholly inside it (the twin of `sphere_hole` in
+    /// `dvr.wgsl`).
+    pub fn hole(&self, ray: Ray) -> Option<(f32, f32)> {
+        let r0 = self.lattice.r[0];
+        if r0 > 0.0 {
+            sphere_segment(ray, r0)
+        } else {
+            None
         }
-        let q = disc.sqrt();
-        let (t0, t1) = ((-b - q).max(0.0), -b + q);
-        (t0 < t1).then_some((t0, t1))
     }
 
     /// The samples' smallest and largest value.
@@ -399,8 +402,22 @@ impl SphericalVolume {
         let mut found = (!positive(self.solid(ray.at(t0), iso, sign).0)).then_some((t0, t0));
         let mut ta = t0;
         let mut k = 1;
+        let hole = self.hole(ray);
         while found.is_none() && k <= n {
             let t = (t0 + k as f32 * step).min(t1);
+            if let Some((a, b)) = hole
+                && t > a
+                && t < b
+            {
+                // The residual is positive all through the hole: on to the first sample
+                // beyond it, bracketed from the sample before.
+                let next = ((b - t0) / step).ceil() as u32;
+                if next > k {
+                    k = next;
+                    ta = (t0 + (k - 1) as f32 * step).min(t1);
+                    continue;
+                }
+            }
             samples += 1;
             if !positive(self.solid(ray.at(t), iso, sign).0) {
                 found = Some((ta, t));
@@ -428,6 +445,20 @@ impl SphericalVolume {
         let (_, domain) = self.solid(x, iso, sign);
         (Some((hi, self.normal(x, sign, domain), domain)), samples)
     }
+}
+
+/// Where a ray (unit direction) is within the sphere of radius `r` around the origin, from
+/// `t = 0` on (the twin of `sphere_chord` in `dvr.wgsl`).
+fn sphere_segment(ray: Ray, r: f32) -> Option<(f32, f32)> {
+    let b = ray.origin.dot(ray.dir);
+    let c = ray.origin.length_squared() - r * r;
+    let disc = b * b - c;
+    if !positive(disc) {
+        return None;
+    }
+    let q = disc.sqrt();
+    let (t0, t1) = ((-b - q).max(0.0), -b + q);
+    (t0 < t1).then_some((t0, t1))
 }
 
 /// `x > 0` (false for NaN): outside the solid, or a ray that meets a sphere.

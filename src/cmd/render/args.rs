@@ -125,6 +125,8 @@ pub struct Args {
     pub clip: crate::cmd::clip_args::ClipArgs,
     #[command(flatten)]
     pub volume: crate::cmd::volume_args::VolumeIn,
+    #[command(flatten)]
+    pub lattice: crate::cmd::lattice_args::LatticeArgs,
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,

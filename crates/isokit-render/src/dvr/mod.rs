@@ -837,6 +837,11 @@ pub(crate) trait Source: Sync {
     fn keep(&self, x: Vec3) -> Option<f32>;
     /// Where the ray is within the volume's support.
     fn segment(&self, ray: isokit_field::Ray) -> Option<(f32, f32)>;
+    /// A stretch of the ray where nothing is kept (a spherical lattice's inner sphere):
+    /// the steps wholly inside it are passed over.
+    fn hole(&self, _ray: isokit_field::Ray) -> Option<(f32, f32)> {
+        None
+    }
     /// The spacing of the central differences that give the shading gradient.
     fn spacing(&self) -> f32;
     /// World to the block lattice's coordinates (for empty-space skipping).
@@ -879,6 +884,9 @@ impl Source for SphericalVolume {
     fn segment(&self, ray: isokit_field::Ray) -> Option<(f32, f32)> {
         SphericalVolume::segment(self, ray)
     }
+    fn hole(&self, ray: isokit_field::Ray) -> Option<(f32, f32)> {
+        SphericalVolume::hole(self, ray)
+    }
     fn spacing(&self) -> f32 {
         SphericalVolume::spacing(self)
     }
@@ -906,8 +914,21 @@ pub(crate) fn trace_ray(
     let mut k = 0u32;
     // Pre-integration: the value at the front of the current segment, once known.
     let mut front: Option<f32> = None;
+    let hole = src.hole(ray);
     while k < n {
         let s0 = t0 + k as f32 * step;
+        if let Some((a, b)) = hole
+            && s0 >= a
+            && s0 < b
+        {
+            // Steps wholly in the hole keep nothing: on to the step that holds its end.
+            let next = ((b - t0) / step).floor() as u32;
+            if next > k {
+                k = next;
+                front = None;
+                continue;
+            }
+        }
         if let Some(bl) = &p.blocks {
             // Post-classification samples the step's middle; a pre-integrated segment
             // needs both its ends in the empty block.

@@ -1,0 +1,180 @@
+//! `isokit render VOLUME --lattice spherical ...`: a volume on a spherical lattice rendered
+//! in world space without resampling (`isokit_render::spherical`): its isosurface (the solid
+//! closed by the lattice's domain) or, with `--mode dvr`, its volume rendering, on the GPU
+//! twin or the CPU's as `--backend` says.
+
+use super::Args;
+use super::args::RenderMode;
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use isokit_field::Grid;
+use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr_spherical};
+use isokit_render::spherical::{IsoOptions, SphericalLattice, SphericalVolume, render_iso};
+use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
+use serde_json::json;
+use std::time::Instant;
+
+/// Renders `a.input`, whose samples lie on `lattice`.
+pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Result<()> {
+    for (given, flag) in [
+        (super::is_scene(&a.input), "a scene input"),
+        (a.watch, "--watch"),
+        (a.csg.csg.is_some(), "--csg"),
+        (a.clip.clip.is_some(), "--clip"),
+        (a.samples > 1, "--samples"),
+        (a.multiview.multiview()?.0.is_some(), "--views"),
+        (a.res.is_some(), "--res"),
+        (a.warm_frames > 0, "--warm-frames"),
+        (a.array.is_some(), "--array"),
+        (
+            a.volume.origin.is_some() || a.volume.spacing.is_some(),
+            "--origin/--spacing",
+        ),
+    ] {
+        if given {
+            bail!("{flag} is not available for volumes on a spherical lattice");
+        }
+    }
+    let v = isokit_io::read_volume(&a.input)?;
+    let grid = Grid::from_data(v.dims, Vec3::ZERO, 1.0, v.data)
+        .with_context(|| a.input.display().to_string())?;
+    let vol = SphericalVolume::new(grid, lattice)
+        .with_context(|| format!("{}: spherical lattice", a.input.display()))?;
+    let camera = a.camera.camera_for(vol.bounds(), width, height)?;
+    let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
+    let backend = renderer.backend();
+    let [nr, nt, np] = v.dims;
+    let l = lattice;
+    let what = format!(
+        "{nr} x {nt} x {np} spherical volume (r {} .. {}, theta {} .. {}, phi {} .. {}{})",
+        l.r[0],
+        l.r[1],
+        l.theta[0],
+        l.theta[1],
+        l.phi[0],
+        l.phi[1],
+        if vol.periodic() || !vol.wedge() {
+            ", round"
+        } else {
+            ", a wedge"
+        }
+    );
+    let t = Instant::now();
+    let mut stats = if a.mode == RenderMode::Dvr {
+        let (shade, tf_arg) = a.dvr_shading_and_tf()?;
+        if a.iso.is_some() {
+            bail!("--iso is for --mode isosurface; --mode dvr does not take it");
+        }
+        let tf = TransferFunction::load_for(tf_arg, vol.value_range(), vol.spacing())
+            .with_context(|| format!("--tf {tf_arg}"))?;
+        let opts = DvrOptions {
+            step: a.step,
+            classification: a.classification.map_or(Classification::Post, |c| c.into()),
+            shade,
+            table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
+            ..DvrOptions::default()
+        };
+        let img = match renderer.gpu() {
+            Some(gpu) => gpu.render_dvr_spherical(&vol, &camera, &tf, &opts)?,
+            None => render_dvr_spherical(&vol, &camera, &tf, &opts)?,
+        };
+        let seconds = t.elapsed().as_secs_f64();
+        img.to_image(Vec3::ZERO).write_png(&a.output)?;
+        if let Some(g) = &a.gbuffer {
+            img.write_exr(g, &camera)?;
+        }
+        eprintln!(
+            "{what}: direct volume rendering ({}, step {}, {backend}), {} samples, {seconds:.2} s -> {}",
+            img.classification.name(),
+            img.step,
+            img.samples,
+            a.output.display()
+        );
+        img.stats(backend, seconds)
+    } else {
+        for (given, flag) in [
+            (a.tf.is_some(), "--tf"),
+            (a.classification.is_some(), "--classification"),
+            (a.table_size.is_some(), "--table-size"),
+        ] {
+            if given {
+                bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
+            }
+        }
+        let mode = match a.shading.as_deref() {
+            None => ShadingMode::Phong,
+            Some(name) => crate::cmd::args::shading_mode(name)?,
+        };
+        if mode.uses_curvature() {
+            bail!(
+                "--shading {}: the isosurface of a spherical volume is found without curvatures; use phong, tone, normal or reflection",
+                mode.name()
+            );
+        }
+        let (lo, hi) = vol.value_range();
+        let opts = IsoOptions {
+            iso: a.iso.unwrap_or(if lo <= 0.0 && 0.0 <= hi {
+                0.0
+            } else {
+                0.5 * (lo + hi)
+            }),
+            inside: a.inside.inside(),
+            step: a.step,
+        };
+        let gb = match renderer.gpu() {
+            Some(gpu) => gpu.render_spherical_iso(&vol, &camera, &opts)?,
+            None => render_iso(&vol, &camera, &opts)?,
+        };
+        let trace = t.elapsed().as_secs_f64();
+        let u = camera_uniforms(&camera)?;
+        let image = shade(
+            &gb,
+            &u,
+            &Shading {
+                mode,
+                ..Shading::default()
+            },
+        )?;
+        image.write_png(&a.output)?;
+        if let Some(g) = &a.gbuffer {
+            gb.write_exr_with_camera(g, &camera)?;
+        }
+        let caps = gb
+            .pixels()
+            .iter()
+            .filter(|p| p.id == isokit_render::kernel::ID_CAP)
+            .count();
+        let hits = gb.hit_count() - caps;
+        let per_ray = gb.samples().iter().map(|&s| u64::from(s)).sum::<u64>() as f64
+            / f64::from(width * height);
+        eprintln!(
+            "{what} at iso {}: {backend}, {width}x{height} {} image: {hits} surface + {caps} cap pixels, {per_ray:.1} samples/ray, {trace:.3} s -> {}",
+            opts.iso,
+            mode.name(),
+            a.output.display()
+        );
+        json!({
+            "mode": "isosurface",
+            "backend": backend,
+            "iso": opts.iso,
+            "surface_pixels": hits,
+            "cap_pixels": caps,
+            "samples_per_ray": per_ray,
+            "seconds": trace,
+            "width": width,
+            "height": height,
+        })
+    };
+    if a.stats {
+        stats["lattice"] = json!({
+            "kind": "spherical",
+            "r_range": l.r,
+            "theta_range": l.theta,
+            "phi_range": l.phi,
+            "periodic": vol.periodic(),
+        });
+        stats["output"] = a.output.display().to_string().into();
+        println!("{stats}");
+    }
+    Ok(())
+}
