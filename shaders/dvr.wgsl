@@ -30,7 +30,7 @@ struct DvrParams {
     table_lo: f32,
     table_hi: f32,
     table_len: f32,
-    shade: u32,          // 1: Blinn-Phong shading by the gradient
+    shade: u32,          // Blinn-Phong shading by the gradient: 1 central differences, 2 tricubic
     clip_sign: f32,      // 0: no clip; +1 keep where the clip field is positive, -1 negative
     lattice: u32,        // 0: Cartesian (origin, spacing); 1: spherical (sph_*), dims (nr, ntheta, nphi)
     wrap: u32,           // spherical: 1 when the last azimuth cell wraps to the first sample
@@ -386,6 +386,53 @@ fn gradient(x: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dx, dy, dz) / (2.0 * h);
 }
 
+// bspline_weights and bspline_weights_d1 of isokit_field::filter (ERRATA 2 and 3).
+fn bspline_w(a: f32) -> vec4<f32> {
+    let b = 1.0 - a;
+    let a2 = a * a;
+    let a3 = a2 * a;
+    return vec4<f32>(
+        b * b * b / 6.0,
+        (3.0 * a3 - 6.0 * a2 + 4.0) / 6.0,
+        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) / 6.0,
+        a3 / 6.0,
+    );
+}
+
+fn bspline_d(a: f32) -> vec4<f32> {
+    let b = 1.0 - a;
+    let a2 = a * a;
+    return vec4<f32>(-0.5 * b * b, 0.5 * (3.0 * a2 - 4.0 * a), 0.5 * (-3.0 * a2 + 2.0 * a + 1.0), 0.5 * a2);
+}
+
+// dvr::tricubic_gradient: the tricubic B-spline gradient at world point x, the 64 taps
+// summed in the CPU twin's order.
+fn tricubic_gradient(x: vec3<f32>) -> vec3<f32> {
+    let p = (x - P.origin) / P.spacing;
+    let f = floor(p);
+    let a = p - f;
+    let hi = vec3<f32>(P.dims) + vec3<f32>(1.0);
+    let c = vec3<i32>(min(max(f, vec3<f32>(-3.0)), hi));
+    var wx = bspline_w(a.x);
+    var wy = bspline_w(a.y);
+    var wz = bspline_w(a.z);
+    var dx = bspline_d(a.x);
+    var dy = bspline_d(a.y);
+    var dz = bspline_d(a.z);
+    var g = vec3<f32>(0.0);
+    for (var k = 0; k < 4; k += 1) {
+        for (var j = 0; j < 4; j += 1) {
+            for (var i = 0; i < 4; i += 1) {
+                let v = sample_at(c + vec3<i32>(i - 1, j - 1, k - 1));
+                g.x += dx[i] * wy[j] * wz[k] * v;
+                g.y += wx[i] * dy[j] * wz[k] * v;
+                g.z += wx[i] * wy[j] * dz[k] * v;
+            }
+        }
+    }
+    return g / P.spacing;
+}
+
 // shade_sample: two-sided Blinn-Phong by a headlight.
 fn shade_sample(seg: vec4<f32>, g: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
     let len = length(g);
@@ -517,8 +564,15 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
                 seg = segment(vf, vb, len);
             }
         }
-        if (P.shade == 1u && seg.w > SHADE_MIN_OPACITY) {
-            seg = shade_sample(seg, gradient(o + (0.5 * (a + b)) * d), d);
+        if (P.shade != 0u && seg.w > SHADE_MIN_OPACITY) {
+            let xm = o + (0.5 * (a + b)) * d;
+            var g: vec3<f32>;
+            if (P.shade == 2u) {
+                g = tricubic_gradient(xm);
+            } else {
+                g = gradient(xm);
+            }
+            seg = shade_sample(seg, g, d);
         }
         c += trans * seg.xyz;
         let before = trans;

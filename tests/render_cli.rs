@@ -553,6 +553,8 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
         assert_eq!(stats["mode"], "dvr");
         assert_eq!(stats["classification"], classification);
         assert_eq!(stats["shading"], shading);
+        let gradient = if shading == "phong" { "tricubic" } else { "" };
+        assert_eq!(stats["gradient"].as_str().unwrap_or(""), gradient);
         assert!(png.is_file());
         let g = isokit::io::read_exr(&exr).unwrap();
         let (a, z) = (g.channel("A").unwrap(), g.channel("Z").unwrap());
@@ -595,6 +597,10 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
             ],
             "pre-integration table size",
         ),
+        (
+            vec!["--tf", "ct-bone", "--gradient", "central"],
+            "with --shading phong",
+        ),
     ] {
         let mut args = vec![
             "render",
@@ -612,6 +618,7 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
         &["--tf", "ct-bone"][..],
         &["--table-size", "64"],
         &["--step", "0.1"],
+        &["--gradient", "central"],
     ] {
         let mut args = vec!["render", vol.to_str().unwrap(), "-o", "x.png"];
         args.extend_from_slice(flag);

@@ -654,10 +654,11 @@ impl Field {
     /// file, or a dict `{"points": [[value, r, g, b, sigma], ...]}` (linear-RGB emission,
     /// `sigma` the extinction per world unit). `classification`: `"post"` or
     /// `"preintegrated"`; `step` in world units (default one voxel); `shading`: `None`
-    /// (emission only) or `"phong"` (by the gradient). `camera`, `projection`, `backend` as
-    /// for `render`. The frame's `gbuffer` holds `R G B` (premultiplied), `A` (opacity) and
+    /// (emission only) or `"phong"` (by the gradient: `gradient="tricubic"`, the B-spline's,
+    /// or `"central"`, central differences). `camera`, `projection`, `backend` as for
+    /// `render`. The frame's `gbuffer` holds `R G B` (premultiplied), `A` (opacity) and
     /// `Z` (where the opacity passes 0.5; infinite where it never does).
-    #[pyo3(signature = (tf, width = 512, height = 512, classification = "post", step = None, shading = None, camera = None, backend = "auto", projection = "perspective"))]
+    #[pyo3(signature = (tf, width = 512, height = 512, classification = "post", step = None, shading = None, camera = None, backend = "auto", projection = "perspective", gradient = "tricubic"))]
     #[expect(
         clippy::too_many_arguments,
         reason = "one argument per Python keyword argument"
@@ -674,8 +675,9 @@ impl Field {
         camera: Option<&Bound<'_, PyAny>>,
         backend: &str,
         projection: &str,
+        gradient: &str,
     ) -> PyResult<Frame> {
-        use isokit_render::dvr::{Classification, DvrOptions, TransferFunction};
+        use isokit_render::dvr::{Classification, DvrGradient, DvrOptions, TransferFunction};
         let grid = self.grid(py)?;
         let tf = if tf.cast::<pyo3::types::PyDict>().is_ok() {
             let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
@@ -707,6 +709,15 @@ impl Field {
                 )));
             }
         };
+        let gradient = match gradient {
+            "tricubic" => DvrGradient::Tricubic,
+            "central" => DvrGradient::Central,
+            g => {
+                return Err(PyValueError::new_err(format!(
+                    "gradient = {g:?} is not one of \"tricubic\", \"central\""
+                )));
+            }
+        };
         let args = render::VolumeRenderArgs {
             size: (width, height),
             tf,
@@ -714,6 +725,7 @@ impl Field {
                 step,
                 classification,
                 shade,
+                gradient,
                 ..DvrOptions::default()
             },
             camera,

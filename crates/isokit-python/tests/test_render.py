@@ -102,7 +102,14 @@ def test_render_volume_directly_with_a_transfer_function(tmp_path):
     # Shading keeps the opacity and lights the centre, which faces the eye.
     lit = f.render_volume(tf, width=24, height=24, shading="phong", camera=cam, backend="cpu")
     assert np.array_equal(lit.gbuffer["A"], frames["post"].gbuffer["A"])
-    assert lit.stats["shading"] == "phong"
+    assert lit.stats["shading"] == "phong" and lit.stats["gradient"] == "tricubic"
+    central = f.render_volume(
+        tf, width=24, height=24, shading="phong", gradient="central", camera=cam, backend="cpu"
+    )
+    assert central.stats["gradient"] == "central"
+    assert np.array_equal(central.gbuffer["A"], lit.gbuffer["A"])
+    # Both gradients light the centre alike (the sphere's normal faces the eye there).
+    assert abs(central.gbuffer["R"][12, 12] - lit.gbuffer["R"][12, 12]) < 0.02
     # A JSON file and a preset do as well.
     p = tmp_path / "tf.json"
     p.write_text('{"points": [[-0.05, 1, 0.5, 0.2, 3], [0, 0, 0, 0, 0]]}')
@@ -122,3 +129,5 @@ def test_render_volume_directly_with_a_transfer_function(tmp_path):
         f.render_volume(tf, classification="pre", width=8, height=8)
     with pytest.raises(ValueError, match="phong"):
         f.render_volume(tf, shading="tone", width=8, height=8)
+    with pytest.raises(ValueError, match="gradient"):
+        f.render_volume(tf, shading="phong", gradient="sobel", width=8, height=8)

@@ -10,8 +10,8 @@ use glam::{Vec3, Vec4};
 use isokit_field::filter::trilinear;
 use isokit_field::{Camera, Grid, Projection};
 use isokit_render::dvr::{
-    Classification, DvrOptions, PreintegrationTable3, TF_PRESETS, TfPoint, TransferFunction,
-    render_dvr,
+    Classification, DvrGradient, DvrOptions, PreintegrationTable3, TF_PRESETS, TfPoint,
+    TransferFunction, render_dvr,
 };
 
 /// Two Gaussians and a linear ramp on a 24³ lattice over [-1, 1]³.
@@ -401,13 +401,18 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
     let tf = smooth_tf();
     let h = grid.spacing();
     for classification in [Classification::Post, Classification::Preintegrated] {
-        for (block, shade) in [(0, false), (4, true)] {
+        for (block, shade, gradient) in [
+            (0, false, DvrGradient::Tricubic),
+            (4, true, DvrGradient::Tricubic),
+            (4, true, DvrGradient::Central),
+        ] {
             // A step that does not divide the rays' lengths: partial last segments too.
             let opts = DvrOptions {
                 step: Some(0.7 * h),
                 classification,
                 block,
                 shade,
+                gradient,
                 ..DvrOptions::default()
             };
             let cpu = render_dvr(&grid, &cam, &tf, &opts).unwrap();
@@ -427,7 +432,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
                 .map(|(a, b)| (a - b).abs() / h)
                 .fold(0.0f32, f32::max);
             eprintln!(
-                "{classification:?}, block {block}, shaded {shade}: max colour/opacity difference {d:.1e}, depth {dz:.1e} voxel, {mask} depth masks differ, samples {} / {}, skipped {} / {}",
+                "{classification:?}, block {block}, shaded {shade} ({gradient:?}): max colour/opacity difference {d:.1e}, depth {dz:.1e} voxel, {mask} depth masks differ, samples {} / {}, skipped {} / {}",
                 cpu.samples, gpu.samples, cpu.skipped_blocks, gpu.skipped_blocks
             );
             assert!(d < 1e-4, "{d}");
@@ -498,6 +503,74 @@ fn shading_by_the_gradient_lights_what_faces_the_eye() {
     );
     // Opacity is not shaded.
     assert!(lit.iter().zip(&flat).all(|(a, b)| a.w == b.w));
+}
+
+#[test]
+fn the_tricubic_gradient_turns_smoothly_on_coarse_data() {
+    // A sphere's distance on a coarse 14³ lattice, the shading normal followed along a
+    // circle on the surface in steps of 1e-3. Central differences of the trilinear
+    // interpolant turn with kinks at the cell faces (their second differences spike); the
+    // tricubic B-spline's gradient is C1 and turns smoothly.
+    let n = 14;
+    let h = 2.0 / (n - 1) as f32;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|e| {
+            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
+            (p * h - Vec3::ONE).length() - 0.7
+        })
+        .collect();
+    let grid = Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap();
+    let central = |x: Vec3| {
+        let v = |p: Vec3| trilinear(&grid, grid.to_grid(p));
+        let d = |e: Vec3| v(x + e * h) - v(x - e * h);
+        Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z))
+    };
+    let tricubic = |x: Vec3| isokit_render::dvr::tricubic_gradient(&grid, x);
+    let path: Vec<Vec3> = (0..1400)
+        .map(|i| {
+            let t = 0.3 + i as f32 * 1e-3 / 0.7;
+            Vec3::new(t.cos(), t.sin() * 0.8, t.sin() * 0.6) * 0.7
+        })
+        .collect();
+    let kinks = |g: &dyn Fn(Vec3) -> Vec3| {
+        let normals: Vec<Vec3> = path.iter().map(|&x| g(x).normalize()).collect();
+        let worst_angle = path
+            .iter()
+            .zip(&normals)
+            .map(|(x, m)| m.dot(x.normalize()).clamp(-1.0, 1.0).acos().to_degrees())
+            .fold(0.0f32, f32::max);
+        let second = normals
+            .windows(3)
+            .map(|w| (w[0] - 2.0 * w[1] + w[2]).length())
+            .fold(0.0f32, f32::max);
+        (second, worst_angle)
+    };
+    let (c, t) = (kinks(&central), kinks(&tricubic));
+    eprintln!(
+        "normal along a circle, largest second difference / angle to the sphere's: central {:.1e} / {:.2} degrees, tricubic {:.1e} / {:.2} degrees",
+        c.0, c.1, t.0, t.1
+    );
+    assert!(t.0 < 0.1 * c.0 && t.1 < 0.5 * c.1, "{t:?} {c:?}");
+}
+
+#[test]
+fn the_tricubic_gradient_is_the_sampled_fields() {
+    // The renderer's f32 gradient against isokit_field's direct 64-tap convolution in f64.
+    let grid = blobs();
+    let (mut worst, mut largest) = (0.0f32, 0.0f32);
+    for k in 0..200 {
+        let t = k as f32 * 0.618_034;
+        let x = Vec3::new((3.1 * t).sin(), (1.7 * t).cos(), (2.3 * t).sin() * 0.9) * 1.05;
+        let want = isokit_field::filter::tricubic_bspline_gradient(&grid, grid.to_grid(x))
+            / grid.spacing();
+        let got = isokit_render::dvr::tricubic_gradient(&grid, x);
+        worst = worst.max((got - want).length());
+        largest = largest.max(want.length());
+    }
+    eprintln!(
+        "tricubic gradient against the f64 convolution: worst {worst:.1e} (largest gradient {largest:.2})"
+    );
+    assert!(worst < 1e-5 * largest, "{worst} {largest}");
 }
 
 #[test]

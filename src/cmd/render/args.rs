@@ -72,6 +72,10 @@ pub struct Args {
     /// own].
     #[arg(long)]
     pub table_size: Option<usize>,
+    /// --mode dvr --shading phong: the gradient, tricubic (the B-spline's: smooth) or central
+    /// (differences of the trilinear values: faster) [default: tricubic].
+    #[arg(long, value_parser = ["tricubic", "central"])]
+    pub gradient: Option<String>,
     /// Image width in pixels.
     #[arg(long, default_value_t = crate::cmd::args::DEFAULT_WIDTH)]
     pub width: u64,
@@ -163,6 +167,7 @@ impl Args {
             (self.classification.is_some(), "--classification"),
             (self.step.is_some(), "--step"),
             (self.table_size.is_some(), "--table-size"),
+            (self.gradient.is_some(), "--gradient"),
         ] {
             if given {
                 anyhow::bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");

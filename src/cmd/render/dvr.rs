@@ -32,6 +32,13 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         }
     }
     let (shade, tf_arg) = a.dvr_shading_and_tf()?;
+    let gradient = match a.gradient.as_deref() {
+        None | Some("tricubic") => isokit_render::dvr::DvrGradient::Tricubic,
+        Some(_) => isokit_render::dvr::DvrGradient::Central,
+    };
+    if a.gradient.is_some() && !shade {
+        bail!("--gradient shades the samples: give it with --shading phong");
+    }
     let grid = a.volume.read_grid(&a.input)?;
     let tf = TransferFunction::load(tf_arg, &grid).with_context(|| format!("--tf {tf_arg}"))?;
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
@@ -40,6 +47,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         step: a.step,
         classification: a.classification.map_or(Classification::Post, |c| c.into()),
         shade,
+        gradient,
         table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
         ..DvrOptions::default()
     };

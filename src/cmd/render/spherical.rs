@@ -65,6 +65,9 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
         if a.iso.is_some() {
             bail!("--iso is for --mode isosurface; --mode dvr does not take it");
         }
+        if a.gradient.as_deref() == Some("tricubic") {
+            bail!("--gradient tricubic: a spherical lattice is shaded by central differences");
+        }
         let tf = TransferFunction::load_for(tf_arg, vol.value_range(), vol.spacing())
             .with_context(|| format!("--tf {tf_arg}"))?;
         let opts = DvrOptions {
@@ -96,6 +99,7 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
             (a.tf.is_some(), "--tf"),
             (a.classification.is_some(), "--classification"),
             (a.table_size.is_some(), "--table-size"),
+            (a.gradient.is_some(), "--gradient"),
         ] {
             if given {
                 bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");

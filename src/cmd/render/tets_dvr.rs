@@ -17,6 +17,10 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         &[
             (a.iso.is_some(), "--iso (for --mode isosurface)"),
             (a.step.is_some(), "--step (a ray's segments are its cells')"),
+            (
+                a.gradient.is_some(),
+                "--gradient (cells are shaded by their point gradients)",
+            ),
         ],
     )?;
     let (shade, tf_arg) = a.dvr_shading_and_tf()?;

@@ -171,6 +171,7 @@ class Field:
         camera: CameraLike | None = None,
         backend: Backend = "auto",
         projection: Literal["perspective", "orthographic"] = "perspective",
+        gradient: Literal["tricubic", "central"] = "tricubic",
     ) -> Frame: ...
     def _repr_png_(self) -> bytes: ...
 

@@ -329,7 +329,12 @@ impl GpuRenderer {
             params.step = p.step;
             params.termination = p.termination;
             params.preintegrated = u32::from(p.table.is_some());
-            params.shade = u32::from(p.shade);
+            // 0: no shading; 1: central differences; 2: the tricubic gradient.
+            params.shade = match (p.shade, p.gradient, params.lattice) {
+                (false, _, _) => 0,
+                (true, super::DvrGradient::Tricubic, 0) => 2,
+                (true, _, _) => 1,
+            };
         }
         let storage = wgpu::BufferUsages::STORAGE;
         let (_inputs, rgba, extra, bind) = scoped(gpu, "allocating the dvr buffers", || {

@@ -489,6 +489,9 @@ pub struct DvrOptions {
     pub block: usize,
     /// Entries per axis of the pre-integration table.
     pub table_size: usize,
+    /// The gradient that shades the samples of a Cartesian volume (spherical lattices take
+    /// central differences).
+    pub gradient: DvrGradient,
     /// Blinn-Phong shading of the samples by the gradient ([`shade_sample`]); off: the
     /// emission alone.
     pub shade: bool,
@@ -503,6 +506,29 @@ impl Default for DvrOptions {
             block: 8,
             table_size: 256,
             shade: false,
+            gradient: DvrGradient::Tricubic,
+        }
+    }
+}
+
+/// The gradient that lights a shaded sample ([`DvrOptions::gradient`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DvrGradient {
+    /// The tricubic B-spline's gradient (64 samples; smooth across cells, the filter of the
+    /// isosurface caster's normals): the default.
+    #[default]
+    Tricubic,
+    /// Central differences of the trilinear interpolant one spacing apart (6 trilinear
+    /// values; faceted where the data is coarse).
+    Central,
+}
+
+impl DvrGradient {
+    /// `tricubic` or `central`, as the command line and Python spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            DvrGradient::Tricubic => "tricubic",
+            DvrGradient::Central => "central",
         }
     }
 }
@@ -530,6 +556,10 @@ pub struct DvrImage {
     pub classification: Classification,
     /// Whether the samples were shaded by the gradient.
     pub shaded: bool,
+    /// The gradient that shaded them, when they were: `tricubic`, `central` (as
+    /// [`DvrGradient::name`]) or `point` (a tetrahedral grid's interpolated point
+    /// gradients).
+    pub gradient: &'static str,
 }
 
 /// The channels of [`DvrImage::channels`], in order.
@@ -584,6 +614,7 @@ impl DvrImage {
             "backend": backend,
             "classification": self.classification.name(),
             "shading": if self.shaded { "phong" } else { "emission" },
+            "gradient": if self.shaded { Some(self.gradient) } else { None },
             "step": self.step,
             "samples": self.samples,
             "skipped_blocks": self.skipped_blocks,
@@ -700,6 +731,7 @@ pub(crate) struct Prepared {
     pub(crate) step: f32,
     pub(crate) termination: f32,
     pub(crate) shade: bool,
+    pub(crate) gradient: DvrGradient,
     pub(crate) table: Option<PreintegrationTable>,
     pub(crate) blocks: Option<Blocks>,
 }
@@ -770,6 +802,7 @@ pub(crate) fn prepare_for(
         step,
         termination: opts.termination,
         shade: opts.shade,
+        gradient: opts.gradient,
         table,
         blocks: None,
     })
@@ -846,6 +879,10 @@ pub(crate) trait Source: Sync {
     fn spacing(&self) -> f32;
     /// World to the block lattice's coordinates (for empty-space skipping).
     fn to_grid(&self, x: Vec3) -> Vec3;
+    /// The tricubic B-spline gradient at `x`, where the source has one.
+    fn tricubic_gradient(&self, _x: Vec3) -> Option<Vec3> {
+        None
+    }
 }
 
 /// A volume on a Cartesian grid, clipped or not.
@@ -871,6 +908,46 @@ impl Source for Cartesian<'_> {
     fn to_grid(&self, x: Vec3) -> Vec3 {
         self.grid.to_grid(x)
     }
+    fn tricubic_gradient(&self, x: Vec3) -> Option<Vec3> {
+        Some(tricubic_gradient(self.grid, x))
+    }
+}
+
+/// The tricubic B-spline gradient at world point `x`, world units: the 64 taps around the
+/// cell (clamped to the grid) with f32 weights, summed in the order `tricubic_gradient` in
+/// `dvr.wgsl` sums them (the sampled field's direct scheme, `isokit_field::filter`, sums in
+/// f64 and agrees to rounding).
+pub fn tricubic_gradient(grid: &Grid, x: Vec3) -> Vec3 {
+    use isokit_field::filter::{bspline_weights, bspline_weights_d1};
+    let p = grid.to_grid(x);
+    let f = p.floor();
+    let a = p - f;
+    let d = grid.dims();
+    let hi = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32) + Vec3::ONE;
+    let c = f.max(Vec3::splat(-3.0)).min(hi).as_ivec3();
+    let (wx, wy, wz) = (
+        bspline_weights(a.x),
+        bspline_weights(a.y),
+        bspline_weights(a.z),
+    );
+    let (dx, dy, dz) = (
+        bspline_weights_d1(a.x),
+        bspline_weights_d1(a.y),
+        bspline_weights_d1(a.z),
+    );
+    let mut g = Vec3::ZERO;
+    for k in 0..4 {
+        for j in 0..4 {
+            for i in 0..4 {
+                let v = grid
+                    .get_clamped(c + glam::IVec3::new(i as i32 - 1, j as i32 - 1, k as i32 - 1));
+                g.x += dx[i] * wy[j] * wz[k] * v;
+                g.y += wx[i] * dy[j] * wz[k] * v;
+                g.z += wx[i] * wy[j] * dz[k] * v;
+            }
+        }
+    }
+    g / grid.spacing()
 }
 
 /// A volume on a spherical lattice: its domain is a clip.
@@ -999,7 +1076,11 @@ pub(crate) fn trace_ray(
             }
         };
         let seg = if p.shade && seg.w > SHADE_MIN_OPACITY {
-            let g = gradient(&value, ray.at(0.5 * (a + b)), h);
+            let x = ray.at(0.5 * (a + b));
+            let g = match (p.gradient, src.tricubic_gradient(x)) {
+                (DvrGradient::Tricubic, Some(g)) => g,
+                _ => gradient(&value, x, h),
+            };
             shade_sample(seg, g, ray.dir)
         } else {
             seg
@@ -1052,6 +1133,7 @@ impl DvrImage {
                 Classification::Post
             },
             shaded: p.shade,
+            gradient: p.gradient.name(),
         }
     }
 }
@@ -1172,5 +1254,8 @@ pub(crate) fn prepare_spherical(
     opts: &DvrOptions,
 ) -> Result<Prepared, RenderError> {
     let diagonal = 2.0 * vol.lattice().r[1];
-    prepare_for(vol.value_range(), vol.spacing(), diagonal, tf, opts)
+    let mut p = prepare_for(vol.value_range(), vol.spacing(), diagonal, tf, opts)?;
+    // The lattice's mapping has no tricubic filter here: central differences shade.
+    p.gradient = DvrGradient::Central;
+    Ok(p)
 }

@@ -199,6 +199,7 @@ impl<'g> TetVolume<'g> {
             step: 0.0,
             classification: opts.classification,
             shaded: opts.shade,
+            gradient: "point",
         })
     }
 
