@@ -1,5 +1,6 @@
 //! The arguments of `isokit render`.
 
+pub use super::dvr::ClassificationArg;
 use crate::cmd::args::{Backend, InsideArg, shading_names};
 use crate::cmd::camera_args::CameraArgs;
 use crate::cmd::csg_args::CsgArgs;
@@ -18,30 +19,10 @@ pub enum RenderMode {
     Dvr,
 }
 
-/// How `--mode dvr` classifies samples.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ClassificationArg {
-    /// Sample, then classify.
-    #[default]
-    Post,
-    /// Pre-integrated segments (Engel et al. 2001): thin features of the transfer function
-    /// between samples still show.
-    Preintegrated,
-}
-
-impl From<ClassificationArg> for isokit_render::dvr::Classification {
-    fn from(c: ClassificationArg) -> Self {
-        match c {
-            ClassificationArg::Post => Self::Post,
-            ClassificationArg::Preintegrated => Self::Preintegrated,
-        }
-    }
-}
-
 /// Arguments of `isokit render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A scene file (.json, .toml), a volume (.nrrd .nhdr .npy .nii .nii.gz) or a
+    /// A scene file (.json, .toml), a volume (.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz) or a
     /// tetrahedral grid (.vtk .vtu: ray cast through its cells, on the CPU).
     pub input: PathBuf,
     /// Tetrahedral grids: the point array (default: the first with one component).
@@ -68,12 +49,15 @@ pub struct Args {
     #[arg(long)]
     pub step: Option<f32>,
     /// --mode dvr, pre-integrated: entries per value axis of the table [default: 256 for
-    /// volumes, 128 for tetrahedral grids; 0 for grids integrates each cell's segment on its
-    /// own].
+    /// volumes, 128 for tetrahedral grids; 0 for grids integrates each cell's segment alone].
     #[arg(long)]
     pub table_size: Option<usize>,
+    /// --mode dvr, pre-integrated volumes: the table's entries each integrated, or built
+    /// incrementally (Lum et al. 2004: faster, less exact) [default: integrated].
+    #[arg(long, value_parser = ["integrated", "incremental"])]
+    pub table_build: Option<String>,
     /// --mode dvr --shading phong: the gradient, tricubic (the B-spline's: smooth) or central
-    /// (differences of the trilinear values: faster) [default: tricubic].
+    /// (differences of the trilinear values) [default: tricubic].
     #[arg(long, value_parser = ["tricubic", "central"])]
     pub gradient: Option<String>,
     /// Image width in pixels.
@@ -168,6 +152,7 @@ impl Args {
             (self.step.is_some(), "--step"),
             (self.table_size.is_some(), "--table-size"),
             (self.gradient.is_some(), "--gradient"),
+            (self.table_build.is_some(), "--table-build"),
         ] {
             if given {
                 anyhow::bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");

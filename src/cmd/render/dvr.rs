@@ -10,6 +10,26 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr_clipped};
 
+/// How `--mode dvr` classifies samples.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ClassificationArg {
+    /// Sample, then classify.
+    #[default]
+    Post,
+    /// Pre-integrated segments (Engel et al. 2001): thin features of the transfer function
+    /// between samples still show.
+    Preintegrated,
+}
+
+impl From<ClassificationArg> for isokit_render::dvr::Classification {
+    fn from(c: ClassificationArg) -> Self {
+        match c {
+            ClassificationArg::Post => Self::Post,
+            ClassificationArg::Preintegrated => Self::Preintegrated,
+        }
+    }
+}
+
 /// Renders `a.input` (a volume) in `dvr` mode.
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     debug_assert_eq!(a.mode, RenderMode::Dvr);
@@ -49,6 +69,10 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         shade,
         gradient,
         table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
+        table_build: match a.table_build.as_deref() {
+            Some("incremental") => isokit_render::dvr::TableBuild::Incremental,
+            _ => isokit_render::dvr::TableBuild::Integrated,
+        },
         ..DvrOptions::default()
     };
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;

@@ -21,6 +21,10 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
                 a.gradient.is_some(),
                 "--gradient (cells are shaded by their point gradients)",
             ),
+            (
+                a.table_build.is_some(),
+                "--table-build (grids take a 3D table)",
+            ),
         ],
     )?;
     let (shade, tf_arg) = a.dvr_shading_and_tf()?;
