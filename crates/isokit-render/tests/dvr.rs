@@ -35,6 +35,18 @@ fn blobs() -> Grid {
     Grid::from_data([n; 3], Vec3::splat(-1.0), h, data).unwrap()
 }
 
+/// The signed distance to a sphere of radius `r` at the origin, `n³` samples over [-1, 1]³.
+fn sphere(n: usize, r: f32) -> Grid {
+    let h = 2.0 / (n - 1) as f32;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|e| {
+            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
+            (p * h - Vec3::ONE).length() - r
+        })
+        .collect();
+    Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap()
+}
+
 fn camera(w: u32) -> Camera {
     Camera::look_at(
         Vec3::new(1.2, 0.8, 3.2),
@@ -319,13 +331,7 @@ fn an_opaque_step_at_zero_puts_the_depth_on_the_surface_between_samples() {
     let n = 32;
     let h = 2.0 / (n - 1) as f32;
     let r = 0.6;
-    let values: Vec<f32> = (0..n * n * n)
-        .map(|e| {
-            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
-            (p * h - Vec3::ONE).length() - r
-        })
-        .collect();
-    let grid = Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap();
+    let grid = sphere(n, r);
     let sigma = 400.0 / h;
     let tf = TransferFunction::from_json(&format!(
         r#"{{"points": [[0, 1, 1, 1, {sigma}], [0, 0, 0, 0, 0]]}}"#
@@ -457,13 +463,7 @@ fn shading_by_the_gradient_lights_what_faces_the_eye() {
     // the eye at the centre of the image and turns away towards the rim.
     let n = 40;
     let h = 2.0 / (n - 1) as f32;
-    let values: Vec<f32> = (0..n * n * n)
-        .map(|e| {
-            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
-            (p * h - Vec3::ONE).length() - 0.7
-        })
-        .collect();
-    let grid = Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap();
+    let grid = sphere(n, 0.7);
     let tf = TransferFunction::preset("distance-shell", (-0.7, 1.0), h).unwrap();
     let cam = Camera::look_at(
         Vec3::new(0.0, 0.0, 4.0),
@@ -513,13 +513,7 @@ fn the_tricubic_gradient_turns_smoothly_on_coarse_data() {
     // tricubic B-spline's gradient is C1 and turns smoothly.
     let n = 14;
     let h = 2.0 / (n - 1) as f32;
-    let values: Vec<f32> = (0..n * n * n)
-        .map(|e| {
-            let p = Vec3::new((e % n) as f32, ((e / n) % n) as f32, (e / (n * n)) as f32);
-            (p * h - Vec3::ONE).length() - 0.7
-        })
-        .collect();
-    let grid = Grid::from_data([n; 3], Vec3::splat(-1.0), h, values).unwrap();
+    let grid = sphere(n, 0.7);
     let central = |x: Vec3| {
         let v = |p: Vec3| trilinear(&grid, grid.to_grid(p));
         let d = |e: Vec3| v(x + e * h) - v(x - e * h);

@@ -10,7 +10,7 @@ use glam::Vec3;
 use isokit_field::Grid;
 use isokit_render::dvr::{Classification, DvrOptions, TransferFunction, render_dvr_spherical};
 use isokit_render::spherical::{IsoOptions, SphericalLattice, SphericalVolume, render_iso};
-use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
+use isokit_render::{Shading, camera_uniforms, shade};
 use serde_json::json;
 use std::time::Instant;
 
@@ -105,23 +105,13 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
                 bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
             }
         }
-        let mode = match a.shading.as_deref() {
-            None => ShadingMode::Phong,
-            Some(name) => crate::cmd::args::shading_mode(name)?,
-        };
-        if mode.uses_curvature() {
-            bail!(
-                "--shading {}: the isosurface of a spherical volume is found without curvatures; use phong, tone, normal or reflection",
-                mode.name()
-            );
-        }
+        let mode = super::tets::shading_without_curvature(
+            a,
+            "the isosurface of a spherical volume is found without curvatures",
+        )?;
         let (lo, hi) = vol.value_range();
         let opts = IsoOptions {
-            iso: a.iso.unwrap_or(if lo <= 0.0 && 0.0 <= hi {
-                0.0
-            } else {
-                0.5 * (lo + hi)
-            }),
+            iso: a.iso.unwrap_or(super::tets::default_iso(lo, hi)),
             inside: a.inside.inside(),
             step: a.step,
         };

@@ -39,16 +39,10 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     }
     a.refuse_dvr_flags()?;
     refuse_flags(a, &[])?;
-    let mode = match a.shading.as_deref() {
-        None => ShadingMode::Phong,
-        Some(name) => crate::cmd::args::shading_mode(name)?,
-    };
-    if mode.uses_curvature() {
-        bail!(
-            "--shading {}: the isosurface of a tetrahedral grid is piecewise planar and has no curvature; use phong, tone, normal or reflection",
-            mode.name()
-        );
-    }
+    let mode = shading_without_curvature(
+        a,
+        "the isosurface of a tetrahedral grid is piecewise planar and has no curvature",
+    )?;
     let grid = isokit_io::read_tets(&a.input, a.array.as_deref())?;
     let Some((lo, hi)) = isokit_field::finite_min_max(grid.values()) else {
         bail!(
@@ -57,11 +51,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             grid.array()
         );
     };
-    let iso = a.iso.unwrap_or(if lo <= 0.0 && 0.0 <= hi {
-        0.0
-    } else {
-        0.5 * (lo + hi)
-    });
+    let iso = a.iso.unwrap_or(default_iso(lo, hi));
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     warn_if_inside(&grid, &camera);
     let u = camera_uniforms(&camera)?;
@@ -111,6 +101,31 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         println!("{v}");
     }
     Ok(())
+}
+
+/// `--shading` (default phong) for a surface found without curvatures (`why` says why the
+/// curvature modes are refused).
+pub(super) fn shading_without_curvature(a: &Args, why: &str) -> Result<ShadingMode> {
+    let mode = match a.shading.as_deref() {
+        None => ShadingMode::Phong,
+        Some(name) => crate::cmd::args::shading_mode(name)?,
+    };
+    if mode.uses_curvature() {
+        bail!(
+            "--shading {}: {why}; use phong, tone, normal or reflection",
+            mode.name()
+        );
+    }
+    Ok(mode)
+}
+
+/// The isovalue when none is given: 0 where the values reach it, else their middle.
+pub(super) fn default_iso(lo: f32, hi: f32) -> f32 {
+    if lo <= 0.0 && 0.0 <= hi {
+        0.0
+    } else {
+        0.5 * (lo + hi)
+    }
 }
 
 /// Rays start at the first boundary face they meet: an eye inside the grid's box may see

@@ -329,6 +329,18 @@ fn table_range(what: &'static str, lo: f32, hi: f32, len: f32) -> Result<f32, Re
     Ok(if hi > lo { hi } else { lo + 1.0 })
 }
 
+/// Checks a 2D table's size, value range and segment length; the upper end used.
+fn table_checks(lo: f32, hi: f32, n: usize, len: f32) -> Result<f32, RenderError> {
+    if !(2..=4096).contains(&n) {
+        return Err(RenderError::bad(
+            "pre-integration table size",
+            n,
+            "must be 2 to 4096",
+        ));
+    }
+    table_range("pre-integration range or length", lo, hi, len)
+}
+
 /// The cell and fraction of table coordinate `x` along an axis of `n` entries (clamped;
 /// NaN reads entry 0).
 fn table_cell(x: f32, n: usize) -> (usize, f32) {
@@ -360,14 +372,7 @@ impl PreintegrationTable {
         n: usize,
         len: f32,
     ) -> Result<Self, RenderError> {
-        if !(2..=4096).contains(&n) {
-            return Err(RenderError::bad(
-                "pre-integration table size",
-                n,
-                "must be 2 to 4096",
-            ));
-        }
-        let hi = table_range("pre-integration range or length", lo, hi, len)?;
+        let hi = table_checks(lo, hi, n, len)?;
         let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
         let entries = (0..n * n)
             .into_par_iter()
@@ -402,14 +407,7 @@ impl PreintegrationTable {
         n: usize,
         len: f32,
     ) -> Result<Self, RenderError> {
-        if !(2..=4096).contains(&n) {
-            return Err(RenderError::bad(
-                "pre-integration table size",
-                n,
-                "must be 2 to 4096",
-            ));
-        }
-        let hi = table_range("pre-integration range or length", lo, hi, len)?;
+        let hi = table_checks(lo, hi, n, len)?;
         let d = f64::from(len);
         let at = |i: usize| {
             let (c, sigma) = tf.eval(lo + (hi - lo) * i as f32 / (n - 1) as f32);
