@@ -11,7 +11,7 @@
 // segment and trace_iso); the rays, the pre-integration table and the empty-block flags come
 // from the host.
 
-// Rust: dvr/gpu.rs DvrParams (160 bytes).
+// Rust: dvr/gpu.rs DvrParams (176 bytes).
 struct DvrParams {
     dims: vec3<u32>,
     count: u32,          // rays

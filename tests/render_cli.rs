@@ -602,6 +602,10 @@ fn direct_volume_rendering_of_a_volume_to_png_and_an_rgbaz_gbuffer() {
             vec!["--tf", "ct-bone", "--gradient", "central"],
             "with --shading phong",
         ),
+        (
+            vec!["--tf", "ct-bone", "--table-build", "incremental"],
+            "--classification preintegrated",
+        ),
     ] {
         let mut args = vec![
             "render",

@@ -225,6 +225,40 @@ fn what_does_not_go_with_a_spherical_lattice_is_refused_in_one_line() {
             "applies to --mode dvr",
         ),
         (&[&SPHERICAL[..], &["--mode", "dvr"]].concat(), "needs --tf"),
+        (
+            &[&SPHERICAL[..], &["--table-build", "incremental"]].concat(),
+            "applies to --mode dvr",
+        ),
+        (
+            &[
+                &SPHERICAL[..],
+                &[
+                    "--mode",
+                    "dvr",
+                    "--tf",
+                    "mri-brain",
+                    "--gradient",
+                    "central",
+                ],
+            ]
+            .concat(),
+            "with --shading phong",
+        ),
+        (
+            &[
+                &SPHERICAL[..],
+                &[
+                    "--mode",
+                    "dvr",
+                    "--tf",
+                    "mri-brain",
+                    "--table-build",
+                    "incremental",
+                ],
+            ]
+            .concat(),
+            "--classification preintegrated",
+        ),
     ];
     for (extra, want) in cases {
         assert_clear_error(&run(extra), want);

@@ -45,7 +45,10 @@ fn pair(flag: &str, s: &str) -> Result<[f32; 2]> {
     let nums: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok()).collect();
     match nums.as_deref() {
         Some(&[a, b]) if a.is_finite() && b.is_finite() => Ok([a, b]),
-        _ => bail!("{flag} {s:?}: give two finite numbers \"a,b\""),
+        _ => bail!(
+            "{flag} {:?}: give two finite numbers \"a,b\"",
+            s.chars().take(40).collect::<String>()
+        ),
     }
 }
 
@@ -84,8 +87,9 @@ impl LatticeArgs {
             (None, None | Some("cartesian")) => LatticeKind::Cartesian,
             (None, Some("spherical")) => LatticeKind::Spherical,
             (None, Some(other)) => bail!(
-                "{}: lattice:={other} in the header (cartesian or spherical)",
-                path.display()
+                "{}: lattice:={} in the header (cartesian or spherical)",
+                path.display(),
+                isokit_io::shown_text(&other.chars().take(40).collect::<String>())
             ),
         };
         if kind == LatticeKind::Cartesian {

@@ -78,7 +78,7 @@ pub(crate) fn read_inr(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
         let (k, v) = line.split_once('=').ok_or_else(|| {
             bad(format!(
                 "header line {} is not KEY=VALUE: {:?}",
-                n + 2,
+                n + 1,
                 crate::shown_text(line)
             ))
         })?;

@@ -462,8 +462,9 @@ pub(crate) fn write_nrrd(
 }
 
 /// Writes an NRRD file atomically as [`crate::write_nrrd`] does, with the key/value pairs
-/// `pairs` (`key:=value` lines, in order) in its header. A key must be non-empty without
-/// `:=`, and neither a key nor a value may hold a line break.
+/// `pairs` (`key:=value` lines, in order) in its header. A key must be non-empty, must not
+/// start with `#` (a comment) nor hold `:=` or `: ` (a field), and neither a key nor a value
+/// may hold a line break: every pair reads back as written.
 pub fn write_key_values(
     path: &Path,
     vol: &Volume,
@@ -471,11 +472,16 @@ pub fn write_key_values(
     pairs: &[(&str, &str)],
 ) -> Result<(), IoError> {
     for (k, v) in pairs {
-        if k.is_empty() || k.contains(":=") || [k, v].iter().any(|t| t.contains(['\n', '\r'])) {
+        if k.is_empty()
+            || k.starts_with('#')
+            || k.contains(":=")
+            || k.contains(": ")
+            || [k, v].iter().any(|t| t.contains(['\n', '\r']))
+        {
             return Err(IoError::invalid_input(
                 path,
                 format!(
-                    "NRRD key/value {}:={} (a key is non-empty without ':=', neither holds a line break)",
+                    "NRRD key/value {}:={} (a key is non-empty, not a comment, without ':=' or ': ', neither holds a line break)",
                     crate::shown_text(k),
                     crate::shown_text(v)
                 ),

@@ -188,7 +188,13 @@ fn nrrd_key_values_are_written_and_read_back_without_the_data() {
         read_nrrd_key_values(&q).unwrap(),
         vec![("k".into(), "v".into())]
     );
-    for bad in [("", "x"), ("a:=b", "x"), ("k", "line\nbreak")] {
+    for bad in [
+        ("", "x"),
+        ("a:=b", "x"),
+        ("k", "line\nbreak"),
+        ("#k", "x"),
+        ("a: b", "x"),
+    ] {
         let e = write_nrrd_key_values(&p, &v, NrrdEncoding::Raw, &[bad]).unwrap_err();
         assert!(!e.to_string().contains('\n'), "{e}");
     }

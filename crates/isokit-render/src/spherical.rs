@@ -18,11 +18,13 @@
 //! - **The seam**: when the azimuths go round the whole circle, either with the last sample
 //!   one step before the first (`nφ·Δφ = 360°`, [`SphericalVolume::periodic`]: the cell from
 //!   the last sample to the first is interpolated like any other) or with the last sample
-//!   on the first (`φ1 − φ0 = 360°`), the field is continuous across azimuth `φ0`: no crack.
+//!   on the first (`φ1 − φ0 = 360°`: the two columns are one azimuth and take their mean),
+//!   the field is continuous across azimuth `φ0`: no crack.
 //! - **The poles**: where the polar range reaches a pole (`θ0 = 0°` or `θ1 = 180°`), the
 //!   samples of that row all lie at one point per radius; they are replaced by their mean
 //!   over the azimuths, so the interpolant is continuous through the pole (a row that
 //!   differs along the azimuth would otherwise give a different value from every side).
+//!   The same holds for the centre when `r0 = 0`.
 //! - **The domain**: the shell `r0 ≤ r ≤ r1` within the polar and azimuthal ranges.
 //!   Outside it there are no samples: [`SphericalVolume::keep`] measures how far inside the
 //!   domain a point lies (world units, positive inside; each angular distance taken as an
@@ -129,20 +131,41 @@ impl SphericalVolume {
         let periodic = ((np as f32 * delta.z) - 360.0).abs() <= 1e-3 * delta.z;
         let full = periodic || (phi_span - 360.0).abs() <= 1e-3 * delta.z;
         let mut grid = samples;
-        // Pole rows: one point per radius, so one value (their mean).
+        // Samples that lie at one point take one value, their mean: the last azimuth column
+        // when it repeats the first (φ1 − φ0 = 360°), the pole rows (one point per radius)
+        // and, for r0 = 0, the centre.
+        let mut merge = |points: &[(usize, usize, usize)]| {
+            let mean = points
+                .iter()
+                .map(|&(i, j, k)| f64::from(grid.get(i, j, k)))
+                .sum::<f64>()
+                / points.len() as f64;
+            for &(i, j, k) in points {
+                grid.set(i, j, k, mean as f32);
+            }
+        };
+        if full && !periodic {
+            for j in 0..nt {
+                for i in 0..nr {
+                    merge(&[(i, j, 0), (i, j, np - 1)]);
+                }
+            }
+        }
         for (at_pole, j) in [
             (lattice.theta[0] == 0.0, 0),
             (lattice.theta[1] == 180.0, nt - 1),
         ] {
-            if !at_pole {
-                continue;
-            }
-            for i in 0..nr {
-                let mean = (0..np).map(|k| f64::from(grid.get(i, j, k))).sum::<f64>() / np as f64;
-                for k in 0..np {
-                    grid.set(i, j, k, mean as f32);
+            if at_pole {
+                for i in 0..nr {
+                    merge(&(0..np).map(|k| (i, j, k)).collect::<Vec<_>>());
                 }
             }
+        }
+        if lattice.r[0] == 0.0 {
+            let centre: Vec<_> = (0..np)
+                .flat_map(|k| (0..nt).map(move |j| (0, j, k)))
+                .collect();
+            merge(&centre);
         }
         Ok(Self {
             grid,
@@ -153,7 +176,8 @@ impl SphericalVolume {
         })
     }
 
-    /// The samples, `[nr, nθ, nφ]` (pole rows replaced by their means).
+    /// The samples, `[nr, nθ, nφ]` (those at one point replaced by their mean: a repeated
+    /// last azimuth, the pole rows, the centre).
     pub fn samples(&self) -> &Grid {
         &self.grid
     }

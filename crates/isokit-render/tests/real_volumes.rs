@@ -111,7 +111,8 @@ fn pre_integration_is_closer_to_the_fine_reference_on_a_real_mri_and_ct() {
         opacity > 0.2,
         "the brain fills little of the image: {opacity}"
     );
-    assert!(pre < post, "{pre} {post}");
+    // Measured 6.4e-3 against 1.6e-2 (2.5×).
+    assert!(pre < 0.6 * post, "{pre} {post}");
     // The skull's bone as a thin shell of the transfer function around the value CGAL
     // meshes it at (2.9): 0.2 wide in value, where a one-voxel step changes the value by
     // up to ~1.
@@ -125,7 +126,8 @@ fn pre_integration_is_closer_to_the_fine_reference_on_a_real_mri_and_ct() {
         "CT skull, shell at 2.9, one-voxel steps: mean error post {post:.2e}, pre-integrated {pre:.2e} (reference mean opacity {opacity:.3})"
     );
     assert!(opacity > 0.1, "{opacity}");
-    assert!(pre < 0.5 * post, "{pre} {post}");
+    // Measured 3.3e-3 against 3.6e-2 (11×).
+    assert!(pre < 0.2 * post, "{pre} {post}");
 }
 
 #[test]

@@ -188,6 +188,52 @@ fn the_poles_take_one_value() {
             "azimuth {phi}: {v} against {at_pole}"
         );
     }
+    // The same for the centre of a lattice from r0 = 0 whose first radius differs by
+    // direction, and for a last azimuth column that repeats the first (φ1 − φ0 = 360°)
+    // with other values: one value at the centre, none jumping across the seam.
+    let lat = SphericalLattice {
+        r: [0.0, 1.0],
+        theta: [0.0, 180.0],
+        phi: [0.0, 360.0],
+    };
+    let vol = sampled([5, 7, 13], lat, |r, t, p| {
+        let wobble = if r == 0.0 { t / 90.0 + p / 360.0 } else { 0.0 };
+        r + 0.3 * (t.to_radians()).sin() + if p == 360.0 { 0.5 } else { 0.0 } + wobble
+    });
+    assert!(!vol.periodic() && !vol.wedge());
+    let centre = vol.value(Vec3::ZERO);
+    for d in [Vec3::X, Vec3::NEG_Y, Vec3::new(0.3, 0.4, -0.8).normalize()] {
+        let v = vol.value(d * 1e-5);
+        assert!(
+            (v - centre).abs() < 1e-3,
+            "towards {d}: {v} against {centre}"
+        );
+    }
+    let (above, below) = (
+        vol.value(Vec3::new(0.5, 1e-5, 0.2)),
+        vol.value(Vec3::new(0.5, -1e-5, 0.2)),
+    );
+    assert!(
+        (above - below).abs() < 1e-3,
+        "across the seam: {above} {below}"
+    );
+}
+
+#[test]
+fn an_eye_inside_the_inner_sphere_sees_its_wall() {
+    // The search starts inside the hole (r < r0), passes over it and brackets the wall,
+    // where the solid r < 0.65 begins for this field: a cap at r0 = 0.3 facing the centre.
+    let vol = sampled([15, 19, 36], whole(0.0), |r, _, _| r - 0.65);
+    let fov = Projection::Perspective {
+        fov_y_degrees: 60.0,
+    };
+    let cam = Camera::look_at(Vec3::new(0.0, 0.05, 0.02), Vec3::X, Vec3::Z, fov, 16, 16).unwrap();
+    let gb = render_iso(&vol, &cam, &IsoOptions::default()).unwrap();
+    for s in gb.pixels() {
+        assert_eq!(s.id, ID_CAP, "{s:?}");
+        assert!((s.position.length() - 0.3).abs() < 1e-4, "{s:?}");
+        assert!(s.normal.dot(s.position.normalize()) < -0.99, "{s:?}");
+    }
 }
 
 fn max_diff(a: &[Vec4], b: &[Vec4]) -> f32 {

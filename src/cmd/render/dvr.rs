@@ -30,6 +30,19 @@ impl From<ClassificationArg> for isokit_render::dvr::Classification {
     }
 }
 
+/// `--table-build` (default integrated), refused unless the classification is
+/// pre-integrated.
+pub(super) fn table_build(a: &Args) -> Result<isokit_render::dvr::TableBuild> {
+    let pre = a.classification == Some(ClassificationArg::Preintegrated);
+    Ok(match a.table_build.as_deref() {
+        Some(_) if !pre => {
+            bail!("--table-build builds the table of --classification preintegrated")
+        }
+        Some("incremental") => isokit_render::dvr::TableBuild::Incremental,
+        _ => isokit_render::dvr::TableBuild::Integrated,
+    })
+}
+
 /// Renders `a.input` (a volume) in `dvr` mode.
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     debug_assert_eq!(a.mode, RenderMode::Dvr);
@@ -69,10 +82,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         shade,
         gradient,
         table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
-        table_build: match a.table_build.as_deref() {
-            Some("incremental") => isokit_render::dvr::TableBuild::Incremental,
-            _ => isokit_render::dvr::TableBuild::Integrated,
-        },
+        table_build: table_build(a)?,
         ..DvrOptions::default()
     };
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;

@@ -68,6 +68,9 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
         if a.gradient.as_deref() == Some("tricubic") {
             bail!("--gradient tricubic: a spherical lattice is shaded by central differences");
         }
+        if a.gradient.is_some() && !shade {
+            bail!("--gradient shades the samples: give it with --shading phong");
+        }
         let tf = TransferFunction::load_for(tf_arg, vol.value_range(), vol.spacing())
             .with_context(|| format!("--tf {tf_arg}"))?;
         let opts = DvrOptions {
@@ -75,6 +78,7 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
             classification: a.classification.map_or(Classification::Post, |c| c.into()),
             shade,
             table_size: a.table_size.unwrap_or(DvrOptions::default().table_size),
+            table_build: super::dvr::table_build(a)?,
             ..DvrOptions::default()
         };
         let img = match renderer.gpu() {
@@ -100,6 +104,7 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
             (a.classification.is_some(), "--classification"),
             (a.table_size.is_some(), "--table-size"),
             (a.gradient.is_some(), "--gradient"),
+            (a.table_build.is_some(), "--table-build"),
         ] {
             if given {
                 bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
