@@ -5,7 +5,7 @@
 // each sample's world position mapped to the lattice); the entry point spherical_iso finds
 // the isosurface of a spherical volume.
 // Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS,
-// SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS.
+// SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS; then common/bspline.wgsl.
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
 // alike) and crates/isokit-render/src/spherical.rs (SphericalVolume's coords, keep, value,
 // segment and trace_iso); the rays, the pre-integration table and the empty-block flags come
@@ -386,25 +386,6 @@ fn gradient(x: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dx, dy, dz) / (2.0 * h);
 }
 
-// bspline_weights and bspline_weights_d1 of isokit_field::filter (ERRATA 2 and 3).
-fn bspline_w(a: f32) -> vec4<f32> {
-    let b = 1.0 - a;
-    let a2 = a * a;
-    let a3 = a2 * a;
-    return vec4<f32>(
-        b * b * b / 6.0,
-        (3.0 * a3 - 6.0 * a2 + 4.0) / 6.0,
-        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) / 6.0,
-        a3 / 6.0,
-    );
-}
-
-fn bspline_d(a: f32) -> vec4<f32> {
-    let b = 1.0 - a;
-    let a2 = a * a;
-    return vec4<f32>(-0.5 * b * b, 0.5 * (3.0 * a2 - 4.0 * a), 0.5 * (-3.0 * a2 + 2.0 * a + 1.0), 0.5 * a2);
-}
-
 // dvr::tricubic_gradient: the tricubic B-spline gradient at world point x, the 64 taps
 // summed in the CPU twin's order.
 fn tricubic_gradient(x: vec3<f32>) -> vec3<f32> {
@@ -413,12 +394,12 @@ fn tricubic_gradient(x: vec3<f32>) -> vec3<f32> {
     let a = p - f;
     let hi = vec3<f32>(P.dims) + vec3<f32>(1.0);
     let c = vec3<i32>(min(max(f, vec3<f32>(-3.0)), hi));
-    var wx = bspline_w(a.x);
-    var wy = bspline_w(a.y);
-    var wz = bspline_w(a.z);
-    var dx = bspline_d(a.x);
-    var dy = bspline_d(a.y);
-    var dz = bspline_d(a.z);
+    var wx = bspline_weights(a.x);
+    var wy = bspline_weights(a.y);
+    var wz = bspline_weights(a.z);
+    var dx = bspline_weights_d1(a.x);
+    var dy = bspline_weights_d1(a.y);
+    var dz = bspline_weights_d1(a.z);
     var g = vec3<f32>(0.0);
     for (var k = 0; k < 4; k += 1) {
         for (var j = 0; j < 4; j += 1) {
@@ -483,6 +464,10 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
     var have_front = false;
     let pre = P.preintegrated == 1u;
     let hole = sphere_hole(o, d);
+    // The keep measure at the end of the last step, which starts the next one (like front,
+    // forgotten when steps are passed over).
+    var keep_front = 0.0;
+    var have_keep = false;
     while (k < n) {
         let s0 = t0 + f32(k) * step;
         if (hole.x < hole.y && s0 >= hole.x && s0 < hole.y) {
@@ -491,6 +476,7 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
             if (next > k) {
                 k = next;
                 have_front = false;
+                have_keep = false;
                 continue;
             }
         }
@@ -511,6 +497,7 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
                     if (next > k) {
                         k = next;
                         have_front = false;
+                        have_keep = false;
                         skipped += 1u;
                         continue;
                     }
@@ -520,7 +507,14 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, ray_index: u32) {
         let s1 = min(s0 + step, t1);
         var part = vec2<f32>(0.0, 1.0);
         if (P.clip_sign != 0.0 || P.lattice == 1u) {
-            part = kept_part(keep_of(o + s0 * d), keep_of(o + s1 * d));
+            var kf = keep_front;
+            if (!have_keep) {
+                kf = keep_of(o + s0 * d);
+            }
+            let kb = keep_of(o + s1 * d);
+            keep_front = kb;
+            have_keep = true;
+            part = kept_part(kf, kb);
             if (!(part.x < part.y)) {
                 have_front = false;
                 k += 1u;

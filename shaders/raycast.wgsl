@@ -6,7 +6,8 @@
 // Prepended by Rust (isokit_render::gpu): const WORKGROUP, ID_MISS, ID_SURFACE, ID_CAP,
 // ID_SURFACE_B, FILTER_TRILINEAR, FILTER_TRICUBIC, FLAG_*, COMBINE_*, NOT_RESIDENT, HALF_RESOLUTION,
 // RANGE_MARGIN, REFINE_TOLERANCE, SLOPE_MARGIN, CARRY_MARGIN, MIN_GRADIENT, F32_MAX; then raycast_common.wgsl
-// and common/curvature.wgsl (curvature, used by surface_sample; any_orthonormal).
+// and common/curvature.wgsl (curvature, used by surface_sample; any_orthonormal) and
+// common/bspline.wgsl (the cubic B-spline weights).
 // CPU twin: crates/isokit-render/src/raycast/cpu.rs, function by function in the same order.
 
 // Rust: raycast/gpu.rs Params (32 bytes).
@@ -257,36 +258,6 @@ fn fetch(base: u32, side: u32, c: vec3<i32>, t: vec3<f32>) -> f32 {
     let x01 = lerp(pool[i + sz], pool[i + sz + 1u], t.x);
     let x11 = lerp(pool[i + sy + sz], pool[i + sy + sz + 1u], t.x);
     return lerp(lerp(x00, x10, t.y), lerp(x01, x11, t.y), t.z);
-}
-
-// The cubic B-spline weights of samples i − 1 .. i + 2 and their derivatives
-// (raycast/cpu.rs: bspline4, bspline4_d1, bspline4_d2; ERRATA 2, 3).
-fn bspline_weights(a: f32) -> vec4<f32> {
-    let sixth = 1.0 / 6.0;
-    let b = 1.0 - a;
-    let a2 = a * a;
-    let a3 = a2 * a;
-    return vec4<f32>(
-        b * b * b * sixth,
-        (3.0 * a3 - 6.0 * a2 + 4.0) * sixth,
-        (-3.0 * a3 + 3.0 * a2 + 3.0 * a + 1.0) * sixth,
-        a3 * sixth,
-    );
-}
-
-fn bspline_weights_d1(a: f32) -> vec4<f32> {
-    let b = 1.0 - a;
-    let a2 = a * a;
-    return vec4<f32>(
-        -0.5 * b * b,
-        0.5 * (3.0 * a2 - 4.0 * a),
-        0.5 * (-3.0 * a2 + 2.0 * a + 1.0),
-        0.5 * a2,
-    );
-}
-
-fn bspline_weights_d2(a: f32) -> vec4<f32> {
-    return vec4<f32>(1.0 - a, 3.0 * a - 2.0, 1.0 - 3.0 * a, a);
 }
 
 // a · b summed as (x + z) + (y + w) (raycast/cpu.rs: dot4).

@@ -62,6 +62,11 @@ pub mod common {
     /// used by `shade.wgsl` and `splat_shade.wgsl`; reads the module's `S` and `lights`.
     pub const SHADE_FUNCTIONS: &str = include_str!("../common/shade_functions.wgsl");
 
+    /// `common/bspline.wgsl`: the cubic B-spline weights and their derivatives
+    /// (`bspline_weights`, `bspline_weights_d1`, `bspline_weights_d2`), used by
+    /// `raycast.wgsl` and `dvr.wgsl`.
+    pub const BSPLINE: &str = include_str!("../common/bspline.wgsl");
+
     /// `common/prism.wgsl`: `struct Prism`, the distance to a triangle in its local frame, row
     /// spans and packed keys, used by `prism_scan.wgsl`.
     pub const PRISM: &str = include_str!("../common/prism.wgsl");
@@ -79,6 +84,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("dvr.wgsl", DVR),
     ("prism_scan.wgsl", PRISM_SCAN),
     ("common/curvature.wgsl", common::CURVATURE),
+    ("common/bspline.wgsl", common::BSPLINE),
     ("common/shade_structs.wgsl", common::SHADE_STRUCTS),
     ("common/shade_functions.wgsl", common::SHADE_FUNCTIONS),
     ("common/prism.wgsl", common::PRISM),
@@ -128,6 +134,7 @@ mod tests {
         // diverging copy.
         for name in [
             "fn curvature(",
+            "fn bspline_weights(",
             "fn hypot(",
             "fn any_orthonormal(",
             "struct ShadeParams",

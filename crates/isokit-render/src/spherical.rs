@@ -539,7 +539,7 @@ pub fn render_iso(
     let (pixels, samples): (Vec<GSample>, Vec<u32>) = (0..w * h)
         .into_par_iter()
         .map(|pix| {
-            let ray = camera.ray((pix % w) as f32 + 0.5, (pix / w) as f32 + 0.5);
+            let ray = crate::dvr::pixel_ray(camera, pix);
             let (hit, n) = vol.trace_iso(ray, opts.iso, sign, step);
             (iso_sample(ray, hit), n)
         })

@@ -144,8 +144,9 @@ impl Args {
         Ok((shade, tf))
     }
 
-    /// Refuses the flags of `--mode dvr` in the isosurface mode.
-    pub fn refuse_dvr_flags(&self) -> anyhow::Result<()> {
+    /// Refuses the flags of `--mode dvr` in the isosurface mode (all but those `except`
+    /// names, which that isosurface takes).
+    pub fn refuse_dvr_flags_except(&self, except: &[&str]) -> anyhow::Result<()> {
         for (given, flag) in [
             (self.tf.is_some(), "--tf"),
             (self.classification.is_some(), "--classification"),
@@ -154,7 +155,7 @@ impl Args {
             (self.gradient.is_some(), "--gradient"),
             (self.table_build.is_some(), "--table-build"),
         ] {
-            if given {
+            if given && !except.contains(&flag) {
                 anyhow::bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
             }
         }

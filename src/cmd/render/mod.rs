@@ -42,7 +42,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.mode == args::RenderMode::Dvr {
         return dvr::run(&a, width, height);
     }
-    a.refuse_dvr_flags()?;
+    a.refuse_dvr_flags_except(&[])?;
     a.check_inputs(is_scene)?;
     volume::check_clip(&a)?;
     let (multiview, default_separation) = a.multiview.multiview()?;

@@ -16,21 +16,15 @@ use std::time::Instant;
 
 /// Renders `a.input`, whose samples lie on `lattice`.
 pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Result<()> {
-    for (given, flag) in [
+    let extra = [
         (super::is_scene(&a.input), "a scene input"),
-        (a.watch, "--watch"),
-        (a.csg.csg.is_some(), "--csg"),
-        (a.clip.clip.is_some(), "--clip"),
-        (a.samples > 1, "--samples"),
-        (a.multiview.multiview()?.0.is_some(), "--views"),
-        (a.res.is_some(), "--res"),
-        (a.warm_frames > 0, "--warm-frames"),
         (a.array.is_some(), "--array"),
         (
             a.volume.origin.is_some() || a.volume.spacing.is_some(),
             "--origin/--spacing",
         ),
-    ] {
+    ];
+    for &(given, flag) in super::tets::one_ray_flags(a)?.iter().chain(&extra) {
         if given {
             bail!("{flag} is not available for volumes on a spherical lattice");
         }
@@ -99,17 +93,8 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
         );
         img.stats(backend, seconds)
     } else {
-        for (given, flag) in [
-            (a.tf.is_some(), "--tf"),
-            (a.classification.is_some(), "--classification"),
-            (a.table_size.is_some(), "--table-size"),
-            (a.gradient.is_some(), "--gradient"),
-            (a.table_build.is_some(), "--table-build"),
-        ] {
-            if given {
-                bail!("{flag} applies to --mode dvr; the isosurface mode does not take it");
-            }
-        }
+        // --step is the isosurface search's step here.
+        a.refuse_dvr_flags_except(&["--step"])?;
         let mode = super::tets::shading_without_curvature(
             a,
             "the isosurface of a spherical volume is found without curvatures",

@@ -12,17 +12,8 @@ use std::time::Instant;
 
 /// Refuses the flags tetrahedral grids do not take (`extra`: those of one mode).
 pub(super) fn refuse_flags(a: &Args, extra: &[(bool, &str)]) -> Result<()> {
-    let common = [
-        (a.backend == Backend::Gpu, "--backend gpu"),
-        (a.watch, "--watch"),
-        (a.csg.csg.is_some(), "--csg"),
-        (a.clip.clip.is_some(), "--clip"),
-        (a.samples > 1, "--samples"),
-        (a.multiview.multiview()?.0.is_some(), "--views"),
-        (a.res.is_some(), "--res"),
-        (a.warm_frames > 0, "--warm-frames"),
-    ];
-    for &(given, flag) in common.iter().chain(extra) {
+    let gpu = [(a.backend == Backend::Gpu, "--backend gpu")];
+    for &(given, flag) in gpu.iter().chain(&one_ray_flags(a)?).chain(extra) {
         if given {
             bail!(
                 "{flag} is not available for tetrahedral grids (rendered through their cells on the CPU, one ray per pixel)"
@@ -32,12 +23,27 @@ pub(super) fn refuse_flags(a: &Args, extra: &[(bool, &str)]) -> Result<()> {
     Ok(())
 }
 
+/// The flags of the ray caster's volumes that inputs rendered with one ray per pixel and
+/// without its bricks (tetrahedral grids, spherical lattices) do not take, with whether
+/// each was given.
+pub(super) fn one_ray_flags(a: &Args) -> Result<[(bool, &'static str); 7]> {
+    Ok([
+        (a.watch, "--watch"),
+        (a.csg.csg.is_some(), "--csg"),
+        (a.clip.clip.is_some(), "--clip"),
+        (a.samples > 1, "--samples"),
+        (a.multiview.multiview()?.0.is_some(), "--views"),
+        (a.res.is_some(), "--res"),
+        (a.warm_frames > 0, "--warm-frames"),
+    ])
+}
+
 /// Renders `a.input` (a tetrahedral grid).
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     if a.mode == RenderMode::Dvr {
         return super::tets_dvr::run(a, width, height);
     }
-    a.refuse_dvr_flags()?;
+    a.refuse_dvr_flags_except(&[])?;
     refuse_flags(a, &[])?;
     let mode = shading_without_curvature(
         a,

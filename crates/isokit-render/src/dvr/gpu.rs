@@ -101,6 +101,7 @@ pub fn dvr_shader() -> ShaderSource {
         .constant_f32("SHADE_KD", kd)
         .constant_f32("SHADE_KS", ks)
         .constant_u32("SHININESS", shininess)
+        .piece(isokit_shaders::common::BSPLINE)
         .piece(isokit_shaders::DVR)
 }
 
@@ -212,10 +213,7 @@ impl GpuRenderer {
             .zip(&extra)
             .enumerate()
             .map(|(pix, (n, x))| {
-                let ray = camera.ray(
-                    (pix as u32 % width) as f32 + 0.5,
-                    (pix as u32 / width) as f32 + 0.5,
-                );
+                let ray = super::pixel_ray(camera, pix as u32);
                 let hit = (x[3] > 0.5).then(|| (x[0], Vec3::new(n[0], n[1], n[2]), n[3] > 0.5));
                 (iso_sample(ray, hit), x[1] as u32)
             })
@@ -272,10 +270,7 @@ impl GpuRenderer {
         };
         let rays: Vec<[f32; 4]> = (0..count)
             .flat_map(|pix| {
-                let r = camera.ray(
-                    (pix % width as usize) as f32 + 0.5,
-                    (pix / width as usize) as f32 + 0.5,
-                );
+                let r = super::pixel_ray(camera, pix as u32);
                 [
                     r.origin.extend(0.0).to_array(),
                     r.dir.extend(0.0).to_array(),

@@ -341,6 +341,11 @@ fn table_checks(lo: f32, hi: f32, n: usize, len: f32) -> Result<f32, RenderError
     table_range("pre-integration range or length", lo, hi, len)
 }
 
+/// The value of entry `i` of a table of `n` values evenly spaced over `[lo, hi]`.
+fn table_value(lo: f32, hi: f32, n: usize, i: usize) -> f32 {
+    lo + (hi - lo) * i as f32 / (n - 1) as f32
+}
+
 /// The cell and fraction of table coordinate `x` along an axis of `n` entries (clamped;
 /// NaN reads entry 0).
 fn table_cell(x: f32, n: usize) -> (usize, f32) {
@@ -373,7 +378,7 @@ impl PreintegrationTable {
         len: f32,
     ) -> Result<Self, RenderError> {
         let hi = table_checks(lo, hi, n, len)?;
-        let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
+        let value = |i: usize| table_value(lo, hi, n, i);
         let entries = (0..n * n)
             .into_par_iter()
             .map(|e| tf.segment(value(e % n), value(e / n), len, gpu::SUB_STEPS as usize))
@@ -410,7 +415,7 @@ impl PreintegrationTable {
         let hi = table_checks(lo, hi, n, len)?;
         let d = f64::from(len);
         let at = |i: usize| {
-            let (c, sigma) = tf.eval(lo + (hi - lo) * i as f32 / (n - 1) as f32);
+            let (c, sigma) = tf.eval(table_value(lo, hi, n, i));
             (c.as_dvec3(), f64::from(sigma))
         };
         let nodes: Vec<(glam::DVec3, f64)> = (0..n).map(at).collect();
@@ -527,7 +532,7 @@ impl PreintegrationTable3 {
             ));
         }
         let hi = table_range("3D pre-integration range or length", lo, hi, max_len)?;
-        let value = |i: usize| lo + (hi - lo) * i as f32 / (n - 1) as f32;
+        let value = |i: usize| table_value(lo, hi, n, i);
         let entries = (0..n * n * m)
             .into_par_iter()
             .map(|e| {
@@ -622,16 +627,6 @@ pub enum TableBuild {
     /// Incrementally, O(n²) ([`PreintegrationTable::incremental`]): about 8–14× faster to
     /// build.
     Incremental,
-}
-
-impl TableBuild {
-    /// `integrated` or `incremental`, as the command line spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            TableBuild::Integrated => "integrated",
-            TableBuild::Incremental => "incremental",
-        }
-    }
 }
 
 /// The gradient that lights a shaded sample ([`DvrOptions::gradient`]).
@@ -1044,11 +1039,12 @@ impl Source for Cartesian<'_> {
 }
 
 /// The tricubic B-spline gradient at world point `x`, world units: the 64 taps around the
-/// cell (clamped to the grid) with f32 weights, summed in the order `tricubic_gradient` in
-/// `dvr.wgsl` sums them (the sampled field's direct scheme, `isokit_field::filter`, sums in
-/// f64 and agrees to rounding).
+/// cell (clamped to the grid) with the ray caster's f32 weights ([`crate::kernel::bspline4`],
+/// `common/bspline.wgsl`), summed in the order `tricubic_gradient` in `dvr.wgsl` sums them
+/// (the sampled field's direct scheme, `isokit_field::filter`, sums in f64 and agrees to
+/// rounding).
 pub fn tricubic_gradient(grid: &Grid, x: Vec3) -> Vec3 {
-    use isokit_field::filter::{bspline_weights, bspline_weights_d1};
+    use crate::kernel::{bspline4 as bspline_weights, bspline4_d1 as bspline_weights_d1};
     let p = grid.to_grid(x);
     let f = p.floor();
     let a = p - f;
@@ -1122,6 +1118,9 @@ pub(crate) fn trace_ray(
     // Pre-integration: the value at the front of the current segment, once known.
     let mut front: Option<f32> = None;
     let hole = src.hole(ray);
+    // The keep measure at the end of the last step, which starts the next one (like
+    // `front`, forgotten when steps are passed over).
+    let mut keep_front: Option<f32> = None;
     while k < n {
         let s0 = t0 + k as f32 * step;
         if let Some((a, b)) = hole
@@ -1133,6 +1132,7 @@ pub(crate) fn trace_ray(
             if next > k {
                 k = next;
                 front = None;
+                keep_front = None;
                 continue;
             }
         }
@@ -1151,6 +1151,7 @@ pub(crate) fn trace_ray(
                     if next > k {
                         k = next;
                         front = None;
+                        keep_front = None;
                         skipped += 1;
                         continue;
                     }
@@ -1159,7 +1160,10 @@ pub(crate) fn trace_ray(
         }
         let s1 = (s0 + step).min(t1);
         // The kept part [a, b] of the step: all of it without a clip.
-        let (fa, fb) = match (src.keep(ray.at(s0)), src.keep(ray.at(s1))) {
+        let kf = keep_front.or_else(|| src.keep(ray.at(s0)));
+        let kb = src.keep(ray.at(s1));
+        keep_front = kb;
+        let (fa, fb) = match (kf, kb) {
             (Some(kf), Some(kb)) => match kept_part(kf, kb) {
                 Some(part) => part,
                 None => {
@@ -1332,13 +1336,20 @@ pub fn render_dvr_clipped(
     Ok(trace_all(&Cartesian { grid, clip }, camera, tf, &p))
 }
 
+/// The ray through the centre of pixel `pix` (row-major) of `camera`'s image: the rays of
+/// both twins of direct volume rendering and of the spherical isosurface.
+pub(crate) fn pixel_ray(camera: &Camera, pix: u32) -> isokit_field::Ray {
+    let w = camera.width();
+    camera.ray((pix % w) as f32 + 0.5, (pix / w) as f32 + 0.5)
+}
+
 /// Every pixel's ray through `src`, in parallel.
 fn trace_all(src: &impl Source, camera: &Camera, tf: &TransferFunction, p: &Prepared) -> DvrImage {
     let (width, height) = (camera.width(), camera.height());
     let rays: Vec<RayResult> = (0..width * height)
         .into_par_iter()
         .map(|pix| {
-            let ray = camera.ray((pix % width) as f32 + 0.5, (pix / width) as f32 + 0.5);
+            let ray = pixel_ray(camera, pix);
             trace_ray(src, tf, p, ray)
         })
         .collect();

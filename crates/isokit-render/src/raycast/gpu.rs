@@ -15,7 +15,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use isokit_field::Camera;
 use isokit_gpu::{Gpu, GpuError, ShaderSource, wgpu};
-use isokit_shaders::common::CURVATURE;
+use isokit_shaders::common::{BSPLINE, CURVATURE};
 use isokit_shaders::{RAYCAST, RAYCAST_COMMON};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -264,6 +264,7 @@ pub fn raycast_shader() -> ShaderSource {
     constants("raycast")
         .piece(RAYCAST_COMMON)
         .piece(CURVATURE)
+        .piece(BSPLINE)
         .piece(RAYCAST)
 }
 
