@@ -72,6 +72,19 @@ fn numbers(v: &str) -> Option<Vec<f64>> {
         .collect()
 }
 
+/// A header line's key and value when it is a key/value pair (`key:=value`): its `:=`
+/// comes before any field separator (`: `, or a `:` ending the line), since a field's value
+/// may hold `:=`.
+fn key_value(line: &str) -> Option<(&str, &str)> {
+    let kv = line.find(":=")?;
+    let field = line
+        .find(": ")
+        .or_else(|| line.strip_suffix(':').map(|k| k.len()));
+    field
+        .is_none_or(|f| kv < f)
+        .then(|| (&line[..kv], &line[kv + 2..]))
+}
+
 /// The most header bytes [`read_key_values`] reads.
 const MAX_KEY_VALUE_HEADER: u64 = 1 << 20;
 
@@ -112,12 +125,8 @@ pub fn read_key_values(path: &Path) -> Result<Vec<(String, String)>, IoError> {
         let Ok(text) = std::str::from_utf8(text) else {
             continue;
         };
-        // A field ("name: value") may hold ":=" in its value; a key/value pair has its
-        // ":=" before any ": ".
-        if let Some(kv) = text.find(":=")
-            && text.find(": ").is_none_or(|f| kv < f)
-        {
-            out.push((text[..kv].to_string(), text[kv + 2..].to_string()));
+        if let Some((k, v)) = key_value(text) {
+            out.push((k.to_string(), v.to_string()));
         }
     }
     Ok(out)
@@ -160,15 +169,15 @@ pub(crate) fn read_nrrd(bytes: &[u8], path: &Path) -> Result<Volume, IoError> {
         }
         let line = std::str::from_utf8(raw)
             .map_err(|_| bad(format!("header line {line_no} is not text")))?;
-        let kv = line.find(":=");
+        if key_value(line).is_some() {
+            continue;
+        }
         let field = line
             .find(": ")
             .or_else(|| line.strip_suffix(':').map(|k| k.len()));
-        let k_end = match (kv, field) {
-            (Some(kv), Some(f)) if kv < f => continue, // key/value pair
-            (Some(_), None) => continue,
-            (_, Some(f)) => f,
-            (None, None) => {
+        let k_end = match field {
+            Some(f) => f,
+            None => {
                 return Err(bad(format!(
                     "header line {line_no} is not 'field: value': {line:?}"
                 )));
