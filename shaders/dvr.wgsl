@@ -605,7 +605,7 @@ fn spherical_solid(x: vec3<f32>) -> vec2<f32> {
 }
 
 // SphericalVolume::normal: the owner's outward gradient by central differences half a
-// spacing apart, normalized (zero where it vanishes).
+// spacing apart (dvr::gradient), normalized (zero where it vanishes).
 fn spherical_term(x: vec3<f32>, domain: bool) -> f32 {
     if (domain) {
         return -spherical_keep(x);
@@ -622,7 +622,7 @@ fn spherical_normal(x: vec3<f32>, domain: bool) -> vec3<f32> {
         spherical_term(x + ex, domain) - spherical_term(x - ex, domain),
         spherical_term(x + ey, domain) - spherical_term(x - ey, domain),
         spherical_term(x + ez, domain) - spherical_term(x - ez, domain),
-    );
+    ) / (2.0 * h);
     let l = length(g);
     if (!(l > 0.0)) {
         return vec3<f32>(0.0);

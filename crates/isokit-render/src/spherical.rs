@@ -408,8 +408,7 @@ impl SphericalVolume {
                 sign * self.value(p)
             }
         };
-        let d = |e: Vec3| f(x + e * h) - f(x - e * h);
-        let g = Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z));
+        let g = crate::dvr::gradient(&f, x, h);
         let l = g.length();
         if l > 0.0 { g / l } else { Vec3::ZERO }
     }
