@@ -72,7 +72,31 @@ enum Command {
     Bench(cmd::bench::Bench),
 }
 
+/// The exit status of a command whose reader closed its standard output early
+/// (`isokit info big.obj | head -3`): what a shell reports for a Unix tool ended by SIGPIPE.
+const CLOSED_STDOUT: i32 = 141;
+
+/// Ends the program quietly, with [`CLOSED_STDOUT`], when printing to standard output fails
+/// because its reader has gone (Rust ignores SIGPIPE, so `println!` panics on a closed pipe);
+/// every other panic goes to the default hook.
+fn end_quietly_on_a_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let p = info.payload();
+        let msg = p
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| p.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(CLOSED_STDOUT);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    end_quietly_on_a_closed_stdout();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) => {

@@ -859,3 +859,32 @@ fn bench_octree_reports_both_trees_per_level() {
     }
     assert_eq!(v["accesses"], 3000);
 }
+
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_command_quietly() {
+    // `isokit info FILE | head -1`: the reader goes before the command prints. Rust ignores
+    // SIGPIPE, so printing fails; the command ends with the status a shell gives a Unix
+    // tool ended by SIGPIPE (141), not with a panic.
+    let mut closed = 0;
+    for _ in 0..3 {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_isokit"))
+            .args(["info", &data("trefoil.ply")])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        match out.status.code() {
+            Some(141) => closed += 1,
+            Some(0) => {} // it printed before the pipe closed
+            other => panic!("status {other:?}: {err}"),
+        }
+    }
+    assert!(
+        closed > 0,
+        "the pipe never closed before the command printed"
+    );
+}
