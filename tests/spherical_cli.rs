@@ -116,6 +116,9 @@ fn the_bundled_atmosphere_renders_from_its_nrrd_header() {
         keys.contains(&("lattice".into(), "spherical".into())),
         "{keys:?}"
     );
+    let info = json(&isokit_ok(&["info", &vol, "--json"]));
+    assert_eq!(info["lattice"]["kind"], "spherical");
+    assert_eq!(info["lattice"]["phi_range"][1], 355.0);
     let png = dir.join("a.png");
     let o = png.to_str().unwrap();
     let common = [

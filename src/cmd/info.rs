@@ -11,7 +11,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Mesh (.obj .gltf .glb .ply .stl .off), cloud (.ply .xyz), volume (.nrrd .nhdr .npy
-    /// .nii .nii.gz), tetrahedral grid (.vtk .vtu) or image (.png; .exr: header only).
+    /// .nii .nii.gz .inr .inr.gz), tetrahedral grid (.vtk .vtu) or image (.png; .exr: header only).
     pub file: PathBuf,
     /// Tetrahedral grids: the point array (default: the first with one component).
     #[arg(long)]
@@ -93,7 +93,8 @@ pub fn run(a: Args) -> Result<()> {
             let b = vol.bounds();
             let range = vol.min_max().map(|(lo, hi)| [lo, hi]);
             let uniform = vol.is_uniform();
-            let v = json!({
+            let sph = super::lattice_args::LatticeArgs::default().spherical(path)?;
+            let mut v = json!({
                 "kind": "volume",
                 "dims": vol.dims,
                 "origin": vol.origin.to_array(),
@@ -118,6 +119,17 @@ pub fn run(a: Args) -> Result<()> {
                 (None, true) => "\n  lattice: no sidecar (origin and spacing from --origin/--spacing, else 0 and 1)".into(),
                 (None, false) => String::new(),
             };
+            let lattice = match sph {
+                Some(l) => {
+                    v["lattice"] = super::lattice_args::lattice_json(&l);
+                    format!(
+                        "{lattice}
+  spherical lattice (header): r {} .. {}, theta {} .. {}, phi {} .. {} degrees (origin and spacing are not used)",
+                        l.r[0], l.r[1], l.theta[0], l.theta[1], l.phi[0], l.phi[1]
+                    )
+                }
+                None => lattice,
+            };
             let t = format!(
                 "{}: volume\n  samples: {} x {} x {}\n  origin: {:?}\n  spacing: {:?}{}\n  bounds: {}\n  range: {}\n  non-finite samples: {}{lattice}",
                 path.display(),
@@ -129,7 +141,7 @@ pub fn run(a: Args) -> Result<()> {
                 if uniform {
                     ""
                 } else {
-                    " (anisotropic: resampled when used as a distance field)"
+                    " (anisotropic: resampled to the smallest when rendered or used as a distance field)"
                 },
                 bounds_text(&b),
                 range.map_or("no finite samples".into(), |[a, b]| format!("{a} .. {b}")),

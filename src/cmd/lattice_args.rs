@@ -118,7 +118,17 @@ impl LatticeArgs {
         };
         lattice
             .check()
-            .with_context(|| format!("{}: spherical lattice", path.display()))?;
+            .with_context(|| path.display().to_string())?;
         Ok(Some(lattice))
     }
+}
+
+/// A spherical lattice as the `lattice` object of `--stats` and `isokit info --json`.
+pub fn lattice_json(l: &SphericalLattice) -> serde_json::Value {
+    serde_json::json!({
+        "kind": "spherical",
+        "r_range": l.r,
+        "theta_range": l.theta,
+        "phi_range": l.phi,
+    })
 }

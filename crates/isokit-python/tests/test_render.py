@@ -129,5 +129,13 @@ def test_render_volume_directly_with_a_transfer_function(tmp_path):
         f.render_volume(tf, classification="pre", width=8, height=8)
     with pytest.raises(ValueError, match="phong"):
         f.render_volume(tf, shading="tone", width=8, height=8)
+    # The incremental table: close to the integrated one's image.
+    inc = f.render_volume(
+        tf, width=24, height=24, classification="preintegrated", table_build="incremental",
+        camera=cam, backend="cpu",
+    )
+    assert np.abs(inc.gbuffer["A"] - frames["preintegrated"].gbuffer["A"]).max() < 0.03
+    with pytest.raises(ValueError, match="table_build"):
+        f.render_volume(tf, table_build="fast", width=8, height=8)
     with pytest.raises(ValueError, match="gradient"):
         f.render_volume(tf, shading="phong", gradient="sobel", width=8, height=8)

@@ -32,8 +32,7 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
     let v = isokit_io::read_volume(&a.input)?;
     let grid = Grid::from_data(v.dims, Vec3::ZERO, 1.0, v.data)
         .with_context(|| a.input.display().to_string())?;
-    let vol = SphericalVolume::new(grid, lattice)
-        .with_context(|| format!("{}: spherical lattice", a.input.display()))?;
+    let vol = SphericalVolume::new(grid, lattice).with_context(|| a.input.display().to_string())?;
     let camera = a.camera.camera_for(vol.bounds(), width, height)?;
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
     let backend = renderer.backend();
@@ -150,13 +149,8 @@ pub fn run(a: &Args, width: u32, height: u32, lattice: SphericalLattice) -> Resu
         })
     };
     if a.stats {
-        stats["lattice"] = json!({
-            "kind": "spherical",
-            "r_range": l.r,
-            "theta_range": l.theta,
-            "phi_range": l.phi,
-            "periodic": vol.periodic(),
-        });
+        stats["lattice"] = crate::cmd::lattice_args::lattice_json(&l);
+        stats["lattice"]["periodic"] = vol.periodic().into();
         stats["output"] = a.output.display().to_string().into();
         println!("{stats}");
     }

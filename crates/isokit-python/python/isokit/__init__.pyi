@@ -172,6 +172,7 @@ class Field:
         backend: Backend = "auto",
         projection: Literal["perspective", "orthographic"] = "perspective",
         gradient: Literal["tricubic", "central"] = "tricubic",
+        table_build: Literal["integrated", "incremental"] = "integrated",
     ) -> Frame: ...
     def _repr_png_(self) -> bytes: ...
 
