@@ -5,7 +5,8 @@
 // each sample's world position mapped to the lattice); the entry point spherical_iso finds
 // the isosurface of a spherical volume.
 // Prepended by Rust (isokit_render::dvr::gpu::dvr_shader): const WORKGROUP, SUB_STEPS,
-// SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS; then common/bspline.wgsl.
+// SHADE_MIN_OPACITY, SHADE_KA, SHADE_KD, SHADE_KS, SHININESS; then common/bspline.wgsl and
+// common/transfer.wgsl (the transfer function, segments, shading) and common/slab.wgsl.
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (trace_ray and the functions it calls, named
 // alike) and crates/isokit-render/src/spherical.rs (SphericalVolume's coords, keep, value,
 // segment and trace_iso); the rays, the pre-integration table and the empty-block flags come
@@ -230,79 +231,6 @@ fn kept_part(kf: f32, kb: f32) -> vec2<f32> {
     return vec2<f32>(1.0, 0.0);
 }
 
-fn tf_value(i: u32) -> f32 {
-    return tf[2u * i].x;
-}
-
-fn tf_sigma(i: u32) -> f32 {
-    return tf[2u * i].y;
-}
-
-fn tf_emission(i: u32) -> vec3<f32> {
-    return tf[2u * i + 1u].xyz;
-}
-
-// TransferFunction::eval: emission (xyz) and extinction (w) at v.
-fn tf_eval(v: f32) -> vec4<f32> {
-    var i = 0u;
-    while (i < P.n_tf && tf_value(i) <= v) {
-        i += 1u;
-    }
-    if (i == 0u) {
-        return vec4<f32>(tf_emission(0u), tf_sigma(0u));
-    }
-    if (i == P.n_tf) {
-        return vec4<f32>(tf_emission(i - 1u), tf_sigma(i - 1u));
-    }
-    let t = (v - tf_value(i - 1u)) / (tf_value(i) - tf_value(i - 1u));
-    let e = mix(tf_emission(i - 1u), tf_emission(i), t);
-    return vec4<f32>(e, tf_sigma(i - 1u) + (tf_sigma(i) - tf_sigma(i - 1u)) * t);
-}
-
-// One window [w0, w1] of TransferFunction::segment, composited onto (c, trans).
-fn segment_window(vf: f32, vb: f32, len: f32, w0: f32, w1: f32, acc: vec4<f32>) -> vec4<f32> {
-    var c = acc.xyz;
-    var trans = acc.w;
-    let n = SUB_STEPS;
-    for (var k = 0u; k < n; k += 1u) {
-        let t0 = w0 + (w1 - w0) * f32(k) / f32(n);
-        let t1 = w0 + (w1 - w0) * f32(k + 1u) / f32(n);
-        let depth = 0.5 * (tf_eval(vf + (vb - vf) * t0).w + tf_eval(vf + (vb - vf) * t1).w)
-            * (t1 - t0) * len;
-        if (depth <= 0.0) {
-            continue;
-        }
-        let alpha = 1.0 - exp(-depth);
-        c += trans * alpha * tf_eval(vf + (vb - vf) * (0.5 * (t0 + t1))).xyz;
-        trans *= 1.0 - alpha;
-    }
-    return vec4<f32>(c, trans);
-}
-
-// TransferFunction::segment: premultiplied colour and opacity of a segment of length len
-// along which the value goes linearly from vf to vb, through the transfer function's
-// pieces in ascending order of the segment parameter.
-fn segment(vf: f32, vb: f32, len: f32) -> vec4<f32> {
-    var acc = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    var prev = 0.0;
-    if (vb != vf) {
-        for (var m = 0u; m < P.n_tf; m += 1u) {
-            // Control points in ascending order of t: ascending values when vb > vf.
-            var q = m;
-            if (vb < vf) {
-                q = P.n_tf - 1u - m;
-            }
-            let t = (tf_value(q) - vf) / (vb - vf);
-            if (t > 0.0 && t < 1.0) {
-                acc = segment_window(vf, vb, len, prev, t, acc);
-                prev = t;
-            }
-        }
-    }
-    acc = segment_window(vf, vb, len, prev, 1.0, acc);
-    return vec4<f32>(acc.xyz, 1.0 - acc.w);
-}
-
 // PreintegrationTable::lookup.
 fn table_coord(v: f32) -> vec2<f32> {
     let n = P.table_n;
@@ -325,25 +253,6 @@ fn table_lookup(vf: f32, vb: f32) -> vec4<f32> {
     return mix(r0, r1, cb.y);
 }
 
-// slab: where a ray enters and leaves a box; x > y when it misses.
-fn safe_inv(x: f32) -> f32 {
-    if (abs(x) < 1e-30) {
-        return 1.0 / select(1e-30, -1e-30, x < 0.0);
-    }
-    return 1.0 / x;
-}
-
-fn slab(o: vec3<f32>, d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
-    let inv = vec3<f32>(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
-    let a = (lo - o) * inv;
-    let b = (hi - o) * inv;
-    let n = min(a, b);
-    let f = max(a, b);
-    let t0 = max(max(max(n.x, n.y), n.z), 0.0);
-    let t1 = min(min(f.x, f.y), f.z);
-    return vec2<f32>(t0, t1);
-}
-
 // Blocks::empty_at: the empty block holding grid point g (its lower corner, in blocks), or
 // a negative x when the block there is not empty.
 fn empty_block(g: vec3<f32>) -> vec3<f32> {
@@ -353,28 +262,6 @@ fn empty_block(g: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(-1.0);
     }
     return vec3<f32>(cf);
-}
-
-// Within::opacity_at: the distance into a step of length len at which its opacity reaches
-// alpha; sigma >= 0 for a post-classified step, else the pre-integrated one from vf to vb.
-fn opacity_at(post: bool, sigma: f32, vf: f32, vb: f32, len: f32, alpha: f32) -> f32 {
-    if (post) {
-        if (sigma > 0.0) {
-            return min(-log(1.0 - alpha) / sigma, len);
-        }
-        return len;
-    }
-    var lo = 0.0;
-    var hi = 1.0;
-    for (var it = 0u; it < 24u; it += 1u) {
-        let t = 0.5 * (lo + hi);
-        if (segment(vf, vf + (vb - vf) * t, len * t).w >= alpha) {
-            hi = t;
-        } else {
-            lo = t;
-        }
-    }
-    return hi * len;
 }
 
 // gradient: central differences one spacing apart of the interpolated value.
@@ -412,22 +299,6 @@ fn tricubic_gradient(x: vec3<f32>) -> vec3<f32> {
         }
     }
     return g / P.spacing;
-}
-
-// shade_sample: two-sided Blinn-Phong by a headlight.
-fn shade_sample(seg: vec4<f32>, g: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
-    let len = length(g);
-    if (!(len > 1e-20)) {
-        return seg;
-    }
-    let ndl = abs(dot(g, dir) / len);
-    var spec = ndl;
-    var p = 1u;
-    while (p < SHININESS) {
-        spec *= spec;
-        p *= 2u;
-    }
-    return vec4<f32>(seg.xyz * (SHADE_KA + SHADE_KD * ndl) + vec3<f32>(SHADE_KS * spec * seg.w), seg.w);
 }
 
 // Source::keep: the spherical domain's or the clip's keep measure (one of them at most).

@@ -309,7 +309,6 @@ fn dvr_renders_through_the_cells_with_its_channels_consistent() {
         ),
         (&["--iso", "0"], "--iso (for --mode isosurface)"),
         (&["--shading", "tone"], "--mode dvr shades with phong"),
-        (&["--backend", "gpu"], "--backend gpu is not available"),
     ] {
         let mut args = vec![
             "render",
@@ -323,5 +322,67 @@ fn dvr_renders_through_the_cells_with_its_channels_consistent() {
         ];
         args.extend_from_slice(extra);
         assert_clear_error(&isokit(&args), needle);
+    }
+}
+
+#[test]
+fn the_gpu_backend_renders_both_modes_as_the_cpu_does() {
+    let Some(_gpu) =
+        isokit_gpu::testing::gpu_or_skip("the_gpu_backend_renders_both_modes_as_the_cpu_does")
+    else {
+        return;
+    };
+    let d = scratch("tets-gpu");
+    let g = data("tets/torus.vtu");
+    for mode in [
+        &["--mode", "isosurface"][..],
+        &["--mode", "dvr", "--tf", "distance-shell"],
+    ] {
+        let mut channels = Vec::new();
+        for backend in ["cpu", "gpu"] {
+            let exr = d.join(format!("{backend}.exr"));
+            let png = d.join(format!("{backend}.png"));
+            let mut args = vec![
+                "render",
+                g.as_str(),
+                "-o",
+                png.to_str().unwrap(),
+                "--gbuffer",
+                exr.to_str().unwrap(),
+                "--width",
+                "64",
+                "--height",
+                "48",
+                "--backend",
+                backend,
+                "--stats",
+                "-q",
+            ];
+            args.extend_from_slice(mode);
+            let out = isokit_ok(&args);
+            let v = json(&out);
+            let device = v.get("device").or_else(|| v.get("backend")).cloned();
+            assert_eq!(device, Some(Value::from(backend)), "{v}");
+            let e = isokit::io::read_exr(&exr).unwrap();
+            channels.push(
+                e.channel(if mode[1] == "dvr" { "A" } else { "Z" })
+                    .unwrap()
+                    .to_vec(),
+            );
+        }
+        let (cpu, gpu) = (&channels[0], &channels[1]);
+        let (mut masks, mut worst) = (0, 0.0f32);
+        for (a, b) in cpu.iter().zip(gpu) {
+            if a.is_finite() != b.is_finite() {
+                masks += 1;
+            } else if a.is_finite() {
+                worst = worst.max((a - b).abs());
+            }
+        }
+        eprintln!(
+            "{mode:?}: cpu and gpu differ by {worst:.1e} where both are finite, {masks} masks"
+        );
+        assert!(masks == 0 && worst < 1e-4, "{mode:?}: {worst} {masks}");
+        assert!(cpu.iter().any(|z| z.is_finite() && *z > 0.0));
     }
 }

@@ -44,6 +44,10 @@ pub const SPLAT_SHADE: &str = include_str!("../splat_shade.wgsl");
 /// `dvr.wgsl`: direct volume rendering, one ray per invocation (entry point `dvr`).
 pub const DVR: &str = include_str!("../dvr.wgsl");
 
+/// `tets.wgsl`: ray casting the isosurface of a tetrahedral grid and volume rendering
+/// through its cells, one ray per invocation (entry points `tet_iso`, `tet_dvr`).
+pub const TETS: &str = include_str!("../tets.wgsl");
+
 /// `prism_scan.wgsl`: prism scan conversion of one slab of slices (entry point `scan`).
 pub const PRISM_SCAN: &str = include_str!("../prism_scan.wgsl");
 
@@ -67,6 +71,15 @@ pub mod common {
     /// `raycast.wgsl` and `dvr.wgsl`.
     pub const BSPLINE: &str = include_str!("../common/bspline.wgsl");
 
+    /// `common/transfer.wgsl`: the transfer function (`tf_eval`, `segment`, `opacity_at`)
+    /// and the shading of a composited sample (`shade_sample`), used by `dvr.wgsl` and
+    /// `tets.wgsl`; reads the kernel's `tf` and `P.n_tf`.
+    pub const TRANSFER: &str = include_str!("../common/transfer.wgsl");
+
+    /// `common/slab.wgsl`: where a ray meets an axis-aligned box (`slab`, `safe_inv`),
+    /// used by `dvr.wgsl` and `tets.wgsl`.
+    pub const SLAB: &str = include_str!("../common/slab.wgsl");
+
     /// `common/prism.wgsl`: `struct Prism`, the distance to a triangle in its local frame, row
     /// spans and packed keys, used by `prism_scan.wgsl`.
     pub const PRISM: &str = include_str!("../common/prism.wgsl");
@@ -82,9 +95,12 @@ pub const ALL: &[(&str, &str)] = &[
     ("splat.wgsl", SPLAT),
     ("splat_shade.wgsl", SPLAT_SHADE),
     ("dvr.wgsl", DVR),
+    ("tets.wgsl", TETS),
     ("prism_scan.wgsl", PRISM_SCAN),
     ("common/curvature.wgsl", common::CURVATURE),
     ("common/bspline.wgsl", common::BSPLINE),
+    ("common/transfer.wgsl", common::TRANSFER),
+    ("common/slab.wgsl", common::SLAB),
     ("common/shade_structs.wgsl", common::SHADE_STRUCTS),
     ("common/shade_functions.wgsl", common::SHADE_FUNCTIONS),
     ("common/prism.wgsl", common::PRISM),
@@ -144,6 +160,10 @@ mod tests {
             "struct Uniforms",
             "struct GPixel",
             "struct Prism",
+            "fn tf_eval(",
+            "fn segment(",
+            "fn shade_sample(",
+            "fn slab(",
         ] {
             let holders: Vec<&str> = ALL
                 .iter()

@@ -7,7 +7,8 @@
 //! The host code of each kernel sits beside its CPU twin, named after its shader
 //! (`crates/isokit-render/src/`): `raycast/gpu.rs` (`raycast.wgsl`; CPU twin
 //! `raycast/cpu.rs`, public as [`crate::kernel`]), `shade/gpu.rs` (`shade.wgsl`;
-//! `shade/cpu.rs`), `flow/gpu.rs` (`flow.wgsl`; `flow/cpu.rs`), `splat/gpu.rs`
+//! `shade/cpu.rs`), `flow/gpu.rs` (`flow.wgsl`; `flow/cpu.rs`), `dvr/gpu.rs` (`dvr.wgsl`;
+//! `dvr/mod.rs`), `tets/gpu.rs` (`tets.wgsl`; `tets/mod.rs`, `tets/dvr.rs`), `splat/gpu.rs`
 //! (`splat.wgsl`, `splat_shade.wgsl`; `splat/cpu.rs`). This module holds what they share:
 //! the device and its pipelines ([`GpuRenderer`]), the constants generated from Rust, the
 //! backend choice ([`select_backend`]).
@@ -65,6 +66,7 @@ pub use crate::raycast::gpu::raycast_shader;
 pub use crate::shade::gpu::shade_shader;
 /// The GPU twin of quadric splatting (the same module as [`crate::splat::gpu`]).
 pub use crate::splat::gpu as splat;
+pub use crate::tets::gpu::tets_shader;
 
 use crate::kernel::{
     COMBINE_DIFFERENCE, COMBINE_INTERSECTION, COMBINE_MORPH, COMBINE_NONE, COMBINE_UNION,
@@ -195,6 +197,12 @@ pub struct GpuRenderer {
     /// The isosurface of a spherical volume, `dvr.wgsl`'s `spherical_iso` (host code in
     /// `dvr/gpu.rs`), compiled on first use.
     pub(crate) spherical_iso: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The isosurface of a tetrahedral grid, `tets.wgsl`'s `tet_iso` (host code in
+    /// `tets/gpu.rs`), compiled on first use.
+    pub(crate) tet_iso: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// Volume rendering through a tetrahedral grid's cells, `tets.wgsl`'s `tet_dvr`,
+    /// compiled on first use.
+    pub(crate) tet_dvr: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 impl GpuRenderer {
@@ -219,6 +227,8 @@ impl GpuRenderer {
             splat: std::sync::OnceLock::new(),
             dvr: std::sync::OnceLock::new(),
             spherical_iso: std::sync::OnceLock::new(),
+            tet_iso: std::sync::OnceLock::new(),
+            tet_dvr: std::sync::OnceLock::new(),
         })
     }
 
@@ -303,6 +313,7 @@ pub(crate) fn every_shader() -> Vec<ShaderSource> {
         splat::splat_shader(false),
         splat::splat_shade_shader(),
         crate::dvr::gpu::dvr_shader(),
+        crate::tets::gpu::tets_shader(),
     ]
 }
 

@@ -4,6 +4,8 @@
 //! with many sub-steps); the regular grid's renderer sees the same field; a constant
 //! extinction passes opacity 0.5 at ln 2 / σ.
 
+mod common;
+
 use glam::{DVec3, Vec3, Vec4};
 use isokit_field::primitives::Sphere;
 use isokit_field::{Camera, Grid, Job, Projection, TetGrid, TetSplit, sample_into};
@@ -312,13 +314,10 @@ fn a_graded_grid_of_cells_ten_times_apart_in_size_keeps_its_accuracy() {
     assert!(w < 7e-4, "{w}");
 }
 
-#[test]
-fn a_flat_cell_inside_the_grid_is_stepped_across() {
-    // Below: A = (a, b, c, bottom). Above the face abc: either one cell B = (a, b, c, top),
-    // or the same space cut around a point e inside abc into three cells, with the flat
-    // cell (a, b, c, e) between them and A. Both grids fill the same space with the same
-    // linear field: the images must agree (a walk that stopped at the flat cell lost
-    // everything above it).
+/// Two grids of the same space and linear field: two cells, and the same with the upper one
+/// cut around a point of the shared face into three cells and a flat one between them and
+/// the lower cell; a transfer function and a camera looking up through the lower cell.
+fn flat_cell_grids() -> (TetGrid, TetGrid, TransferFunction, Camera) {
     let (a, b, c) = (
         Vec3::new(-1.0, -0.8, 0.0),
         Vec3::new(1.0, -0.7, 0.0),
@@ -347,7 +346,6 @@ fn a_flat_cell_inside_the_grid_is_stepped_across() {
             [2, 0, 5, 4],
         ],
     );
-    assert_eq!(cut.report().degenerate, 1);
     let tf = TransferFunction::from_json(
         r#"{"points": [[-0.6, 1, 0.5, 0.2, 1.5], [0.6, 0.2, 0.6, 1, 2.5]]}"#,
     )
@@ -364,6 +362,18 @@ fn a_flat_cell_inside_the_grid_is_stepped_across() {
         32,
     )
     .unwrap();
+    (whole, cut, tf, cam)
+}
+
+#[test]
+fn a_flat_cell_inside_the_grid_is_stepped_across() {
+    // Below: A = (a, b, c, bottom). Above the face abc: either one cell B = (a, b, c, top),
+    // or the same space cut around a point e inside abc into three cells, with the flat
+    // cell (a, b, c, e) between them and A. Both grids fill the same space with the same
+    // linear field: the images must agree (a walk that stopped at the flat cell lost
+    // everything above it).
+    let (whole, cut, tf, cam) = flat_cell_grids();
+    assert_eq!(cut.report().degenerate, 1);
     let opts = TetDvrOptions {
         table_size: 0,
         termination: 1.0,
@@ -386,4 +396,116 @@ fn a_flat_cell_inside_the_grid_is_stepped_across() {
     // when the walk stopped at the flat cell.
     assert!(covered > 100, "{covered}");
     assert!(worst < 1e-3, "{worst}");
+}
+
+#[test]
+fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
+    let Some(r) =
+        common::twin::gpu_renderer("tets_dvr::the_gpu_twin_renders_what_the_cpu_twin_renders")
+    else {
+        return;
+    };
+    let tf = tf();
+    let cam = camera(40);
+    let reference = exact(&cam, &tf);
+    let job = Job::new();
+    // The linear field (against its exact integral too) and a sphere's distance, in both
+    // splits; every classification, with and without shading and early termination.
+    let mut sphere = Grid::new([13; 3], Vec3::splat(-1.0), 2.0 / 12.0).unwrap();
+    sample_into(
+        &Sphere::new(Vec3::new(0.1, 0.0, -0.05), 0.7).unwrap(),
+        &mut sphere,
+    );
+    for (name, grid) in [("linear", linear_grid(9)), ("sphere", sphere)] {
+        for split in [TetSplit::Five, TetSplit::Six] {
+            let tets = TetGrid::from_grid(&grid, split).unwrap();
+            let vol = TetVolume::new(&tets);
+            for (classification, table_size, shade, termination) in [
+                (Classification::Preintegrated, 64, false, 1.0),
+                (Classification::Preintegrated, 0, false, 1.0),
+                (Classification::Post, 64, false, 1.0),
+                (Classification::Preintegrated, 64, true, 0.9),
+            ] {
+                // A smaller table than the default (64² values, 32 lengths): the test is of
+                // the twins, not of the table's resolution.
+                let opts = TetDvrOptions {
+                    classification,
+                    table_size,
+                    table_lengths: 32,
+                    shade,
+                    termination,
+                };
+                let cpu = vol.render(&cam, &tf, &opts, &job).unwrap();
+                let gpu = r.render_tets_dvr(&vol, &cam, &tf, &opts).unwrap();
+                let d = cpu
+                    .rgba
+                    .iter()
+                    .zip(&gpu.rgba)
+                    .map(|(a, b)| (*a - *b).abs().max_element())
+                    .fold(0.0f32, f32::max);
+                let masks = cpu
+                    .depth
+                    .iter()
+                    .zip(&gpu.depth)
+                    .filter(|(a, b)| a.is_finite() != b.is_finite())
+                    .count();
+                let dz = cpu
+                    .depth
+                    .iter()
+                    .zip(&gpu.depth)
+                    .filter(|(a, b)| a.is_finite() && b.is_finite())
+                    .map(|(a, b)| (a - b).abs() / grid.spacing())
+                    .fold(0.0f32, f32::max);
+                eprintln!(
+                    "{name} {split:?} {classification:?} table {table_size} shaded {shade} termination {termination}: colour/opacity {d:.1e}, depth {dz:.1e} spacing, {masks} depth masks differ, segments {} / {}",
+                    cpu.samples, gpu.samples
+                );
+                assert!(cpu.rgba.iter().any(|p| p.w > 0.3));
+                // Measured on lavapipe: up to 2.9e-6 unshaded; 1.2e-4 shaded, where a
+                // segment's opacity rounds to either side of SHADE_MIN_OPACITY (1e-3, below
+                // which a segment is not shaded).
+                assert!(d < if shade { 1e-3 } else { 1e-5 }, "{d}");
+                assert!(dz < 1e-3 && masks <= 2, "{dz} {masks}");
+                let rel = (cpu.samples as f64 - gpu.samples as f64).abs() / cpu.samples as f64;
+                assert!(rel < 1e-3, "{} {}", cpu.samples, gpu.samples);
+                if name == "linear" && termination == 1.0 && !shade {
+                    let (w, compared) = worst(&gpu.rgba, &reference);
+                    let (wc, _) = worst(&cpu.rgba, &reference);
+                    eprintln!(
+                        "  against the exact integral: gpu {w:.1e}, cpu {wc:.1e} over {compared} rays"
+                    );
+                    assert!(w < wc + 1e-5, "{w} {wc}");
+                }
+            }
+        }
+    }
+    // A flat cell stepped across (with f32's tolerance on the GPU).
+    let (_, cut, tf_flat, cam_flat) = flat_cell_grids();
+    let vol = TetVolume::new(&cut);
+    let opts = TetDvrOptions {
+        termination: 1.0,
+        ..TetDvrOptions::default()
+    };
+    let cpu = vol.render(&cam_flat, &tf_flat, &opts, &job).unwrap();
+    let gpu = r.render_tets_dvr(&vol, &cam_flat, &tf_flat, &opts).unwrap();
+    let d = cpu
+        .rgba
+        .iter()
+        .zip(&gpu.rgba)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    eprintln!(
+        "flat cell: colour/opacity {d:.1e}, segments {} / {}",
+        cpu.samples, gpu.samples
+    );
+    assert!(cpu.rgba.iter().filter(|p| p.w > 0.05).count() > 100);
+    assert!(d < 1e-5, "{d}");
+    // Non-finite values are refused on the GPU (the CPU twin renders their cells clear).
+    let mut bad = linear_grid(6);
+    bad.set(2, 3, 3, f32::NAN);
+    let tets = TetGrid::from_grid(&bad, TetSplit::Five).unwrap();
+    let e = r
+        .render_tets_dvr(&TetVolume::new(&tets), &cam, &tf, &TetDvrOptions::default())
+        .unwrap_err();
+    assert!(e.to_string().contains("non-finite"), "{e}");
 }

@@ -1,9 +1,9 @@
 //! `isokit render GRID.vtu -o image.png`: the isosurface of a tetrahedral grid ray cast
-//! through its cells (`isokit_render::tets`, CPU), shaded like any other G-buffer.
+//! through its cells (`isokit_render::tets`, the GPU twin or the CPU's as `--backend` says),
+//! shaded like any other G-buffer.
 
 use super::Args;
 use super::args::RenderMode;
-use crate::cmd::args::Backend;
 use anyhow::{Result, bail};
 use isokit_render::tets::{TetCaster, TetNormals};
 use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
@@ -12,11 +12,10 @@ use std::time::Instant;
 
 /// Refuses the flags tetrahedral grids do not take (`extra`: those of one mode).
 pub(super) fn refuse_flags(a: &Args, extra: &[(bool, &str)]) -> Result<()> {
-    let gpu = [(a.backend == Backend::Gpu, "--backend gpu")];
-    for &(given, flag) in gpu.iter().chain(&one_ray_flags(a)?).chain(extra) {
+    for &(given, flag) in one_ray_flags(a)?.iter().chain(extra) {
         if given {
             bail!(
-                "{flag} is not available for tetrahedral grids (rendered through their cells on the CPU, one ray per pixel)"
+                "{flag} is not available for tetrahedral grids (rendered through their cells, one ray per pixel)"
             );
         }
     }
@@ -61,11 +60,16 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     warn_if_inside(&grid, &camera);
     let u = camera_uniforms(&camera)?;
+    let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
+    let backend = renderer.backend();
     let t = Instant::now();
     let caster = TetCaster::new(&grid, iso, a.inside.inside(), TetNormals::Smooth)?;
     let prepare = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let gb = caster.render(&u, &crate::cmd::progress::job())?;
+    let gb = match renderer.gpu() {
+        Some(gpu) => gpu.render_tets(&caster, &u)?,
+        None => caster.render(&u, &crate::cmd::progress::job())?,
+    };
     let trace = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let sh = Shading {
@@ -82,7 +86,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let visited: u64 = gb.samples().iter().map(|&s| u64::from(s)).sum();
     let per_ray = visited as f64 / f64::from(width * height);
     eprintln!(
-        "{} cells, {} boundary faces, array {} at iso {iso}: ray cast through tetrahedra (cpu), {width}x{height} {} image: {hits} surface pixels, {per_ray:.1} cells/ray; prepare {prepare:.2} s, trace {trace:.3} s, shade {shade_s:.3} s -> {}",
+        "{} cells, {} boundary faces, array {} at iso {iso}: ray cast through tetrahedra ({backend}), {width}x{height} {} image: {hits} surface pixels, {per_ray:.1} cells/ray; prepare {prepare:.2} s, trace {trace:.3} s, shade {shade_s:.3} s -> {}",
         grid.tets().len(),
         caster.boundary_faces(),
         grid.array(),
@@ -91,7 +95,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     );
     if a.stats {
         let v = json!({
-            "device": "cpu",
+            "device": backend,
             "cells": grid.tets().len(),
             "boundary_faces": caster.boundary_faces(),
             "iso": iso,

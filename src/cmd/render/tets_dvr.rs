@@ -1,5 +1,6 @@
 //! `isokit render GRID.vtu --mode dvr --tf TF -o image.png`: direct volume rendering through
-//! the cells of a tetrahedral grid (`isokit_render::tets::dvr`, CPU), each cell's segment of
+//! the cells of a tetrahedral grid (`isokit_render::tets::dvr`, the GPU twin or the CPU's as
+//! `--backend` says), each cell's segment of
 //! a ray one entry of the 3D pre-integration table; written as `--mode dvr` of a volume is
 //! (PNG over black, `--gbuffer` EXR with `R G B A Z`).
 
@@ -45,8 +46,13 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         table_size: a.table_size.unwrap_or(TetDvrOptions::default().table_size),
         ..TetDvrOptions::default()
     };
+    let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
+    let backend = renderer.backend();
     let t = Instant::now();
-    let img = volume.render(&camera, &tf, &opts, &crate::cmd::progress::job())?;
+    let img = match renderer.gpu() {
+        Some(gpu) => gpu.render_tets_dvr(&volume, &camera, &tf, &opts)?,
+        None => volume.render(&camera, &tf, &opts, &crate::cmd::progress::job())?,
+    };
     let seconds = t.elapsed().as_secs_f64();
     img.to_image(Vec3::ZERO).write_png(&a.output)?;
     if let Some(g) = &a.gbuffer {
@@ -54,7 +60,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     }
     let per_ray = img.samples as f64 / f64::from(width * height);
     eprintln!(
-        "{} cells, array {} (values {} .. {}): direct volume rendering through tetrahedra ({}, cpu), {width}x{height}: {per_ray:.1} segments/ray; prepare {prepare:.2} s, render {seconds:.2} s -> {}",
+        "{} cells, array {} (values {} .. {}): direct volume rendering through tetrahedra ({}, {backend}), {width}x{height}: {per_ray:.1} segments/ray; prepare {prepare:.2} s, render {seconds:.2} s -> {}",
         grid.tets().len(),
         grid.array(),
         range.0,
@@ -63,7 +69,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         a.output.display()
     );
     if a.stats {
-        let mut v = img.stats("cpu", seconds);
+        let mut v = img.stats(backend, seconds);
         // No fixed step and no blocks: a ray's segments are its cells'.
         if let Some(o) = v.as_object_mut() {
             o.remove("step");

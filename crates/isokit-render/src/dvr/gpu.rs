@@ -90,7 +90,8 @@ isokit_gpu::wgsl_layout!(DvrParams {
 
 /// The direct volume rendering kernel, assembled: `WORKGROUP`, `SUB_STEPS` and the shading
 /// constants from Rust,
-/// `dvr.wgsl` (entry point `dvr`).
+/// `common/bspline.wgsl`, `common/transfer.wgsl`, `common/slab.wgsl`, `dvr.wgsl` (entry points `dvr`,
+/// `spherical_iso`).
 pub fn dvr_shader() -> ShaderSource {
     let (ka, kd, ks, shininess) = super::SHADE_WEIGHTS;
     ShaderSource::new("dvr")
@@ -102,6 +103,8 @@ pub fn dvr_shader() -> ShaderSource {
         .constant_f32("SHADE_KS", ks)
         .constant_u32("SHININESS", shininess)
         .piece(isokit_shaders::common::BSPLINE)
+        .piece(isokit_shaders::common::TRANSFER)
+        .piece(isokit_shaders::common::SLAB)
         .piece(isokit_shaders::DVR)
 }
 

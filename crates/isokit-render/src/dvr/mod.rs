@@ -559,6 +559,12 @@ impl PreintegrationTable3 {
         self.max_len
     }
 
+    /// The table's entries, front value fastest, then back value, then length (the GPU
+    /// twin's layout), with `(lo, hi, n, m)`.
+    pub(crate) fn layout(&self) -> (&[Vec4], f32, f32, usize, usize) {
+        (&self.entries, self.lo, self.hi, self.n, self.m)
+    }
+
     /// Premultiplied colour and opacity of a segment from `vf` to `vb` of length `len`
     /// (values clamped to the range, lengths to `[0, max_len]`).
     pub fn lookup(&self, vf: f32, vb: f32, len: f32) -> Vec4 {

@@ -23,7 +23,8 @@
 //! Shading ([`TetDvrOptions::shade`]) uses the point gradients (the volume-weighted mean of
 //! the cells' gradients) interpolated at the segment's middle, by [`shade_sample`]. Cells
 //! with a non-finite value are transparent; rays start at the first boundary face they meet
-//! (the camera must be outside the grid). Only the CPU twin exists here.
+//! (the camera must be outside the grid). The GPU twin is
+//! [`crate::gpu::GpuRenderer::render_tets_dvr`] (`shaders/tets.wgsl`, entry point `tet_dvr`).
 
 use super::{Walk, cell_values, interpolated_gradient, point_gradients};
 use crate::RenderError;
@@ -68,9 +69,9 @@ impl Default for TetDvrOptions {
 /// A tetrahedral grid prepared for direct volume rendering: the walk, the point gradients,
 /// the edge lengths the table and the presets need.
 pub struct TetVolume<'g> {
-    grid: &'g TetGrid,
-    walk: Walk,
-    gradients: Vec<Vec3>,
+    pub(super) grid: &'g TetGrid,
+    pub(super) walk: Walk,
+    pub(super) gradients: Vec<Vec3>,
     longest_edge: f32,
     /// The 95th percentile of the cells' longest edges: the table's longest segment.
     table_edge: f32,
@@ -145,32 +146,7 @@ impl<'g> TetVolume<'g> {
     ) -> Result<DvrImage, RenderError> {
         let (width, height) =
             crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
-        if !(0.0..=1.0).contains(&opts.termination) {
-            return Err(RenderError::bad(
-                "termination",
-                opts.termination,
-                "must be an opacity from 0 to 1",
-            ));
-        }
-        let table = match (opts.classification, opts.table_size) {
-            (Classification::Preintegrated, n) if n > 0 => {
-                let (lo, hi) =
-                    isokit_field::finite_min_max(self.grid.values()).unwrap_or((0.0, 1.0));
-                // Up to the 95th percentile of the cells' longest edges (a little beyond:
-                // exits are found in f64), so a few long cells do not stretch the length
-                // axis for all the others; longer segments are cut into pieces.
-                let max_len = (self.table_edge * (1.0 + 1e-5)).max(f32::MIN_POSITIVE);
-                Some(PreintegrationTable3::new(
-                    tf,
-                    lo,
-                    hi,
-                    n,
-                    opts.table_lengths,
-                    max_len,
-                )?)
-            }
-            _ => None,
-        };
+        let table = self.table(tf, opts)?;
         let counter = job.counter("volume rendering tetrahedra", u64::from(height));
         let rows = (0..height)
             .into_par_iter()
@@ -200,6 +176,41 @@ impl<'g> TetVolume<'g> {
             classification: opts.classification,
             shaded: opts.shade,
             gradient: "point",
+        })
+    }
+
+    /// The 3D pre-integration table `opts` ask for (none for post-classification or a
+    /// `table_size` of 0), shared by both twins.
+    pub(crate) fn table(
+        &self,
+        tf: &TransferFunction,
+        opts: &TetDvrOptions,
+    ) -> Result<Option<PreintegrationTable3>, RenderError> {
+        if !(0.0..=1.0).contains(&opts.termination) {
+            return Err(RenderError::bad(
+                "termination",
+                opts.termination,
+                "must be an opacity from 0 to 1",
+            ));
+        }
+        Ok(match (opts.classification, opts.table_size) {
+            (Classification::Preintegrated, n) if n > 0 => {
+                let (lo, hi) =
+                    isokit_field::finite_min_max(self.grid.values()).unwrap_or((0.0, 1.0));
+                // Up to the 95th percentile of the cells' longest edges (a little beyond:
+                // exits are found in f64), so a few long cells do not stretch the length
+                // axis for all the others; longer segments are cut into pieces.
+                let max_len = (self.table_edge * (1.0 + 1e-5)).max(f32::MIN_POSITIVE);
+                Some(PreintegrationTable3::new(
+                    tf,
+                    lo,
+                    hi,
+                    n,
+                    opts.table_lengths,
+                    max_len,
+                )?)
+            }
+            _ => None,
         })
     }
 

@@ -19,7 +19,11 @@
 //! normals on a mesh). The surface carries no curvature (it is piecewise planar), so the
 //! G-buffer's curvatures are 0.
 //!
-//! Only the CPU twin exists here. A cell with a non-finite value holds no hit (the walk
+//! The GPU twin is [`crate::gpu::GpuRenderer::render_tets`] (`shaders/tets.wgsl`, entry
+//! point `tet_iso`; host code in `tets/gpu.rs`): the same walk in f32, with each cell's
+//! inverse edge matrix made in f64 on the host and the entry faces found in a hierarchy of
+//! boxes; it agrees with this one to f32 rounding (at a ray through a cell's edge the two may
+//! leave by different, equally right faces) and refuses grids with non-finite values. A cell with a non-finite value holds no hit (the walk
 //! goes on through it; marching tetrahedra, which treat NaN as outside, close the surface
 //! around such a point instead, so there the two differ); a degenerate cell (|det| ≤ 1e-9
 //! of its longest edge cubed, as [`TetGrid::report`] counts them) has no inside: the walk
@@ -43,6 +47,7 @@ use std::ops::ControlFlow;
 use isokit_field::tet::NO_NEIGHBOUR as NONE;
 
 pub mod dvr;
+pub(crate) mod gpu;
 
 /// The points of face `k` (the face opposite point `k`) of a cell, seen from outside the
 /// cell counter-clockwise for a positively oriented cell.
@@ -61,9 +66,9 @@ pub enum TetNormals {
 /// The cells a ray crosses, in order: neighbours across faces and the boundary faces in a
 /// kd-tree (shared by the isosurface caster and volume rendering through the cells).
 pub(crate) struct Walk {
-    neighbours: Vec<[u32; 4]>,
+    pub(crate) neighbours: Vec<[u32; 4]>,
     /// `(cell, face)` of every boundary face, the kd-tree's primitives.
-    boundary: Vec<(u32, u8)>,
+    pub(crate) boundary: Vec<(u32, u8)>,
     tree: KdTree,
 }
 
@@ -302,14 +307,14 @@ pub(crate) fn interpolated_gradient(gradients: &[Vec3], idx: [u32; 4], lambda: &
 /// A tetrahedral grid prepared for ray casting: the walk, the scalar with the inside below
 /// the isovalue, the point gradients.
 pub struct TetCaster<'g> {
-    grid: &'g TetGrid,
+    pub(crate) grid: &'g TetGrid,
     /// 1, or −1 when the inside is above the isovalue: the scalar times this has the
     /// inside below `iso`.
-    sign: f32,
-    iso: f32,
-    walk: Walk,
-    gradients: Vec<Vec3>,
-    normals: TetNormals,
+    pub(crate) sign: f32,
+    pub(crate) iso: f32,
+    pub(crate) walk: Walk,
+    pub(crate) gradients: Vec<Vec3>,
+    pub(crate) normals: TetNormals,
 }
 
 /// A ray's hit on the isosurface.
