@@ -104,6 +104,7 @@ mod gbuffer;
 pub mod gpu;
 pub mod quadric;
 mod raycast;
+pub mod segmented;
 pub mod setup;
 pub mod shade;
 pub mod spherical;

@@ -1,0 +1,453 @@
+//! Ray casting a segmented distance field (003 Sec. 4): the surfaces between the regions of a
+//! field sampled as `f = min(d_E, δ) + D r` (003 Eq. 4, [`Segmentation`]), with junctions and
+//! boundaries, found along each ray with the region pair that owns each hit.
+//!
+//! Interpolating segmented values across regions makes values of neither (003 Sec. 4.2,
+//! Fig. 7: between regions 1 and 3 a linear filter yields region 2), so each sample along
+//! the ray takes its lattice point's value by nearest-neighbour lookup, as 003 requires.
+//! Between two consecutive samples whose lattice points `P_u`, `P_v` differ, the surface
+//! passes where 003 Eq. 5–7 say ([`Segmentation::crossing`], with `w` the points' distance):
+//! at `X = P_u + t (P_v − P_u)` with `t` from Eq. 6, the point the mesher
+//! ([`isokit_levelset::segmented::mesh_segmented`]) puts on that lattice edge; the hit is
+//! where the ray meets the plane through `X` with the normal there (exact for planar
+//! surfaces). The march steps half a spacing, so consecutive samples' points differ by at
+//! most one index per axis.
+//!
+//! 003's own route tabulates Eq. 5–7 as the *vertex generation diagram* ([`VertexDiagram`]):
+//! a 2D table over (front value, back value) holding whether a surface passes and where, so
+//! the renderer makes one look-up per step (003 Sec. 4.2). It is built for the largest
+//! distance two consecutive samples' points can be apart (`√3` spacings), so it may accept a
+//! pair of samples a little farther apart than Eq. 7 allows (within a spacing of a boundary's
+//! rim); its resolution, levels per region period, is a knob.
+//!
+//! Normals: the gradient of the pair's signed distance (`+d` in the front region, `−d` in the
+//! back region, `+d` elsewhere) interpolated trilinearly over the lattice cell around the
+//! hit, turned to face the ray. CPU only.
+
+use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
+use crate::{GBuffer, RenderError};
+use glam::{IVec3, Vec3};
+use isokit_field::{Grid, Job};
+use isokit_levelset::segmented::Segmentation;
+use rayon::prelude::*;
+
+/// 003's vertex generation diagram: for a pair of segmented values (front, back), whether
+/// a surface passes between them and where (Eq. 5–7), tabulated at `levels` values per
+/// region period over `regions` regions, looked up at the nearest entry.
+#[derive(Clone, Debug)]
+pub struct VertexDiagram {
+    seg: Segmentation,
+    /// Entries per region period.
+    levels: usize,
+    /// Entries per axis (`levels · regions`).
+    n: usize,
+    /// Per entry: `t` of Eq. 6, or a negative value where no surface passes.
+    t: Vec<f32>,
+}
+
+/// The largest diagram: 2^24 entries.
+const MAX_DIAGRAM: usize = 1 << 24;
+
+impl VertexDiagram {
+    /// The diagram of `seg` over regions `0..regions` at `levels` entries per period `D`,
+    /// for samples up to `w` apart (refused beyond 2^24 entries).
+    pub fn new(
+        seg: &Segmentation,
+        regions: usize,
+        levels: usize,
+        w: f32,
+    ) -> Result<Self, RenderError> {
+        let n = levels.saturating_mul(regions);
+        if levels < 2 || regions == 0 || n.saturating_mul(n) > MAX_DIAGRAM {
+            return Err(RenderError::bad(
+                "vertex generation diagram",
+                format!("{levels} levels x {regions} regions"),
+                "needs 2 or more levels, 1 or more regions and at most 2^24 entries",
+            ));
+        }
+        let value = |a: usize| (a as f32 + 0.5) * seg.period() / levels as f32;
+        let t = (0..n * n)
+            .into_par_iter()
+            .map(|e| {
+                seg.crossing(value(e % n), value(e / n), w)
+                    .map_or(-1.0, |(_, _, t)| t)
+            })
+            .collect();
+        Ok(Self {
+            seg: *seg,
+            levels,
+            n,
+            t,
+        })
+    }
+
+    /// The regions of `u` and `v` and `t` of Eq. 6 where the diagram says a surface passes.
+    pub fn lookup(&self, u: f32, v: f32) -> Option<(i32, i32, f32)> {
+        let index = |x: f32| {
+            let a = (x / self.seg.period() * self.levels as f32).floor();
+            (a >= 0.0 && (a as usize) < self.n).then_some(a as usize)
+        };
+        let (a, b) = (index(u)?, index(v)?);
+        let t = self.t[a + self.n * b];
+        (t >= 0.0).then(|| ((a / self.levels) as i32, (b / self.levels) as i32, t))
+    }
+}
+
+/// A hit on the surface between two regions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentedHit {
+    /// Ray parameter (distance along a unit direction).
+    pub t: f32,
+    /// World position.
+    pub position: Vec3,
+    /// Unit normal, facing the ray.
+    pub normal: Vec3,
+    /// The region the ray comes from and the region beyond the surface.
+    pub regions: [i32; 2],
+}
+
+/// A segmented field prepared for ray casting.
+pub struct SegmentedCaster<'g> {
+    grid: &'g Grid,
+    seg: Segmentation,
+    diagram: Option<VertexDiagram>,
+}
+
+/// What [`SegmentedCaster::render`] makes: the G-buffer and, per pixel, the region pair
+/// the hit lies between (`[a, b]`, `a < b`; `None` where the ray missed).
+pub struct SegmentedImage {
+    /// Positions, depths, normals (no curvature: 0).
+    pub gbuffer: GBuffer,
+    /// The pair of regions per pixel, rows from the top.
+    pub pairs: Vec<Option<[i32; 2]>>,
+}
+
+impl<'g> SegmentedCaster<'g> {
+    /// Prepares `grid`, sampled with `seg`; with `diagram`, crossings come from the vertex
+    /// generation diagram at that many levels per period, else from Eq. 5–7 directly.
+    pub fn new(
+        grid: &'g Grid,
+        seg: Segmentation,
+        diagram: Option<usize>,
+    ) -> Result<Self, RenderError> {
+        let diagram = match diagram {
+            Some(levels) => {
+                let top = grid
+                    .data()
+                    .iter()
+                    .filter_map(|&f| seg.decode(f))
+                    .map(|(r, _)| r)
+                    .max()
+                    .unwrap_or(0);
+                let w = 3f32.sqrt() * grid.spacing();
+                Some(VertexDiagram::new(&seg, top as usize + 1, levels, w)?)
+            }
+            None => None,
+        };
+        Ok(Self { grid, seg, diagram })
+    }
+
+    /// The lattice point nearest `x` (clamped into the grid), and its value.
+    fn nearest(&self, x: Vec3) -> (IVec3, f32) {
+        let g = ((x - self.grid.origin()) / self.grid.spacing()).round();
+        let hi = IVec3::from_array(self.grid.dims().map(|d| d as i32 - 1));
+        let c = g.as_ivec3().clamp(IVec3::ZERO, hi);
+        (c, self.grid.get_clamped(c))
+    }
+
+    fn point(&self, c: IVec3) -> Vec3 {
+        self.grid.origin() + c.as_vec3() * self.grid.spacing()
+    }
+
+    /// The first surface the ray `o + t d` (`d` of unit length) meets, and the samples it
+    /// took.
+    pub fn trace(&self, o: Vec3, d: Vec3) -> (Option<SegmentedHit>, u32) {
+        let b = self.grid.bounds();
+        let Some((t0, t1)) = crate::dvr::slab(o, d, b.min, b.max) else {
+            return (None, 0);
+        };
+        let step = 0.5 * self.grid.spacing();
+        let mut t = t0;
+        let (mut cu, mut u) = self.nearest(o + t * d);
+        let mut samples = 1u32;
+        while t < t1 {
+            t = (t + step).min(t1);
+            let (cv, v) = self.nearest(o + t * d);
+            samples += 1;
+            if cv != cu {
+                let (pu, pv) = (self.point(cu), self.point(cv));
+                let crossing = match &self.diagram {
+                    Some(dia) => dia.lookup(u, v),
+                    None => self.seg.crossing(u, v, pu.distance(pv)),
+                };
+                if let Some((i, j, s)) = crossing {
+                    // The ray meets the plane through the crossing with the local normal (exact
+                    // for a planar surface); nearly parallel rays take the crossing's
+                    // projection. The lattice points are up to 0.87 spacings off the ray, so
+                    // the plane is met within 0.87 h / |d · n| of this step, before or after;
+                    // never outside the box.
+                    let x = pu + s * (pv - pu);
+                    let normal = self.normal(x, i, j, d);
+                    let dn = d.dot(normal).abs();
+                    let th = if dn > 0.1 {
+                        let reach = 0.87 * self.grid.spacing() / dn;
+                        ((x - o).dot(normal) / d.dot(normal)).clamp(t - step - reach, t + reach)
+                    } else {
+                        (x - o).dot(d)
+                    };
+                    let th = th.clamp(t0, t1);
+                    let position = o + th * d;
+                    let hit = SegmentedHit {
+                        t: th,
+                        position,
+                        normal,
+                        regions: [i, j],
+                    };
+                    return (Some(hit), samples);
+                }
+            }
+            (cu, u) = (cv, v);
+        }
+        (None, samples)
+    }
+
+    /// The gradient of the pair's signed distance, interpolated trilinearly in the cell
+    /// around `x`, facing against `d`.
+    fn normal(&self, x: Vec3, front: i32, back: i32, d: Vec3) -> Vec3 {
+        let h = self.grid.spacing();
+        let g = (x - self.grid.origin()) / h;
+        let hi = IVec3::from_array(self.grid.dims().map(|n| (n as i32 - 2).max(0)));
+        let c = g.floor().as_ivec3().clamp(IVec3::ZERO, hi);
+        let f = (g - c.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
+        let signed = |p: IVec3| match self.seg.decode(self.grid.get_clamped(p)) {
+            Some((r, dist)) if r == back => -dist,
+            Some((r, dist)) if r == front => dist,
+            Some((_, dist)) => dist,
+            None => 0.0,
+        };
+        let mut grad = Vec3::ZERO;
+        for k in 0..2 {
+            for j in 0..2 {
+                for i in 0..2 {
+                    let s = signed(c + IVec3::new(i, j, k));
+                    let w = |a: i32, fa: f32| if a == 1 { fa } else { 1.0 - fa };
+                    let dw = |a: i32| if a == 1 { 1.0 } else { -1.0 };
+                    grad += s * Vec3::new(
+                        dw(i) * w(j, f.y) * w(k, f.z),
+                        w(i, f.x) * dw(j) * w(k, f.z),
+                        w(i, f.x) * w(j, f.y) * dw(k),
+                    );
+                }
+            }
+        }
+        let n = grad.normalize_or_zero();
+        let n = if n == Vec3::ZERO { -d } else { n };
+        if n.dot(d) > 0.0 { -n } else { n }
+    }
+
+    /// The G-buffer of the camera in `u` and each pixel's region pair, rows in parallel,
+    /// reporting progress to `job` (stage `ray casting regions`, in rows).
+    pub fn render(&self, u: &Uniforms, job: &Job) -> Result<SegmentedImage, RenderError> {
+        let (w, h) = crate::check_image_size(u64::from(u.width), u64::from(u.height))?;
+        let counter = job.counter("ray casting regions", u64::from(h));
+        let rows = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                job.check()?;
+                let row: Vec<(GSample, u32, Option<[i32; 2]>)> = (0..w)
+                    .map(|x| {
+                        let (o, d) = pixel_ray(u, x, y);
+                        let (hit, n) = self.trace(o, d.normalize_or_zero());
+                        match hit {
+                            Some(hit) => {
+                                let [a, b] = hit.regions;
+                                let s = GSample {
+                                    position: hit.position,
+                                    depth: hit.t,
+                                    normal: hit.normal,
+                                    dir1: hit.normal.any_orthonormal_vector(),
+                                    id: ID_SURFACE,
+                                    ..GSample::default()
+                                };
+                                (s, n, Some([a.min(b), a.max(b)]))
+                            }
+                            None => (GSample::default(), n, None),
+                        }
+                    })
+                    .collect();
+                counter.advance(1);
+                Ok(row)
+            })
+            .collect::<Result<Vec<_>, isokit_field::Cancelled>>()
+            .map_err(isokit_field::FieldError::from)?;
+        let mut pixels = Vec::with_capacity((w * h) as usize);
+        let (mut samples, mut pairs) = (Vec::new(), Vec::new());
+        for (s, n, p) in rows.into_iter().flatten() {
+            pixels.push(s);
+            samples.push(n);
+            pairs.push(p);
+        }
+        Ok(SegmentedImage {
+            gbuffer: GBuffer::new(w, h, pixels, samples),
+            pairs,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use isokit_field::{Camera, Projection};
+
+    /// A segmented field of `n³` samples over `[-1, 1]³` from `(distance, region)` per
+    /// point.
+    fn field(n: usize, f: impl Fn(Vec3) -> (f32, i32)) -> (Grid, Segmentation) {
+        let h = 2.0 / (n - 1) as f32;
+        let mut g = Grid::new([n; 3], Vec3::splat(-1.0), h).unwrap();
+        let seg = Segmentation::for_spacing(h).unwrap();
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    let (d, r) = f(g.position(i, j, k));
+                    g.set(i, j, k, seg.encode(d, r).unwrap());
+                }
+            }
+        }
+        (g, seg)
+    }
+
+    fn camera() -> Uniforms {
+        let c = Camera::look_at(
+            Vec3::new(1.9, -2.6, 2.2),
+            Vec3::new(0.0, 0.0, 0.1),
+            Vec3::Z,
+            Projection::Perspective {
+                fov_y_degrees: 40.0,
+            },
+            64,
+            64,
+        )
+        .unwrap();
+        crate::camera_uniforms(&c).unwrap()
+    }
+
+    /// The T-junction: region 0 below z = 0, above it region 1 where x < 0 and region 2
+    /// where x > 0; the surfaces are the plane z = 0 and the half-plane x = 0, z > 0.
+    fn t_junction(p: Vec3) -> (f32, i32) {
+        let to_wall = if p.z >= 0.0 {
+            p.x.abs()
+        } else {
+            p.x.hypot(p.z)
+        };
+        let d = p.z.abs().min(to_wall);
+        let r = if p.z < 0.0 {
+            0
+        } else if p.x < 0.0 {
+            1
+        } else {
+            2
+        };
+        (d, r)
+    }
+
+    #[test]
+    fn a_t_junction_is_hit_on_its_surfaces_with_the_right_pairs() {
+        let (g, seg) = field(33, t_junction);
+        let h = g.spacing();
+        let u = camera();
+        for levels in [None, Some(256)] {
+            let caster = SegmentedCaster::new(&g, seg, levels).unwrap();
+            let img = caster.render(&u, &Job::new()).unwrap();
+            let (mut hits, mut checked, mut angle) = (0, 0, 0.0f32);
+            let (mut worst, mut worst_junction, mut worst_box) = (0.0f32, 0.0f32, 0.0f32);
+            for (s, pair) in img.gbuffer.pixels().iter().zip(&img.pairs) {
+                let Some(pair) = pair else { continue };
+                hits += 1;
+                let p = s.position;
+                // Within a spacing of the box's faces, where a surface leaves the box, the
+                // ray's first nearest sample may lie across the surface from the ray's
+                // entry: the hit is then where the ray enters, or a step or two in.
+                let off = t_junction(p).0 / h;
+                if p.abs().max_element() > 1.0 - h {
+                    worst_box = worst_box.max(off);
+                    continue;
+                }
+                if p.x.hypot(p.z) < 1.5 * h {
+                    worst_junction = worst_junction.max(off);
+                    continue;
+                }
+                worst = worst.max(off);
+                // Away from the junction line the pair is the one of the surface there.
+                checked += 1;
+                let on_wall = p.x.abs() < p.z.abs();
+                let (want, n) = match (on_wall, p.x < 0.0) {
+                    (true, _) => ([1, 2], Vec3::X),
+                    (false, true) => ([0, 1], Vec3::Z),
+                    (false, false) => ([0, 2], Vec3::Z),
+                };
+                assert_eq!(*pair, want, "{levels:?} at {p}");
+                angle = angle.max(s.normal.dot(n).abs().clamp(0.0, 1.0).acos().to_degrees());
+            }
+            eprintln!(
+                "T-junction, diagram {levels:?}: {hits} hits; {checked} away from the junction line and the box: pairs right, worst {worst:.2e} spacing off the surfaces, normals within {angle:.2} deg; within 1.5 spacings of the junction line: worst {worst_junction:.3} spacing; within a spacing of the box: worst {worst_box:.3}"
+            );
+            assert!(hits > 1500 && checked > 1000, "{hits} {checked}");
+            assert!(worst < 0.05, "{worst}");
+            assert!(worst_junction < 0.75, "{worst_junction}");
+            assert!(worst_box < 1.0, "{worst_box}");
+            assert!(angle < 1.0, "{angle}");
+        }
+    }
+
+    #[test]
+    fn the_vertex_generation_diagram_agrees_with_eq_5_to_7() {
+        let (g, seg) = field(25, t_junction);
+        let u = camera();
+        let job = Job::new();
+        let direct = SegmentedCaster::new(&g, seg, None)
+            .unwrap()
+            .render(&u, &job)
+            .unwrap();
+        for levels in [64, 256, 1024] {
+            let table = SegmentedCaster::new(&g, seg, Some(levels))
+                .unwrap()
+                .render(&u, &job)
+                .unwrap();
+            let (mut masks, mut pairs, mut dz) = (0, 0, 0.0f32);
+            for (i, (a, b)) in direct.pairs.iter().zip(&table.pairs).enumerate() {
+                match (a, b) {
+                    (Some(x), Some(y)) => {
+                        pairs += usize::from(x != y);
+                        let (p, q) = (direct.gbuffer.pixels()[i], table.gbuffer.pixels()[i]);
+                        // Near the junction line the normal, and so the hit, turns fast.
+                        if p.position.x.hypot(p.position.z) > 1.5 * g.spacing() {
+                            dz = dz.max((p.depth - q.depth).abs() / g.spacing());
+                        }
+                    }
+                    (None, None) => {}
+                    _ => masks += 1,
+                }
+            }
+            eprintln!(
+                "diagram at {levels} levels per period: {masks} hit masks and {pairs} pairs differ from Eq. 5-7, depth within {dz:.4} spacing"
+            );
+            assert!(masks <= 4 && pairs <= 4, "{masks} {pairs}");
+            // Measured: 0.13, 0.030, 0.0077 spacing (the entries are D / levels apart).
+            assert!(dz < 16.0 / levels as f32, "{dz}");
+        }
+        // Look-ups at the entries' own values are Eq. 5–7's answers.
+        let w = 3f32.sqrt() * g.spacing();
+        let dia = VertexDiagram::new(&seg, 3, 64, w).unwrap();
+        let value = |a: usize| (a as f32 + 0.5) * seg.period() / 64.0;
+        for (a, b) in [(3, 64 + 2), (10, 130), (5, 6), (70, 140), (63, 64)] {
+            assert_eq!(
+                dia.lookup(value(a), value(b)),
+                seg.crossing(value(a), value(b), w),
+                "{a} {b}"
+            );
+        }
+        assert_eq!(dia.lookup(-1.0, 0.1), None);
+        assert!(VertexDiagram::new(&seg, 3, 1, w).is_err());
+        assert!(VertexDiagram::new(&seg, 4096, 4096, w).is_err());
+    }
+}
