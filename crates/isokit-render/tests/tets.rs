@@ -138,11 +138,11 @@ fn a_linear_field_on_a_jittered_grid_with_inverted_cells_is_hit_on_its_plane() {
     }
 }
 
-#[test]
-fn rays_leave_a_grid_through_a_gap_and_find_the_surface_beyond() {
+/// A box of cells with those whose centre has |x| < 0.2 removed (a slab of empty space
+/// across rays along x), the field x − 0.5.
+fn gap_grid() -> TetGrid {
     let g = Grid::new([11, 5, 5], Vec3::new(-1.0, -0.4, -0.4), 0.2).unwrap();
     let full = TetGrid::from_grid(&g, TetSplit::Five).unwrap();
-    // Cells with their centre in |x| < 0.2 removed: a slab of empty space across the rays.
     let cells: Vec<[u32; 4]> = full
         .tets()
         .iter()
@@ -154,7 +154,12 @@ fn rays_leave_a_grid_through_a_gap_and_find_the_surface_beyond() {
         .collect();
     assert!(cells.len() < full.tets().len());
     let values = full.points().iter().map(|p| p.x - 0.5).collect();
-    let grid = TetGrid::new(full.points().to_vec(), cells, values, "x").unwrap();
+    TetGrid::new(full.points().to_vec(), cells, values, "x").unwrap()
+}
+
+#[test]
+fn rays_leave_a_grid_through_a_gap_and_find_the_surface_beyond() {
+    let grid = gap_grid();
     let caster = TetCaster::new(&grid, 0.0, Inside::Below, TetNormals::Smooth).unwrap();
     for (y, z) in [(0.0, 0.0), (0.13, -0.21), (-0.33, 0.31)] {
         let (hit, _) = caster.trace(DVec3::new(-3.0, y, z), DVec3::X);
@@ -332,21 +337,7 @@ fn the_gpu_twin_casts_what_the_cpu_twin_casts() {
     let job = Job::new();
     // A sphere in both splits, both inside conventions and both normals; a grid with a gap
     // (rays leave it and come back).
-    let gap = {
-        let g = Grid::new([11, 5, 5], Vec3::new(-1.0, -0.4, -0.4), 0.2).unwrap();
-        let full = TetGrid::from_grid(&g, TetSplit::Five).unwrap();
-        let cells: Vec<[u32; 4]> = full
-            .tets()
-            .iter()
-            .copied()
-            .filter(|t| {
-                let c = t.iter().map(|&i| full.points()[i as usize]).sum::<Vec3>() / 4.0;
-                c.x.abs() > 0.2
-            })
-            .collect();
-        let values = full.points().iter().map(|p| p.x - 0.5).collect();
-        TetGrid::new(full.points().to_vec(), cells, values, "x").unwrap()
-    };
+    let gap = gap_grid();
     let grids = [
         (
             "sphere, 5 tets a cell",

@@ -81,6 +81,14 @@ fn exact(cam: &Camera, tf: &TransferFunction) -> Vec<Option<Vec4>> {
         .collect()
 }
 
+/// The largest difference of any channel between two images.
+fn max_diff(a: &[Vec4], b: &[Vec4]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0f32, f32::max)
+}
+
 fn worst(img: &[Vec4], reference: &[Option<Vec4>]) -> (f32, usize) {
     let mut compared = 0;
     let w = img
@@ -437,12 +445,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
                 };
                 let cpu = vol.render(&cam, &tf, &opts, &job).unwrap();
                 let gpu = r.render_tets_dvr(&vol, &cam, &tf, &opts).unwrap();
-                let d = cpu
-                    .rgba
-                    .iter()
-                    .zip(&gpu.rgba)
-                    .map(|(a, b)| (*a - *b).abs().max_element())
-                    .fold(0.0f32, f32::max);
+                let d = max_diff(&cpu.rgba, &gpu.rgba);
                 let masks = cpu
                     .depth
                     .iter()
@@ -488,12 +491,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
     };
     let cpu = vol.render(&cam_flat, &tf_flat, &opts, &job).unwrap();
     let gpu = r.render_tets_dvr(&vol, &cam_flat, &tf_flat, &opts).unwrap();
-    let d = cpu
-        .rgba
-        .iter()
-        .zip(&gpu.rgba)
-        .map(|(a, b)| (*a - *b).abs().max_element())
-        .fold(0.0f32, f32::max);
+    let d = max_diff(&cpu.rgba, &gpu.rgba);
     eprintln!(
         "flat cell: colour/opacity {d:.1e}, segments {} / {}",
         cpu.samples, gpu.samples
