@@ -244,6 +244,53 @@ fn open_rims(
     }
 }
 
+/// 003's step 6: renumbers the regions of a segmented field from 0 in ascending order, so
+/// the indices are dense (a vertex generation diagram then spans no unused region). Returns
+/// the old index of each new one (`old[new]`); samples that are not segmented values are
+/// left as they are. Distances are kept to f32 rounding (each sample decoded and encoded
+/// again).
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::Grid;
+/// use isokit_levelset::segmented::{Segmentation, renumber};
+///
+/// let seg = Segmentation::new(1.0, 2.0).unwrap();
+/// let mut g = Grid::new([3, 1, 1], Vec3::ZERO, 0.25).unwrap();
+/// for (i, r) in [7, 3, 7].into_iter().enumerate() {
+///     g.set(i, 0, 0, seg.encode(0.5, r).unwrap());
+/// }
+/// assert_eq!(renumber(&mut g, &seg).unwrap(), vec![3, 7]);
+/// assert_eq!(seg.decode(g.get(0, 0, 0)), Some((1, 0.5)));
+/// assert_eq!(seg.decode(g.get(1, 0, 0)), Some((0, 0.5)));
+/// ```
+pub fn renumber(grid: &mut Grid, seg: &Segmentation) -> Result<Vec<i32>, FieldError> {
+    let mut present = vec![false; MAX_REGIONS as usize];
+    for &f in grid.data() {
+        if let Some((r, _)) = seg.decode(f) {
+            // Values beyond the last region are not segmented samples here either.
+            if let Some(p) = present.get_mut(r as usize) {
+                *p = true;
+            }
+        }
+    }
+    let old: Vec<i32> = (0..MAX_REGIONS).filter(|&r| present[r as usize]).collect();
+    let mut new = vec![-1i32; MAX_REGIONS as usize];
+    for (n, &o) in old.iter().enumerate() {
+        new[o as usize] = n as i32;
+    }
+    for f in grid.data_mut() {
+        if let Some((r, d)) = seg.decode(*f)
+            && let Some(&n) = new.get(r as usize)
+            && n >= 0
+            && n != r
+        {
+            *f = seg.encode(d, n)?;
+        }
+    }
+    Ok(old)
+}
+
 /// The blend `(1 − t) a + t b` of two segmented fields on one lattice with one region
 /// numbering (003 Sec. 5.2), the region index carried through: where both samples are in
 /// one region the distances blend; where they differ (region `i` in `a` at distance

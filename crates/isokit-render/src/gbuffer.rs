@@ -146,25 +146,38 @@ impl GBuffer {
 
     /// Writes the G-buffer as OpenEXR with the channels [`GBUFFER_CHANNELS`] (atomically).
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
-        self.write_exr_camera(path, None)
+        self.write_exr_camera(path, None, &[])
     }
 
     /// [`GBuffer::write_exr`] with `camera`'s view and projection matrices in the header
     /// ([`exr_camera`]).
     pub fn write_exr_with_camera(&self, path: &Path, camera: &Camera) -> Result<(), RenderError> {
-        self.write_exr_camera(path, Some(&exr_camera(camera)))
+        self.write_exr_camera(path, Some(&exr_camera(camera)), &[])
+    }
+
+    /// [`GBuffer::write_exr_with_camera`] with more channels after the G-buffer's (each a
+    /// name and one value per pixel, rows from the top).
+    pub fn write_exr_with_channels(
+        &self,
+        path: &Path,
+        camera: &Camera,
+        extra: &[(&str, &[f32])],
+    ) -> Result<(), RenderError> {
+        self.write_exr_camera(path, Some(&exr_camera(camera)), extra)
     }
 
     fn write_exr_camera(
         &self,
         path: &Path,
         camera: Option<&isokit_io::ExrCamera>,
+        extra: &[(&str, &[f32])],
     ) -> Result<(), RenderError> {
         let planes = self.channels();
         let list: Vec<(&str, &[f32])> = GBUFFER_CHANNELS
             .iter()
             .zip(planes.iter())
             .map(|(n, p)| (*n, p.as_slice()))
+            .chain(extra.iter().copied())
             .collect();
         isokit_io::write_exr_with_camera(
             path,

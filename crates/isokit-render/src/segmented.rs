@@ -15,10 +15,13 @@
 //!
 //! 003's own route tabulates Eq. 5–7 as the *vertex generation diagram* ([`VertexDiagram`]):
 //! a 2D table over (front value, back value) holding whether a surface passes and where, so
-//! the renderer makes one look-up per step (003 Sec. 4.2). It is built for the largest
-//! distance two consecutive samples' points can be apart (`√3` spacings), so it may accept a
-//! pair of samples a little farther apart than Eq. 7 allows (within a spacing of a boundary's
-//! rim); its resolution, levels per region period, is a knob.
+//! the renderer makes one look-up per step (003 Sec. 4.2). Eq. 7 depends on how far apart
+//! the two samples' points are; consecutive samples' points are neighbours across a face, an
+//! edge or a corner of a lattice cell (`1`, `√2` or `√3` spacings apart), so the diagram has
+//! one layer for each. Its entries stand for the values up to half an entry either side, so
+//! each layer takes Eq. 7's bound one entry (`D / levels`) wider, lest a pair at the bound
+//! be lost: near a boundary's rim it may accept a pair that far beyond Eq. 7. Its
+//! resolution, levels per region period, is a knob.
 //!
 //! Normals: the gradient of the pair's signed distance (`+d` in the front region, `−d` in the
 //! back region, `+d` elsewhere) interpolated trilinearly over the lattice cell around the
@@ -33,7 +36,8 @@ use rayon::prelude::*;
 
 /// 003's vertex generation diagram: for a pair of segmented values (front, back), whether
 /// a surface passes between them and where (Eq. 5–7), tabulated at `levels` values per
-/// region period over `regions` regions, looked up at the nearest entry.
+/// region period over `regions` regions, looked up at the nearest entry; one layer for
+/// samples `h`, `√2 h` and `√3 h` apart.
 #[derive(Clone, Debug)]
 pub struct VertexDiagram {
     seg: Segmentation,
@@ -41,21 +45,21 @@ pub struct VertexDiagram {
     levels: usize,
     /// Entries per axis (`levels · regions`).
     n: usize,
-    /// Per entry: `t` of Eq. 6, or a negative value where no surface passes.
+    /// Per entry: `t` of Eq. 6, or a negative value where no surface passes; three layers.
     t: Vec<f32>,
 }
 
-/// The largest diagram: 2^24 entries.
+/// The largest diagram: 2^24 entries a layer.
 const MAX_DIAGRAM: usize = 1 << 24;
 
 impl VertexDiagram {
     /// The diagram of `seg` over regions `0..regions` at `levels` entries per period `D`,
-    /// for samples up to `w` apart (refused beyond 2^24 entries).
+    /// for samples on a lattice of spacing `h` (refused beyond 2^24 entries a layer).
     pub fn new(
         seg: &Segmentation,
         regions: usize,
         levels: usize,
-        w: f32,
+        h: f32,
     ) -> Result<Self, RenderError> {
         let n = levels.saturating_mul(regions);
         if levels < 2 || regions == 0 || n.saturating_mul(n) > MAX_DIAGRAM {
@@ -66,9 +70,13 @@ impl VertexDiagram {
             ));
         }
         let value = |a: usize| (a as f32 + 0.5) * seg.period() / levels as f32;
-        let t = (0..n * n)
+        let t = (0..3 * n * n)
             .into_par_iter()
             .map(|e| {
+                // An entry stands for values up to half its width either side: Eq. 7's
+                // bound grows by one width, or a pair at the bound would be lost.
+                let w = ((e / (n * n) + 1) as f32).sqrt() * h + seg.period() / levels as f32;
+                let e = e % (n * n);
                 seg.crossing(value(e % n), value(e / n), w)
                     .map_or(-1.0, |(_, _, t)| t)
             })
@@ -81,14 +89,16 @@ impl VertexDiagram {
         })
     }
 
-    /// The regions of `u` and `v` and `t` of Eq. 6 where the diagram says a surface passes.
-    pub fn lookup(&self, u: f32, v: f32) -> Option<(i32, i32, f32)> {
+    /// The regions of `u` and `v` and `t` of Eq. 6 where the diagram says a surface passes
+    /// between samples whose lattice points differ on `axes` axes (1 to 3).
+    pub fn lookup(&self, u: f32, v: f32, axes: usize) -> Option<(i32, i32, f32)> {
         let index = |x: f32| {
             let a = (x / self.seg.period() * self.levels as f32).floor();
             (a >= 0.0 && (a as usize) < self.n).then_some(a as usize)
         };
         let (a, b) = (index(u)?, index(v)?);
-        let t = self.t[a + self.n * b];
+        let layer = axes.clamp(1, 3) - 1;
+        let t = self.t[a + self.n * (b + self.n * layer)];
         (t >= 0.0).then(|| ((a / self.levels) as i32, (b / self.levels) as i32, t))
     }
 }
@@ -139,8 +149,12 @@ impl<'g> SegmentedCaster<'g> {
                     .map(|(r, _)| r)
                     .max()
                     .unwrap_or(0);
-                let w = 3f32.sqrt() * grid.spacing();
-                Some(VertexDiagram::new(&seg, top as usize + 1, levels, w)?)
+                Some(VertexDiagram::new(
+                    &seg,
+                    top as usize + 1,
+                    levels,
+                    grid.spacing(),
+                )?)
             }
             None => None,
         };
@@ -177,7 +191,10 @@ impl<'g> SegmentedCaster<'g> {
             if cv != cu {
                 let (pu, pv) = (self.point(cu), self.point(cv));
                 let crossing = match &self.diagram {
-                    Some(dia) => dia.lookup(u, v),
+                    Some(dia) => {
+                        let axes = (cv - cu).abs().cmpgt(IVec3::ZERO).bitmask().count_ones();
+                        dia.lookup(u, v, axes as usize)
+                    }
                     None => self.seg.crossing(u, v, pu.distance(pv)),
                 };
                 if let Some((i, j, s)) = crossing {
@@ -432,22 +449,32 @@ mod tests {
                 "diagram at {levels} levels per period: {masks} hit masks and {pairs} pairs differ from Eq. 5-7, depth within {dz:.4} spacing"
             );
             assert!(masks <= 4 && pairs <= 4, "{masks} {pairs}");
-            // Measured: 0.13, 0.030, 0.0077 spacing (the entries are D / levels apart).
+            // Measured: 0.13, 0.036, 0.0091 spacing (the entries are D / levels apart).
             assert!(dz < 16.0 / levels as f32, "{dz}");
         }
         // Look-ups at the entries' own values are Eq. 5–7's answers.
-        let w = 3f32.sqrt() * g.spacing();
-        let dia = VertexDiagram::new(&seg, 3, 64, w).unwrap();
+        let h = g.spacing();
+        let dia = VertexDiagram::new(&seg, 3, 64, h).unwrap();
         let value = |a: usize| (a as f32 + 0.5) * seg.period() / 64.0;
-        for (a, b) in [(3, 64 + 2), (10, 130), (5, 6), (70, 140), (63, 64)] {
-            assert_eq!(
-                dia.lookup(value(a), value(b)),
-                seg.crossing(value(a), value(b), w),
-                "{a} {b}"
-            );
+        for axes in 1..=3 {
+            let w = (axes as f32).sqrt() * h + seg.period() / 64.0;
+            for (a, b) in [
+                (3, 64 + 2),
+                (10, 130),
+                (5, 6),
+                (70, 140),
+                (63, 64),
+                (12, 75),
+            ] {
+                assert_eq!(
+                    dia.lookup(value(a), value(b), axes),
+                    seg.crossing(value(a), value(b), w),
+                    "{a} {b} {axes}"
+                );
+            }
         }
-        assert_eq!(dia.lookup(-1.0, 0.1), None);
-        assert!(VertexDiagram::new(&seg, 3, 1, w).is_err());
-        assert!(VertexDiagram::new(&seg, 4096, 4096, w).is_err());
+        assert_eq!(dia.lookup(-1.0, 0.1, 1), None);
+        assert!(VertexDiagram::new(&seg, 3, 1, h).is_err());
+        assert!(VertexDiagram::new(&seg, 4096, 4096, h).is_err());
     }
 }

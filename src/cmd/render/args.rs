@@ -22,8 +22,9 @@ pub enum RenderMode {
 /// Arguments of `isokit render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// A scene file (.json, .toml), a volume (.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz) or a
-    /// tetrahedral grid (.vtk .vtu: ray cast through its cells, on the CPU).
+    /// A scene file (.json, .toml), a volume (.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz), a
+    /// tetrahedral grid (.vtk .vtu: ray cast through its cells) or, with --segmented, surface
+    /// patches (.ply).
     pub input: PathBuf,
     /// Tetrahedral grids: the point array (default: the first with one component).
     #[arg(long)]
@@ -115,6 +116,8 @@ pub struct Args {
     pub volume: crate::cmd::volume_args::VolumeIn,
     #[command(flatten)]
     pub lattice: crate::cmd::lattice_args::LatticeArgs,
+    #[command(flatten)]
+    pub segmented: super::segmented::SegmentedArgs,
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,

@@ -3,10 +3,12 @@
 //! file it references changes. `--csg OP --with B.nrrd` combines two volumes per sample
 //! (Sigg 2006, Sec. 6.4.3); `--clip SCENE|VOLUME` cuts a volume open (`volume.rs`). `--mode dvr` renders a volume with a transfer function
 //! (`dvr.rs`); tetrahedral grids are ray cast through their cells (`tets.rs`, `tets_dvr.rs`);
-//! volumes on a spherical lattice are rendered without resampling (`spherical.rs`).
+//! volumes on a spherical lattice are rendered without resampling (`spherical.rs`); surface
+//! patches with regions through their segmented distance field (`segmented.rs`).
 
 mod args;
 mod dvr;
+mod segmented;
 mod spherical;
 mod summary;
 mod tets;
@@ -35,6 +37,9 @@ pub fn run(a: Args) -> Result<()> {
     let (width, height) = check_image_size(a.width, a.height)?;
     if super::tets::is_tets(&a.input) {
         return tets::run(&a, width, height);
+    }
+    if a.segmented.segmented {
+        return segmented::run(&a, width, height);
     }
     if let Some(lattice) = a.lattice.spherical(&a.input)? {
         return spherical::run(&a, width, height, lattice);

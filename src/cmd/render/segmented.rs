@@ -1,0 +1,153 @@
+//! `isokit render PATCHES.ply --segmented -o image.png`: the surfaces between the regions of
+//! surface patches (a PLY whose faces carry `region_front` and `region_back`), ray cast in
+//! their segmented distance field (003 Sec. 4, `isokit_render::segmented`), each region
+//! pair in a colour of its own; `--gbuffer` adds the channels `region_a` and `region_b`.
+
+use super::Args;
+use anyhow::{Result, bail};
+use isokit_levelset::segmented::renumber;
+use isokit_render::segmented::SegmentedCaster;
+use isokit_render::{Shading, camera_uniforms, shade};
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// The flags of `isokit render --segmented`.
+#[derive(clap::Args, Debug)]
+pub struct SegmentedArgs {
+    /// The input is a PLY of surface patches with the face properties `region_front` and
+    /// `region_back`: render the surfaces between the regions (junctions, boundaries) from
+    /// their segmented distance field, sampled at --res (default 64).
+    #[arg(long)]
+    pub segmented: bool,
+    /// --segmented: find the surface through 003's vertex generation diagram, a table of
+    /// this many entries per region period, instead of evaluating 003 Eq. 5–7 per step.
+    #[arg(long, requires = "segmented")]
+    pub diagram: Option<usize>,
+}
+
+/// Linear RGB tints of the region pairs, in the order of the pairs.
+const TINTS: [[f32; 3]; 8] = [
+    [0.90, 0.35, 0.25],
+    [0.25, 0.55, 0.90],
+    [0.35, 0.80, 0.35],
+    [0.95, 0.80, 0.25],
+    [0.70, 0.40, 0.85],
+    [0.25, 0.80, 0.80],
+    [0.95, 0.55, 0.75],
+    [0.60, 0.60, 0.60],
+];
+
+/// Renders `a.input` (surface patches) as `--segmented` says.
+pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
+    a.refuse_dvr_flags_except(&[])?;
+    let extra = [
+        (a.iso.is_some(), "--iso (the surfaces lie between regions)"),
+        (a.array.is_some(), "--array"),
+        (
+            a.backend == crate::cmd::args::Backend::Gpu,
+            "--backend gpu (no GPU twin yet)",
+        ),
+    ];
+    // --res is the patches' sampling here.
+    let one_ray = super::tets::one_ray_flags(a)?;
+    for &(given, flag) in one_ray.iter().filter(|f| f.1 != "--res").chain(&extra) {
+        if given {
+            bail!(
+                "{flag} is not available for --segmented (rendered on the CPU, one ray per pixel)"
+            );
+        }
+    }
+    let mode = super::tets::shading_without_curvature(
+        a,
+        "the surfaces between regions are found without curvature",
+    )?;
+    let t = Instant::now();
+    let (mut grid, seg) = crate::cmd::labels::sample_patches(&a.input, a.res)?;
+    // 003's step 6: dense indices, so the diagram spans no unused region.
+    let old = renumber(&mut grid, &seg)?;
+    let prepare = t.elapsed().as_secs_f64();
+    let caster = SegmentedCaster::new(&grid, seg, a.segmented.diagram)?;
+    let camera = a.camera.camera_for(grid.bounds(), width, height)?;
+    let u = camera_uniforms(&camera)?;
+    let t = Instant::now();
+    let img = caster.render(&u, &crate::cmd::progress::job())?;
+    let trace = t.elapsed().as_secs_f64();
+    // The pairs in the patches' own numbering, each with its pixels.
+    let pairs: Vec<Option<[i32; 2]>> = img
+        .pairs
+        .iter()
+        .map(|p| p.map(|[x, y]| [old[x as usize], old[y as usize]]))
+        .collect();
+    let mut counts: BTreeMap<[i32; 2], usize> = BTreeMap::new();
+    for p in pairs.iter().flatten() {
+        *counts.entry(*p).or_default() += 1;
+    }
+    let tint: BTreeMap<[i32; 2], [f32; 3]> = counts
+        .keys()
+        .enumerate()
+        .map(|(i, p)| (*p, TINTS[i % TINTS.len()]))
+        .collect();
+    let sh = Shading {
+        mode,
+        ..Shading::default()
+    };
+    let mut image = shade(&img.gbuffer, &u, &sh)?;
+    for (px, pair) in image.pixels.iter_mut().zip(&pairs) {
+        if let Some(c) = pair.and_then(|p| tint.get(&p)) {
+            for k in 0..3 {
+                px[k] *= c[k];
+            }
+        }
+    }
+    image.write_png(&a.output)?;
+    if let Some(g) = &a.gbuffer {
+        let side = |k: usize| -> Vec<f32> {
+            pairs
+                .iter()
+                .map(|p| p.map_or(-1.0, |p| p[k] as f32))
+                .collect()
+        };
+        let (ra, rb) = (side(0), side(1));
+        img.gbuffer
+            .write_exr_with_channels(g, &camera, &[("region_a", &ra), ("region_b", &rb)])?;
+    }
+    let hits: usize = counts.values().sum();
+    let samples: u64 = img.gbuffer.samples().iter().map(|&s| u64::from(s)).sum();
+    let per_ray = samples as f64 / f64::from(width * height);
+    let d = grid.dims();
+    let how = a.segmented.diagram.map_or("003 Eq. 5-7".to_owned(), |n| {
+        format!("the vertex generation diagram, {n} levels per period")
+    });
+    let list: Vec<String> = counts
+        .iter()
+        .map(|(p, n)| format!("{}|{}: {n} pixels", p[0], p[1]))
+        .collect();
+    eprintln!(
+        "segmented distance on {} x {} x {} samples ({} regions), ray cast by {how} (cpu), {width}x{height}: {hits} surface pixels, {per_ray:.1} samples/ray; sample {prepare:.2} s, trace {trace:.3} s -> {}\n  {}",
+        d[0],
+        d[1],
+        d[2],
+        old.len(),
+        a.output.display(),
+        list.join("\n  ")
+    );
+    if a.stats {
+        let v = json!({
+            "device": "cpu",
+            "dims": d,
+            "regions": old,
+            "pairs": counts.iter().map(|(p, n)| json!({"regions": p, "pixels": n})).collect::<Vec<_>>(),
+            "hits": hits,
+            "samples_per_ray": per_ray,
+            "diagram": a.segmented.diagram,
+            "prepare_seconds": prepare,
+            "trace_seconds": trace,
+            "width": width,
+            "height": height,
+            "output": a.output.display().to_string(),
+        });
+        println!("{v}");
+    }
+    Ok(())
+}
