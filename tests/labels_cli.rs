@@ -366,12 +366,43 @@ fn segmented_patches_render_each_surface_with_its_region_pair() {
         assert!(n.abs_diff(m) <= n / 8, "{k:?}: {n} {m}");
     }
     let t = tee.to_str().unwrap();
+    // The GPU twin, where an adapter exists: the same pairs on the same pixels.
+    let gpu = isokit_gpu::testing::gpu_or_skip("segmented_patches_render (the gpu twin)");
+    if gpu.is_some() {
+        let mut pairs = Vec::new();
+        for backend in ["cpu", "gpu"] {
+            isokit_ok(&[
+                "render",
+                t,
+                "--segmented",
+                "--res",
+                "40",
+                "--width",
+                "96",
+                "--height",
+                "72",
+                "--eye",
+                "2.5,-3,2.5",
+                "-o",
+                png.to_str().unwrap(),
+                "--gbuffer",
+                exr.to_str().unwrap(),
+                "--backend",
+                backend,
+                "-q",
+            ]);
+            let e = isokit::io::read_exr(&exr).unwrap();
+            let ch = |n: &str| e.channel(n).unwrap().to_vec();
+            pairs.push((ch("region_a"), ch("region_b")));
+        }
+        assert!(pairs[0] == pairs[1], "the twins' region pairs differ");
+        assert!(pairs[0].0.iter().any(|&a| a >= 0.0));
+    }
     for (extra, needle) in [
         (
             &["--iso", "0"][..],
             "--iso (the surfaces lie between regions)",
         ),
-        (&["--backend", "gpu"], "no GPU twin yet"),
         (&["--shading", "curvature"], "without curvature"),
         (&["--diagram", "1"], "vertex generation diagram"),
     ] {

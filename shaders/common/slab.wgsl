@@ -1,6 +1,6 @@
 // Where a ray meets an axis-aligned box, in f32 without infinities or NaN (WGSL gives them no
-// defined meaning): a piece of dvr.wgsl (the volume's box, empty blocks) and tets.wgsl (the
-// boxes of the boundary faces' hierarchy). Needs nothing from its kernel.
+// defined meaning): a piece of dvr.wgsl (the volume's box, empty blocks), tets.wgsl (the
+// boxes of the boundary faces' hierarchy) and segmented.wgsl. Needs nothing from its kernel.
 // CPU twin: crates/isokit-render/src/dvr/mod.rs (slab).
 
 // slab: where a ray enters and leaves a box; x > y when it misses.

@@ -48,6 +48,10 @@ pub const DVR: &str = include_str!("../dvr.wgsl");
 /// through its cells, one ray per invocation (entry points `tet_iso`, `tet_dvr`).
 pub const TETS: &str = include_str!("../tets.wgsl");
 
+/// `segmented.wgsl`: ray casting the surfaces between the regions of a segmented distance
+/// field, one ray per invocation (entry point `segmented`).
+pub const SEGMENTED: &str = include_str!("../segmented.wgsl");
+
 /// `prism_scan.wgsl`: prism scan conversion of one slab of slices (entry point `scan`).
 pub const PRISM_SCAN: &str = include_str!("../prism_scan.wgsl");
 
@@ -77,7 +81,7 @@ pub mod common {
     pub const TRANSFER: &str = include_str!("../common/transfer.wgsl");
 
     /// `common/slab.wgsl`: where a ray meets an axis-aligned box (`slab`, `safe_inv`),
-    /// used by `dvr.wgsl` and `tets.wgsl`.
+    /// used by `dvr.wgsl`, `tets.wgsl` and `segmented.wgsl`.
     pub const SLAB: &str = include_str!("../common/slab.wgsl");
 
     /// `common/prism.wgsl`: `struct Prism`, the distance to a triangle in its local frame, row
@@ -96,6 +100,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("splat_shade.wgsl", SPLAT_SHADE),
     ("dvr.wgsl", DVR),
     ("tets.wgsl", TETS),
+    ("segmented.wgsl", SEGMENTED),
     ("prism_scan.wgsl", PRISM_SCAN),
     ("common/curvature.wgsl", common::CURVATURE),
     ("common/bspline.wgsl", common::BSPLINE),

@@ -8,7 +8,8 @@
 //! (`crates/isokit-render/src/`): `raycast/gpu.rs` (`raycast.wgsl`; CPU twin
 //! `raycast/cpu.rs`, public as [`crate::kernel`]), `shade/gpu.rs` (`shade.wgsl`;
 //! `shade/cpu.rs`), `flow/gpu.rs` (`flow.wgsl`; `flow/cpu.rs`), `dvr/gpu.rs` (`dvr.wgsl`;
-//! `dvr/mod.rs`), `tets/gpu.rs` (`tets.wgsl`; `tets/mod.rs`, `tets/dvr.rs`), `splat/gpu.rs`
+//! `dvr/mod.rs`), `tets/gpu.rs` (`tets.wgsl`; `tets/mod.rs`, `tets/dvr.rs`),
+//! `segmented/gpu.rs` (`segmented.wgsl`; `segmented/mod.rs`), `splat/gpu.rs`
 //! (`splat.wgsl`, `splat_shade.wgsl`; `splat/cpu.rs`). This module holds what they share:
 //! the device and its pipelines ([`GpuRenderer`]), the constants generated from Rust, the
 //! backend choice ([`select_backend`]).
@@ -63,6 +64,7 @@
 
 pub use crate::flow::gpu::flow_shader;
 pub use crate::raycast::gpu::raycast_shader;
+pub use crate::segmented::gpu::segmented_shader;
 pub use crate::shade::gpu::shade_shader;
 /// The GPU twin of quadric splatting (the same module as [`crate::splat::gpu`]).
 pub use crate::splat::gpu as splat;
@@ -203,6 +205,9 @@ pub struct GpuRenderer {
     /// Volume rendering through a tetrahedral grid's cells, `tets.wgsl`'s `tet_dvr`,
     /// compiled on first use.
     pub(crate) tet_dvr: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The surfaces of a segmented field, `segmented.wgsl` (host code in
+    /// `segmented/gpu.rs`), compiled on first use.
+    pub(crate) segmented: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 impl GpuRenderer {
@@ -229,6 +234,7 @@ impl GpuRenderer {
             spherical_iso: std::sync::OnceLock::new(),
             tet_iso: std::sync::OnceLock::new(),
             tet_dvr: std::sync::OnceLock::new(),
+            segmented: std::sync::OnceLock::new(),
         })
     }
 
@@ -314,6 +320,7 @@ pub(crate) fn every_shader() -> Vec<ShaderSource> {
         splat::splat_shade_shader(),
         crate::dvr::gpu::dvr_shader(),
         crate::tets::gpu::tets_shader(),
+        crate::segmented::gpu::segmented_shader(),
     ]
 }
 

@@ -1,7 +1,8 @@
 //! `isokit render PATCHES.ply --segmented -o image.png`: the surfaces between the regions of
 //! surface patches (a PLY whose faces carry `region_front` and `region_back`), ray cast in
 //! their segmented distance field (003 Sec. 4, `isokit_render::segmented`), each region
-//! pair in a colour of its own; `--gbuffer` adds the channels `region_a` and `region_b`.
+//! pair in a colour of its own, on the GPU twin or the CPU's as `--backend` says;
+//! `--gbuffer` adds the channels `region_a` and `region_b`.
 
 use super::Args;
 use anyhow::{Result, bail};
@@ -44,10 +45,6 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let extra = [
         (a.iso.is_some(), "--iso (the surfaces lie between regions)"),
         (a.array.is_some(), "--array"),
-        (
-            a.backend == crate::cmd::args::Backend::Gpu,
-            "--backend gpu (no GPU twin yet)",
-        ),
     ];
     // --res is the patches' sampling here.
     let one_ray = super::tets::one_ray_flags(a)?;
@@ -70,8 +67,13 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let caster = SegmentedCaster::new(&grid, seg, a.segmented.diagram)?;
     let camera = a.camera.camera_for(grid.bounds(), width, height)?;
     let u = camera_uniforms(&camera)?;
+    let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
+    let backend = renderer.backend();
     let t = Instant::now();
-    let img = caster.render(&u, &crate::cmd::progress::job())?;
+    let img = match renderer.gpu() {
+        Some(gpu) => gpu.render_segmented(&caster, &u)?,
+        None => caster.render(&u, &crate::cmd::progress::job())?,
+    };
     let trace = t.elapsed().as_secs_f64();
     // The pairs in the patches' own numbering, each with its pixels.
     let pairs: Vec<Option<[i32; 2]>> = img
@@ -124,7 +126,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         .map(|(p, n)| format!("{}|{}: {n} pixels", p[0], p[1]))
         .collect();
     eprintln!(
-        "segmented distance on {} x {} x {} samples ({} regions), ray cast by {how} (cpu), {width}x{height}: {hits} surface pixels, {per_ray:.1} samples/ray; sample {prepare:.2} s, trace {trace:.3} s -> {}\n  {}",
+        "segmented distance on {} x {} x {} samples ({} regions), ray cast by {how} ({backend}), {width}x{height}: {hits} surface pixels, {per_ray:.1} samples/ray; sample {prepare:.2} s, trace {trace:.3} s -> {}\n  {}",
         d[0],
         d[1],
         d[2],
@@ -134,7 +136,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     );
     if a.stats {
         let v = json!({
-            "device": "cpu",
+            "device": backend,
             "dims": d,
             "regions": old,
             "pairs": counts.iter().map(|(p, n)| json!({"regions": p, "pixels": n})).collect::<Vec<_>>(),

@@ -1,0 +1,163 @@
+//! The host code of `shaders/segmented.wgsl`: the GPU twin of ray casting a segmented
+//! distance field ([`GpuRenderer::render_segmented`]; CPU twin [`SegmentedCaster::render`]).
+//!
+//! The field goes up as a storage buffer of f32 (x fastest), the vertex generation diagram
+//! (when the caster uses it) as its three layers of `t`, the rays (one origin and unit
+//! direction per pixel) as the CPU twin makes them. Both twins compute in f32 in the same
+//! order, so they differ only where the GPU's compiler fuses multiply-adds or rounds a
+//! division differently.
+
+use super::{SegmentedCaster, SegmentedImage};
+use crate::gpu::{GpuRenderer, WORKGROUP, check_fits, dispatch_grid, scoped};
+use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
+use crate::{GBuffer, RenderError};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use isokit_gpu::{ShaderSource, wgpu};
+
+/// `SegParams` in `segmented.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub(crate) struct SegParams {
+    pub(crate) dims: [u32; 3],
+    pub(crate) count: u32,
+    pub(crate) origin: [f32; 3],
+    pub(crate) spacing: f32,
+    pub(crate) delta: f32,
+    pub(crate) period: f32,
+    pub(crate) diagram: u32,
+    pub(crate) levels: u32,
+    pub(crate) n: u32,
+    pub(crate) stride: u32,
+    pub(crate) pad0: u32,
+    pub(crate) pad1: u32,
+}
+
+isokit_gpu::wgsl_layout!(SegParams {
+    dims: "vec3<u32>",
+    count: "u32",
+    origin: "vec3<f32>",
+    spacing: "f32",
+    delta: "f32",
+    period: "f32",
+    diagram: "u32",
+    levels: "u32",
+    n: "u32",
+    stride: "u32",
+    pad0: "u32",
+    pad1: "u32",
+});
+
+/// The segmented ray caster's kernel, assembled: `WORKGROUP` from Rust,
+/// `common/slab.wgsl`, `segmented.wgsl` (entry point `segmented`).
+pub fn segmented_shader() -> ShaderSource {
+    ShaderSource::new("segmented")
+        .constant_u32("WORKGROUP", WORKGROUP)
+        .piece(isokit_shaders::common::SLAB)
+        .piece(isokit_shaders::SEGMENTED)
+}
+
+impl GpuRenderer {
+    /// [`SegmentedCaster::render`] on the GPU: the same G-buffer and region pairs to f32
+    /// rounding.
+    pub fn render_segmented(
+        &self,
+        caster: &SegmentedCaster<'_>,
+        u: &Uniforms,
+    ) -> Result<SegmentedImage, RenderError> {
+        let (w, h) = crate::check_image_size(u64::from(u.width), u64::from(u.height))?;
+        let gpu = &self.gpu;
+        let grid = caster.grid;
+        let count = (w * h) as usize;
+        check_fits(gpu, "the segmented field", 4 * grid.data().len() as u64)?;
+        check_fits(gpu, "the rays", 32 * count as u64)?;
+        check_fits(gpu, "the output", 48 * count as u64)?;
+        let rays: Vec<(Vec3, Vec3)> = (0..w * h)
+            .map(|pix| {
+                let (o, d) = pixel_ray(u, pix % w, pix / w);
+                (o, d.normalize_or_zero())
+            })
+            .collect();
+        let ray_data: Vec<[f32; 4]> = rays
+            .iter()
+            .flat_map(|(o, d)| [o.extend(0.0).to_array(), d.extend(0.0).to_array()])
+            .collect();
+        let (groups, stride) = dispatch_grid(gpu, count);
+        let (table, levels, n): (&[f32], usize, usize) = match &caster.diagram {
+            Some(d) => (&d.t, d.levels, d.n),
+            None => (&[-1.0], 2, 1),
+        };
+        check_fits(gpu, "the vertex generation diagram", 4 * table.len() as u64)?;
+        let params = SegParams {
+            dims: grid.dims().map(|d| d as u32),
+            count: count as u32,
+            origin: grid.origin().to_array(),
+            spacing: grid.spacing(),
+            delta: caster.seg.delta(),
+            period: caster.seg.period(),
+            diagram: u32::from(caster.diagram.is_some()),
+            levels: levels as u32,
+            n: n as u32,
+            stride,
+            ..SegParams::default()
+        };
+        let pipeline = match self.segmented.get() {
+            Some(pl) => pl,
+            None => {
+                let s = segmented_shader();
+                let pl = gpu.compute_pipeline(s.label(), s.text(), "segmented")?;
+                self.segmented.get_or_init(|| pl)
+            }
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let (_inputs, out, bind) = scoped(gpu, "allocating the segmented buffers", || {
+            let inputs = [
+                gpu.upload("segmented params", &[params], wgpu::BufferUsages::UNIFORM),
+                gpu.upload("segmented field", grid.data(), storage),
+                gpu.upload("segmented diagram", table, storage),
+                gpu.upload("segmented rays", &ray_data, storage),
+            ];
+            let out = gpu.buffer("segmented output", 48 * count as u64, storage);
+            let [a, b, c, d] = &inputs;
+            let bind = gpu.bind_buffers("segmented", pipeline, &[a, b, c, d, &out]);
+            (inputs, out, bind)
+        })?;
+        gpu.dispatch("segmented", pipeline, &bind, groups)?;
+        let out: Vec<[f32; 4]> = gpu.read_buffer(&out, 0, 3 * count)?;
+        let mut pixels = Vec::with_capacity(count);
+        let (mut samples, mut pairs) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        for (r, (o, d)) in out.chunks_exact(3).zip(&rays) {
+            samples.push(r[0][2] as u32);
+            if r[0][1] > 0.5 {
+                let normal = Vec3::new(r[1][0], r[1][1], r[1][2]);
+                let (a, b) = (r[2][0] as i32, r[2][1] as i32);
+                pixels.push(GSample {
+                    position: *o + r[0][0] * *d,
+                    depth: r[0][0],
+                    normal,
+                    dir1: normal.any_orthonormal_vector(),
+                    id: ID_SURFACE,
+                    ..GSample::default()
+                });
+                pairs.push(Some([a.min(b), a.max(b)]));
+            } else {
+                pixels.push(GSample::default());
+                pairs.push(None);
+            }
+        }
+        Ok(SegmentedImage {
+            gbuffer: GBuffer::new(w, h, pixels, samples),
+            pairs,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seg_params_match_their_wgsl_twin_member_by_member() {
+        crate::gpu::check_layout_everywhere::<SegParams>();
+    }
+}
