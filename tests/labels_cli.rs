@@ -415,3 +415,217 @@ fn segmented_patches_render_each_surface_with_its_region_pair() {
         "--segmented",
     );
 }
+
+/// Two triangles over x, y in [-1, 1] on the plane z = s x, region 1 below and 2 above.
+fn write_tilted(path: &Path, s: f32) {
+    let corners = [[-1.0f32, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+    let mut t = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nproperty int region_front\nproperty int region_back\nend_header\n",
+    );
+    for [x, y] in corners {
+        t += &format!("{x} {y} {}\n", s * x);
+    }
+    t += "3 0 1 2 2 1\n3 0 2 3 2 1\n";
+    std::fs::write(path, t).unwrap();
+}
+
+#[test]
+fn segmented_fields_are_written_read_and_morphed() {
+    let d = scratch("segmented-files");
+    let p = |n: &str| d.join(n).to_str().unwrap().to_owned();
+    write_tilted(&d.join("a.ply"), 0.3);
+    write_tilted(&d.join("b.ply"), -0.3);
+    // The same box, so the same lattice; δ of 8 spacings, more than the planes are apart.
+    for n in ["a", "b"] {
+        isokit_ok(&[
+            "sdf",
+            &p(&format!("{n}.ply")),
+            "--segmented",
+            "--res",
+            "40",
+            "--seg-delta",
+            "8",
+            "--seg-period",
+            "16",
+            "-o",
+            &p(&format!("{n}.nrrd")),
+        ]);
+    }
+    // Read back: the same surface as sampling the patches directly.
+    isokit_ok(&["mesh", &p("a.nrrd"), "--segmented", "-o", &p("a_file.ply")]);
+    isokit_ok(&[
+        "mesh",
+        &p("a.ply"),
+        "--segmented",
+        "--res",
+        "40",
+        "--seg-delta",
+        "8",
+        "--seg-period",
+        "16",
+        "-o",
+        &p("a_direct.ply"),
+    ]);
+    assert_eq!(areas(&d.join("a_file.ply")), areas(&d.join("a_direct.ply")));
+    // Halfway between z = 0.3 x and z = -0.3 x: the plane z = 0 (003 Sec. 5.2, the blend of
+    // the signed distances to the two planes), in the mesh and in the rendering.
+    isokit_ok(&[
+        "mesh",
+        &p("a.nrrd"),
+        "--segmented",
+        "--seg-morph",
+        &p("b.nrrd"),
+        "-o",
+        &p("half.ply"),
+    ]);
+    let m = isokit_io::read_mesh(&d.join("half.ply")).unwrap();
+    let inner: Vec<f32> = m
+        .positions
+        .iter()
+        .filter(|v| v.x.abs().max(v.y.abs()) < 0.8)
+        .map(|v| v.z.abs())
+        .collect();
+    let worst = inner.iter().copied().fold(0.0f32, f32::max);
+    eprintln!(
+        "morph: {} inner vertices, worst |z| {worst:.2e}",
+        inner.len()
+    );
+    assert!(inner.len() > 500 && worst < 1e-3, "{worst}");
+    isokit_ok(&[
+        "render",
+        &p("a.nrrd"),
+        "--segmented",
+        "--seg-morph",
+        &p("b.nrrd"),
+        "--seg-morph-t",
+        "0.5",
+        "--eye",
+        "1.5,-2.5,2.5",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "-o",
+        &p("half.png"),
+        "--gbuffer",
+        &p("half.exr"),
+    ]);
+    let e = isokit::io::read_exr(&d.join("half.exr")).unwrap();
+    let ch = |n: &str| e.channel(n).unwrap().to_vec();
+    let (ra, px, py, pz) = (ch("region_a"), ch("P.X"), ch("P.Y"), ch("P.Z"));
+    let (mut n, mut worst) = (0, 0.0f32);
+    for i in 0..ra.len() {
+        if ra[i] >= 0.0 && px[i].abs().max(py[i].abs()) < 0.8 {
+            n += 1;
+            worst = worst.max(pz[i].abs());
+        }
+    }
+    eprintln!("morph rendered: {n} inner hits, worst |z| {worst:.2e}");
+    assert!(n > 500 && worst < 1e-3, "{n} {worst}");
+    // What does not go together is refused.
+    isokit_ok(&[
+        "sdf",
+        &p("b.ply"),
+        "--segmented",
+        "--res",
+        "40",
+        "-o",
+        &p("c.nrrd"),
+    ]);
+    for (args, needle) in [
+        (
+            vec![
+                "mesh",
+                &p("a.nrrd"),
+                "--segmented",
+                "--seg-morph",
+                &p("c.nrrd"),
+                "-o",
+                &p("x.ply"),
+            ],
+            "differ from the input's",
+        ),
+        (
+            vec![
+                "mesh",
+                &p("a.nrrd"),
+                "--segmented",
+                "--seg-morph-t",
+                "0.3",
+                "-o",
+                &p("x.ply"),
+            ],
+            "--seg-morph-t needs --seg-morph",
+        ),
+        (
+            vec![
+                "mesh",
+                &p("a.nrrd"),
+                "--segmented",
+                "--seg-delta",
+                "3",
+                "-o",
+                &p("x.ply"),
+            ],
+            "--seg-delta applies to surface patches",
+        ),
+        (
+            vec!["mesh", &p("a.nrrd"), "--seg-delta", "3", "-o", &p("x.ply")],
+            "--seg-delta applies to --segmented",
+        ),
+        (
+            vec!["sdf", &p("a.nrrd"), "--segmented", "-o", &p("x.nrrd")],
+            "a PLY whose faces carry region_front",
+        ),
+        (
+            vec![
+                "sdf",
+                &p("a.ply"),
+                "--segmented",
+                "--seg-delta",
+                "9",
+                "-o",
+                &p("x.nrrd"),
+            ],
+            "needs 0 < delta < period",
+        ),
+        (
+            vec!["sdf", &p("a.ply"), "--segmented", "-o", &p("x.npy")],
+            "use one of .nrrd",
+        ),
+        (
+            vec![
+                "sdf",
+                &p("a.ply"),
+                "--segmented",
+                "--band",
+                "0.1",
+                "-o",
+                &p("x.nrrd"),
+            ],
+            "--band does not apply to --segmented",
+        ),
+    ] {
+        assert_clear_error(&isokit(&args), needle);
+    }
+    // A plain volume is not a segmented field.
+    let plain = d.join("plain.nrrd");
+    let g = Grid::new([4, 4, 4], Vec3::ZERO, 0.5).unwrap();
+    isokit_io::write_nrrd(
+        &plain,
+        &isokit_io::Volume::from(g),
+        isokit_io::NrrdEncoding::Raw,
+    )
+    .unwrap();
+    assert_clear_error(
+        &isokit(&[
+            "render",
+            plain.to_str().unwrap(),
+            "--segmented",
+            "-o",
+            &p("x.png"),
+        ]),
+        "not a segmented field",
+    );
+    assert!(!d.join("x.png").exists() && !d.join("x.ply").exists() && !d.join("x.nrrd").exists());
+}

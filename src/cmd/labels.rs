@@ -7,8 +7,7 @@
 use super::mesh::{Args, Inside};
 use anyhow::{Context, Result, bail};
 use isokit_levelset::labels::{LabelMesh, LabelOptions, label_surface_spaced};
-use isokit_levelset::segmented::{Segmentation, mesh_segmented};
-use isokit_scene::segmented::Patches;
+use isokit_levelset::segmented::mesh_segmented;
 use std::time::Instant;
 
 /// Refuses the flags that do not apply to meshing regions (`what`: `--labels` or
@@ -75,48 +74,6 @@ fn report(a: &Args, m: &LabelMesh, secs: f64, how: &str) -> Result<()> {
     Ok(())
 }
 
-/// The segmented distance field (003 Eq. 4, `δ` 4 and `D` 8 spacings) of the surface
-/// patches in the PLY at `path` (faces with `region_front` and `region_back`), sampled at
-/// `res` (default 64) along the longest side of their box padded by 10% of its diagonal;
-/// regions that meet where no patch separates them are merged, with a note.
-pub fn sample_patches(
-    path: &std::path::Path,
-    res: Option<usize>,
-) -> Result<(isokit_field::Grid, Segmentation)> {
-    let (mesh, props) =
-        isokit_io::read_ply_face_properties(path, &["region_front", "region_back"])?;
-    if mesh.triangles.is_empty() {
-        bail!("{}: the mesh has no triangles", path.display());
-    }
-    let regions = |name: &str, v: &[f64]| -> Result<Vec<i32>> {
-        v.iter()
-            .map(|&x| {
-                if x.fract() == 0.0 && (0.0..4096.0).contains(&x) {
-                    Ok(x as i32)
-                } else {
-                    bail!(
-                        "{}: {name} {x}: regions are whole numbers from 0 to 4095",
-                        path.display()
-                    )
-                }
-            })
-            .collect()
-    };
-    let front = regions("region_front", &props[0])?;
-    let back = regions("region_back", &props[1])?;
-    let mut grid = super::padded_grid(path, mesh.bounds(), res.unwrap_or(64), None)?;
-    let seg = Segmentation::for_spacing(grid.spacing())?;
-    let name = path.display().to_string();
-    let patches = Patches::new(&mesh, front, back, &name)?;
-    let merges = patches.sample(&mut grid, &seg, &super::progress::job())?;
-    for (from, into) in &merges {
-        eprintln!(
-            "note: region {from} meets region {into} where no patch separates them: merged into {into}"
-        );
-    }
-    Ok((grid, seg))
-}
-
 /// Meshes the patches in `a.field` through their segmented distance field.
 pub fn run_segmented(a: &Args) -> Result<()> {
     refuse(
@@ -129,7 +86,7 @@ pub fn run_segmented(a: &Args) -> Result<()> {
         ],
     )?;
     let t = Instant::now();
-    let (grid, seg) = sample_patches(&a.field, a.res)?;
+    let (grid, seg) = super::segmented_field::load(&a.field, a.res, &a.segmented_knobs)?;
     let job = super::progress::job();
     let m = mesh_segmented(&grid, &seg, &job)?;
     if m.mesh.triangles.is_empty() {

@@ -66,6 +66,8 @@ pub struct Args {
     #[arg(long)]
     pub res: Option<usize>,
     #[command(flatten)]
+    pub segmented_knobs: super::segmented_field::SegmentedKnobs,
+    #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
 }
 
@@ -86,6 +88,9 @@ pub fn run(a: Args) -> Result<()> {
     }
     if a.smooth.is_some() {
         bail!("--smooth applies to --labels");
+    }
+    if let Some((_, flag)) = a.segmented_knobs.given().into_iter().find(|g| g.0) {
+        bail!("{flag} applies to --segmented");
     }
     if a.res.is_some() {
         bail!("--res applies to --segmented");

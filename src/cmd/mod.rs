@@ -27,6 +27,7 @@ pub mod sample;
 pub mod sample_options;
 pub mod scene;
 pub mod sdf;
+pub mod segmented_field;
 pub mod tets;
 pub mod view;
 pub mod volume_args;

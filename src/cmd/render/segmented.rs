@@ -17,14 +17,16 @@ use std::time::Instant;
 #[derive(clap::Args, Debug)]
 pub struct SegmentedArgs {
     /// The input is a PLY of surface patches with the face properties `region_front` and
-    /// `region_back`: render the surfaces between the regions (junctions, boundaries) from
-    /// their segmented distance field, sampled at --res (default 64).
+    /// `region_back` (sampled at --res, default 64) or a segmented field (`isokit sdf
+    /// --segmented`): render the surfaces between the regions (junctions, boundaries).
     #[arg(long)]
     pub segmented: bool,
     /// --segmented: find the surface through 003's vertex generation diagram, a table of
     /// this many entries per region period, instead of evaluating 003 Eq. 5–7 per step.
     #[arg(long, requires = "segmented")]
     pub diagram: Option<usize>,
+    #[command(flatten)]
+    pub knobs: crate::cmd::segmented_field::SegmentedKnobs,
 }
 
 /// Linear RGB tints of the region pairs, in the order of the pairs.
@@ -60,7 +62,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         "the surfaces between regions are found without curvature",
     )?;
     let t = Instant::now();
-    let (mut grid, seg) = crate::cmd::labels::sample_patches(&a.input, a.res)?;
+    let (mut grid, seg) = crate::cmd::segmented_field::load(&a.input, a.res, &a.segmented.knobs)?;
     // 003's step 6: dense indices, so the diagram spans no unused region.
     let old = renumber(&mut grid, &seg)?;
     let prepare = t.elapsed().as_secs_f64();

@@ -43,7 +43,8 @@ pub enum Sides {
 #[derive(clap::Args, Debug)]
 #[command(after_help = crate::cmd::volume_args::LAYOUT)]
 pub struct Args {
-    /// Triangle mesh (.obj .gltf .glb .ply .stl .off).
+    /// Triangle mesh (.obj .gltf .glb .ply .stl .off), or with --segmented surface patches
+    /// (.ply).
     pub mesh: PathBuf,
     /// Output volume (.nrrd or .npy with its lattice sidecar .npy.json; see below).
     #[arg(short, long)]
@@ -79,6 +80,13 @@ pub struct Args {
     pub no_gap_repair: bool,
     #[command(flatten)]
     pub knobs: MeshKnobs,
+    /// The input is a PLY of surface patches whose faces carry `region_front` and
+    /// `region_back`: write their segmented distance field (003 Eq. 4) as an NRRD whose
+    /// header holds `field:=segmented`, `delta:=` and `period:=` (world units).
+    #[arg(long)]
+    pub segmented: bool,
+    #[command(flatten)]
+    pub segmented_knobs: crate::cmd::segmented_field::SegmentedKnobs,
 }
 
 impl Backend {

@@ -3,6 +3,7 @@
 //! conversion (CPU or GPU).
 
 mod args;
+mod segmented;
 
 pub use args::Args;
 use args::{Backend, Method};
@@ -17,6 +18,12 @@ use std::time::Instant;
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
+    if a.segmented {
+        return segmented::run(&a);
+    }
+    if let Some((_, flag)) = a.segmented_knobs.given().into_iter().find(|g| g.0) {
+        bail!("{flag} applies to --segmented");
+    }
     check_output(&a.output, &[".nrrd", ".npy"])?;
     if let Some(w) = a.band
         && !(w.is_finite() && w > 0.0)
