@@ -629,3 +629,108 @@ fn segmented_fields_are_written_read_and_morphed() {
     );
     assert!(!d.join("x.png").exists() && !d.join("x.ply").exists() && !d.join("x.nrrd").exists());
 }
+
+#[test]
+fn a_label_volume_becomes_a_segmented_field_to_render_and_mesh() {
+    let d = scratch("segmented-labels");
+    let vol = d.join("blocks.nrrd");
+    write_blocks(&vol, false);
+    let (v, png, exr) = (vol.to_str().unwrap(), d.join("b.png"), d.join("b.exr"));
+    // From above: the top faces of the three blocks, against region 0, at z = 3.25.
+    isokit_ok(&[
+        "render",
+        v,
+        "--segmented",
+        "--from-labels",
+        "--eye",
+        "2.8,2.2,12",
+        "--target",
+        "2.8,2.2,0",
+        "--up",
+        "0,1,0",
+        "--width",
+        "80",
+        "--height",
+        "80",
+        "-o",
+        png.to_str().unwrap(),
+        "--gbuffer",
+        exr.to_str().unwrap(),
+    ]);
+    let e = isokit::io::read_exr(&exr).unwrap();
+    let ch = |n: &str| e.channel(n).unwrap().to_vec();
+    let (ra, rb) = (ch("region_a"), ch("region_b"));
+    let (px, py, pz) = (ch("P.X"), ch("P.Y"), ch("P.Z"));
+    // The reference: the label interfaces as `isokit mesh --labels` makes them (relaxed
+    // 16 times, as --from-labels meshes them before sampling their distance).
+    let reference = d.join("ref.ply");
+    isokit_ok(&["mesh", v, "--labels", "-o", reference.to_str().unwrap()]);
+    let m = isokit_io::read_mesh(&reference).unwrap();
+    let sdf = isokit_kdtree::mesh::MeshSdf::new(&m, Default::default()).unwrap();
+    let mut stats = Default::default();
+    let (mut n, mut worst) = (0, 0.0f64);
+    for i in 0..ra.len() {
+        let (x, y) = (px[i], py[i]);
+        // Away from the top face's edges and from the junctions with the inner interfaces.
+        let inner = x > 1.0 && x < 4.5 && y > 1.0 && y < 3.5;
+        if ra[i] < 0.0 || !inner || (x - 2.25).abs() < 0.5 || (x > 2.25 && (y - 2.25).abs() < 0.5) {
+            continue;
+        }
+        n += 1;
+        let want = if x < 2.25 {
+            1.0
+        } else if y < 2.25 {
+            2.0
+        } else {
+            3.0
+        };
+        assert_eq!((ra[i], rb[i]), (0.0, want), "at ({x}, {y})");
+        let p = glam::DVec3::new(f64::from(x), f64::from(y), f64::from(pz[i]));
+        let off = sdf.query(p, &mut stats).unwrap().distance.abs() / 0.5;
+        worst = worst.max(off);
+    }
+    eprintln!("labels: {n} top-face hits, worst {worst:.3} spacing off the label surface");
+    assert!(n > 300 && worst < 0.1, "{n} {worst}");
+    // Meshed through the same field: the six interfaces, the three inside ones too.
+    let ply = d.join("b.ply");
+    let o = isokit_ok(&[
+        "mesh",
+        v,
+        "--segmented",
+        "--from-labels",
+        "-o",
+        ply.to_str().unwrap(),
+    ]);
+    let pairs: Vec<(i32, i32)> = areas(&ply).keys().copied().collect();
+    assert_eq!(
+        pairs,
+        vec![(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)],
+        "{o:?}"
+    );
+    // Labels that are not whole, and --from-labels on patches, are refused.
+    write_blocks(&vol, true);
+    assert_clear_error(
+        &isokit(&[
+            "render",
+            v,
+            "--segmented",
+            "--from-labels",
+            "-o",
+            png.to_str().unwrap(),
+        ]),
+        "whole labels from 0 to 4095",
+    );
+    let tee = d.join("tee.ply");
+    write_tee(&tee, true);
+    assert_clear_error(
+        &isokit(&[
+            "render",
+            tee.to_str().unwrap(),
+            "--segmented",
+            "--from-labels",
+            "-o",
+            png.to_str().unwrap(),
+        ]),
+        "not surface patches",
+    );
+}

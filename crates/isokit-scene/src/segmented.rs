@@ -15,8 +15,11 @@
 //!
 //! Regions that meet where no patch separates them (the outsides of a cube's faces when each
 //! face is given its own front region) are merged into the smallest of them, 003's steps
-//! 4–5 on the lattice ([`Patches::sample`]); its step 6 (renumbering from 0) is not done:
-//! the indices stay the caller's.
+//! 4–5 on the lattice ([`Patches::sample`]); its step 6 (renumbering from 0) is the caller's
+//! choice (`isokit_levelset::segmented::renumber`): the indices stay the caller's here.
+//!
+//! [`from_labels`] makes the field of a label volume (a segmented CT): its interfaces meshed
+//! by surface nets, then sampled as patches on the volume's own lattice.
 
 use crate::SceneError;
 use glam::{DVec3, Vec3};
@@ -24,7 +27,8 @@ use isokit_field::{Grid, Job, TriMesh};
 use isokit_kdtree::mesh::{MeshOptions, MeshSdf, SignMode};
 use isokit_kdtree::tree::QueryStats;
 use isokit_kdtree::triangle::unit_normal;
-use isokit_levelset::segmented::Segmentation;
+use isokit_levelset::labels::{LabelOptions, label_surface};
+use isokit_levelset::segmented::{MAX_REGIONS, Segmentation};
 use rayon::prelude::*;
 
 /// Surface patches: a mesh and, per triangle, the regions in front (the side its normal
@@ -221,4 +225,46 @@ impl Patches {
         }
         merges
     }
+}
+
+/// The segmented distance field of a label volume (one whole number per sample, each a
+/// region; 003 Sec. 3.3.2 from a segmentation such as a labelled CT), on the volume's own
+/// lattice: the interfaces between the labels are meshed by surface nets
+/// ([`label_surface`], relaxed as `opts` say; each face's lower label in front, on its
+/// normal's side), then sampled as [`Patches`]. Labels must be below
+/// [`MAX_REGIONS`]; a volume of one label holds that region at the clamp `δ` everywhere.
+/// Samples beyond the lattice count as label 0, as in [`label_surface`], so a region that
+/// touches the lattice's edge is closed there against region 0.
+pub fn from_labels(
+    labels: &Grid,
+    seg: &Segmentation,
+    opts: &LabelOptions,
+    job: &Job,
+) -> Result<Grid, SceneError> {
+    let err = |why: String| SceneError::new("label volume", "", why);
+    if let Some(&bad) = labels
+        .data()
+        .iter()
+        .find(|&&l| !(l >= 0.0 && l < MAX_REGIONS as f32 && l.fract() == 0.0))
+    {
+        return Err(err(format!(
+            "label {bad}: a segmented field takes whole labels from 0 to {}",
+            MAX_REGIONS - 1
+        )));
+    }
+    let surface = label_surface(labels, opts, job).map_err(|e| err(e.to_string()))?;
+    let mut grid = labels.clone();
+    if surface.mesh.triangles.is_empty() {
+        for v in grid.data_mut() {
+            *v = seg
+                .encode(seg.delta(), *v as i32)
+                .map_err(|e| err(e.to_string()))?;
+        }
+        return Ok(grid);
+    }
+    let front = surface.regions.iter().map(|r| r[0]).collect();
+    let back = surface.regions.iter().map(|r| r[1]).collect();
+    let patches = Patches::new(&surface.mesh, front, back, "label interfaces")?;
+    patches.sample(&mut grid, seg, job)?;
+    Ok(grid)
 }

@@ -26,14 +26,16 @@ pub fn run(a: &Args) -> Result<()> {
             );
         }
     }
-    if isokit_io::MeshFormat::from_path(&a.mesh).ok() != Some(isokit_io::MeshFormat::Ply) {
+    let ply = isokit_io::MeshFormat::from_path(&a.mesh).ok() == Some(isokit_io::MeshFormat::Ply);
+    if !ply && !a.segmented_knobs.from_labels {
         bail!(
-            "--segmented samples surface patches: a PLY whose faces carry region_front and region_back, not {}",
+            "--segmented samples surface patches: a PLY whose faces carry region_front and region_back (or a label volume with --from-labels), not {}",
             a.mesh.display()
         );
     }
     let t = Instant::now();
-    let (grid, seg) = load(&a.mesh, Some(a.res), &a.segmented_knobs)?;
+    let res = (!a.segmented_knobs.from_labels).then_some(a.res);
+    let (grid, seg) = load(&a.mesh, res, &a.segmented_knobs)?;
     let secs = t.elapsed().as_secs_f64();
     write(&a.output, &grid, &seg)?;
     let d = grid.dims();
