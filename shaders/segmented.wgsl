@@ -23,8 +23,8 @@ struct SegParams {
     levels: u32,        // diagram entries per period
     n: u32,             // diagram entries per axis (levels times regions)
     stride: u32,        // invocations per row of the dispatch grid
-    pad0: u32,
-    pad1: u32,
+    layers: u32,        // surfaces per ray (the march goes on past each hit)
+    pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> P: SegParams;
@@ -168,8 +168,9 @@ fn normal_at(x: vec3<f32>, back: i32, d: vec3<f32>) -> vec3<f32> {
     return n;
 }
 
-// SegmentedCaster::trace: out[3 i] = (t, 1 when hit, samples, 0), out[3 i + 1] = (normal, 0),
-// out[3 i + 2] = (front region, back region, 0, 0).
+// SegmentedCaster::trace_layers: per ray and layer k, at s = 3 (i layers + k):
+// out[s] = (t, 1 when hit, samples (layer 0 only), 0), out[s + 1] = (normal, 0),
+// out[s + 2] = (front region, back region, 0, 0).
 @compute @workgroup_size(WORKGROUP)
 fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = id.x + id.y * P.stride;
@@ -181,9 +182,13 @@ fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
     let bmin = P.origin;
     let bmax = P.origin + vec3<f32>(P.dims - vec3<u32>(1u)) * P.spacing;
     let span = slab(o, d, bmin, bmax);
-    var result = vec4<f32>(0.0);
-    var normal = vec3<f32>(0.0);
-    var pair = vec2<f32>(0.0);
+    let first = 3u * ray * P.layers;
+    for (var k = 0u; k < P.layers; k += 1u) {
+        out[first + 3u * k] = vec4<f32>(0.0);
+        out[first + 3u * k + 1u] = vec4<f32>(0.0);
+        out[first + 3u * k + 2u] = vec4<f32>(0.0);
+    }
+    var samples = 0u;
     if (span.x <= span.y) {
         let t0 = span.x;
         let t1 = span.y;
@@ -191,8 +196,8 @@ fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
         var t = t0;
         var cu = nearest(o + t * d);
         var u = value_at(cu);
-        var samples = 1u;
-        var hit = false;
+        samples = 1u;
+        var found = 0u;
         while (t < t1) {
             t = min(t + step, t1);
             let cv = nearest(o + t * d);
@@ -219,21 +224,19 @@ fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
                         th = clamp(dot(x - o, n) / dot(d, n), t - step - reach_t, t + reach_t);
                     }
                     th = clamp(th, t0, t1);
-                    result = vec4<f32>(th, 1.0, f32(samples), 0.0);
-                    normal = n;
-                    pair = vec2<f32>(f32(c.i), f32(c.j));
-                    hit = true;
-                    break;
+                    let s = first + 3u * found;
+                    out[s] = vec4<f32>(th, 1.0, 0.0, 0.0);
+                    out[s + 1u] = vec4<f32>(n, 0.0);
+                    out[s + 2u] = vec4<f32>(f32(c.i), f32(c.j), 0.0, 0.0);
+                    found += 1u;
+                    if (found >= P.layers) {
+                        break;
+                    }
                 }
             }
             cu = cv;
             u = v;
         }
-        if (!hit) {
-            result = vec4<f32>(0.0, 0.0, f32(samples), 0.0);
-        }
     }
-    out[3u * ray] = result;
-    out[3u * ray + 1u] = vec4<f32>(normal, 0.0);
-    out[3u * ray + 2u] = vec4<f32>(pair, 0.0, 0.0);
+    out[first].z = f32(samples);
 }

@@ -691,6 +691,57 @@ fn a_label_volume_becomes_a_segmented_field_to_render_and_mesh() {
     }
     eprintln!("labels: {n} top-face hits, worst {worst:.3} spacing off the label surface");
     assert!(n > 300 && worst < 0.1, "{n} {worst}");
+    // Translucent: the inner interfaces are found behind the outer faces and composited.
+    let o = isokit_ok(&[
+        "render",
+        v,
+        "--segmented",
+        "--from-labels",
+        "--opacity",
+        "0.5",
+        "--layers",
+        "4",
+        "--eye",
+        "9,-6,7",
+        "--target",
+        "2.8,2.2,1.7",
+        "--width",
+        "80",
+        "--height",
+        "80",
+        "--stats",
+        "-q",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let layer_hits: Vec<u64> = s["layer_hits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    eprintln!("translucent: hits per layer {layer_hits:?}");
+    // Every ray through the blocks leaves them again, and many cross an inner interface.
+    assert_eq!(layer_hits.len(), 4);
+    assert_eq!(layer_hits[0], layer_hits[1], "{s}");
+    assert!(layer_hits[2] > layer_hits[0] / 4, "{s}");
+    for (extra, needle) in [
+        (&["--opacity", "0"][..], "must be above 0"),
+        (&["--opacity", "0.5", "--layers", "17"], "from 1 to 16"),
+    ] {
+        let mut args = vec![
+            v,
+            "--segmented",
+            "--from-labels",
+            "-o",
+            png.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let mut all = vec!["render"];
+        all.extend(args);
+        assert_clear_error(&isokit(&all), needle);
+    }
     // Meshed through the same field: the six interfaces, the three inside ones too.
     let ply = d.join("b.ply");
     let o = isokit_ok(&[

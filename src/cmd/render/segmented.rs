@@ -25,6 +25,13 @@ pub struct SegmentedArgs {
     /// this many entries per region period, instead of evaluating 003 Eq. 5–7 per step.
     #[arg(long, requires = "segmented")]
     pub diagram: Option<usize>,
+    /// --segmented: the surfaces' opacity; below 1 the first --layers surfaces along each
+    /// ray are composited front to back, so inner interfaces show through [default: 1].
+    #[arg(long, requires = "segmented")]
+    pub opacity: Option<f32>,
+    /// --opacity: surfaces composited per ray, 1 to 16 [default: 8].
+    #[arg(long, requires = "opacity")]
+    pub layers: Option<usize>,
     #[command(flatten)]
     pub knobs: crate::cmd::segmented_field::SegmentedKnobs,
 }
@@ -71,24 +78,40 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let u = camera_uniforms(&camera)?;
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
     let backend = renderer.backend();
+    let opacity = a.segmented.opacity.unwrap_or(1.0);
+    if !(opacity > 0.0 && opacity <= 1.0) {
+        bail!("--opacity {opacity}: must be above 0 and at most 1");
+    }
+    let n = if opacity < 1.0 {
+        a.segmented.layers.unwrap_or(8)
+    } else {
+        1
+    };
     let t = Instant::now();
-    let img = match renderer.gpu() {
-        Some(gpu) => gpu.render_segmented(&caster, &u)?,
-        None => caster.render(&u, &crate::cmd::progress::job())?,
+    let mut layers = match renderer.gpu() {
+        Some(gpu) => gpu.render_segmented_layers(&caster, &u, n)?,
+        None => caster.render_layers(&u, &crate::cmd::progress::job(), n)?,
     };
     let trace = t.elapsed().as_secs_f64();
     // The pairs in the patches' own numbering, each with its pixels.
-    let pairs: Vec<Option<[i32; 2]>> = img
-        .pairs
-        .iter()
-        .map(|p| p.map(|[x, y]| [old[x as usize], old[y as usize]]))
-        .collect();
+    for layer in &mut layers {
+        for p in layer.pairs.iter_mut().flatten() {
+            *p = p.map(|r| old[r as usize]);
+        }
+    }
+    let img = &layers[0];
+    let pairs = &img.pairs;
     let mut counts: BTreeMap<[i32; 2], usize> = BTreeMap::new();
     for p in pairs.iter().flatten() {
         *counts.entry(*p).or_default() += 1;
     }
-    let tint: BTreeMap<[i32; 2], [f32; 3]> = counts
-        .keys()
+    // A colour per pair seen in any layer, in the order of the pairs.
+    let seen: std::collections::BTreeSet<[i32; 2]> = layers
+        .iter()
+        .flat_map(|l| l.pairs.iter().flatten().copied())
+        .collect();
+    let tint: BTreeMap<[i32; 2], [f32; 3]> = seen
+        .iter()
         .enumerate()
         .map(|(i, p)| (*p, TINTS[i % TINTS.len()]))
         .collect();
@@ -96,14 +119,22 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         mode,
         ..Shading::default()
     };
-    let mut image = shade(&img.gbuffer, &u, &sh)?;
-    for (px, pair) in image.pixels.iter_mut().zip(&pairs) {
-        if let Some(c) = pair.and_then(|p| tint.get(&p)) {
-            for k in 0..3 {
-                px[k] *= c[k];
+    let mut shaded = Vec::with_capacity(layers.len());
+    for layer in &layers {
+        let mut image = shade(&layer.gbuffer, &u, &sh)?;
+        for (px, pair) in image.pixels.iter_mut().zip(&layer.pairs) {
+            if let Some(c) = pair.and_then(|p| tint.get(&p)) {
+                (0..3).for_each(|k| px[k] *= c[k]);
             }
         }
+        shaded.push(image);
     }
+    let image = if n > 1 {
+        let [r, g, b, _] = sh.background;
+        isokit_render::segmented::composite(&layers, &shaded, opacity, glam::Vec3::new(r, g, b))?
+    } else {
+        shaded.remove(0)
+    };
     image.write_png(&a.output)?;
     if let Some(g) = &a.gbuffer {
         let side = |k: usize| -> Vec<f32> {
@@ -145,6 +176,8 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
             "hits": hits,
             "samples_per_ray": per_ray,
             "diagram": a.segmented.diagram,
+            "opacity": opacity,
+            "layer_hits": layers.iter().map(|l| l.pairs.iter().flatten().count()).collect::<Vec<_>>(),
             "prepare_seconds": prepare,
             "trace_seconds": trace,
             "width": width,

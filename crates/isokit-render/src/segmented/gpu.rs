@@ -7,10 +7,10 @@
 //! order, so they differ only where the GPU's compiler fuses multiply-adds or rounds a
 //! division differently.
 
-use super::{SegmentedCaster, SegmentedImage};
+use super::{SegmentedCaster, SegmentedHit, SegmentedImage, check_layers, layer_images};
+use crate::RenderError;
 use crate::gpu::{GpuRenderer, WORKGROUP, check_fits, dispatch_grid, scoped};
-use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
-use crate::{GBuffer, RenderError};
+use crate::kernel::{Uniforms, pixel_ray};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use isokit_gpu::{ShaderSource, wgpu};
@@ -29,8 +29,8 @@ pub(crate) struct SegParams {
     pub(crate) levels: u32,
     pub(crate) n: u32,
     pub(crate) stride: u32,
-    pub(crate) pad0: u32,
-    pub(crate) pad1: u32,
+    pub(crate) layers: u32,
+    pub(crate) pad: u32,
 }
 
 isokit_gpu::wgsl_layout!(SegParams {
@@ -44,8 +44,8 @@ isokit_gpu::wgsl_layout!(SegParams {
     levels: "u32",
     n: "u32",
     stride: "u32",
-    pad0: "u32",
-    pad1: "u32",
+    layers: "u32",
+    pad: "u32",
 });
 
 /// The segmented ray caster's kernel, assembled: `WORKGROUP` from Rust,
@@ -65,13 +65,25 @@ impl GpuRenderer {
         caster: &SegmentedCaster<'_>,
         u: &Uniforms,
     ) -> Result<SegmentedImage, RenderError> {
+        let mut layers = self.render_segmented_layers(caster, u, 1)?;
+        Ok(layers.remove(0))
+    }
+
+    /// [`SegmentedCaster::render_layers`] on the GPU.
+    pub fn render_segmented_layers(
+        &self,
+        caster: &SegmentedCaster<'_>,
+        u: &Uniforms,
+        layers: usize,
+    ) -> Result<Vec<SegmentedImage>, RenderError> {
         let (w, h) = crate::check_image_size(u64::from(u.width), u64::from(u.height))?;
+        check_layers(layers)?;
         let gpu = &self.gpu;
         let grid = caster.grid;
         let count = (w * h) as usize;
         check_fits(gpu, "the segmented field", 4 * grid.data().len() as u64)?;
         check_fits(gpu, "the rays", 32 * count as u64)?;
-        check_fits(gpu, "the output", 48 * count as u64)?;
+        check_fits(gpu, "the output", 48 * (count * layers) as u64)?;
         let rays: Vec<(Vec3, Vec3)> = (0..w * h)
             .map(|pix| {
                 let (o, d) = pixel_ray(u, pix % w, pix / w);
@@ -99,6 +111,7 @@ impl GpuRenderer {
             levels: levels as u32,
             n: n as u32,
             stride,
+            layers: layers as u32,
             ..SegParams::default()
         };
         let pipeline = match self.segmented.get() {
@@ -117,38 +130,31 @@ impl GpuRenderer {
                 gpu.upload("segmented diagram", table, storage),
                 gpu.upload("segmented rays", &ray_data, storage),
             ];
-            let out = gpu.buffer("segmented output", 48 * count as u64, storage);
+            let out = gpu.buffer("segmented output", 48 * (count * layers) as u64, storage);
             let [a, b, c, d] = &inputs;
             let bind = gpu.bind_buffers("segmented", pipeline, &[a, b, c, d, &out]);
             (inputs, out, bind)
         })?;
         gpu.dispatch("segmented", pipeline, &bind, groups)?;
-        let out: Vec<[f32; 4]> = gpu.read_buffer(&out, 0, 3 * count)?;
-        let mut pixels = Vec::with_capacity(count);
-        let (mut samples, mut pairs) = (Vec::with_capacity(count), Vec::with_capacity(count));
-        for (r, (o, d)) in out.chunks_exact(3).zip(&rays) {
-            samples.push(r[0][2] as u32);
-            if r[0][1] > 0.5 {
-                let normal = Vec3::new(r[1][0], r[1][1], r[1][2]);
-                let (a, b) = (r[2][0] as i32, r[2][1] as i32);
-                pixels.push(GSample {
-                    position: *o + r[0][0] * *d,
-                    depth: r[0][0],
-                    normal,
-                    dir1: normal.any_orthonormal_vector(),
-                    id: ID_SURFACE,
-                    ..GSample::default()
-                });
-                pairs.push(Some([a.min(b), a.max(b)]));
+        let out: Vec<[f32; 4]> = gpu.read_buffer(&out, 0, 3 * count * layers)?;
+        Ok(layer_images(w, h, layers, |ray, k| {
+            let r = &out[3 * (ray * layers + k)..];
+            let samples = if k == 0 {
+                out[3 * ray * layers][2] as u32
             } else {
-                pixels.push(GSample::default());
-                pairs.push(None);
-            }
-        }
-        Ok(SegmentedImage {
-            gbuffer: GBuffer::new(w, h, pixels, samples),
-            pairs,
-        })
+                0
+            };
+            let hit = (r[0][1] > 0.5).then(|| {
+                let (o, d) = rays[ray];
+                SegmentedHit {
+                    t: r[0][0],
+                    position: o + r[0][0] * d,
+                    normal: Vec3::new(r[1][0], r[1][1], r[1][2]),
+                    regions: [r[2][0] as i32, r[2][1] as i32],
+                }
+            });
+            (hit, samples)
+        }))
     }
 }
 

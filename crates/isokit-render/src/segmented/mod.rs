@@ -180,9 +180,19 @@ impl<'g> SegmentedCaster<'g> {
     /// The first surface the ray `o + t d` (`d` of unit length) meets, and the samples it
     /// took.
     pub fn trace(&self, o: Vec3, d: Vec3) -> (Option<SegmentedHit>, u32) {
+        let (mut hits, samples) = self.trace_layers(o, d, 1);
+        (hits.pop(), samples)
+    }
+
+    /// The first `layers` surfaces the ray meets, in the order the march finds them (the
+    /// march goes on past each hit), and the samples it took: what a translucent rendering
+    /// composites (003 Sec. 4's pre-integrated route, where every slab between two samples
+    /// contributes the surface the diagram finds in it).
+    pub fn trace_layers(&self, o: Vec3, d: Vec3, layers: usize) -> (Vec<SegmentedHit>, u32) {
+        let mut hits = Vec::new();
         let b = self.grid.bounds();
         let Some((t0, t1)) = crate::dvr::slab(o, d, b.min, b.max) else {
-            return (None, 0);
+            return (hits, 0);
         };
         let step = 0.5 * self.grid.spacing();
         let mut t = t0;
@@ -218,18 +228,20 @@ impl<'g> SegmentedCaster<'g> {
                     };
                     let th = th.clamp(t0, t1);
                     let position = o + th * d;
-                    let hit = SegmentedHit {
+                    hits.push(SegmentedHit {
                         t: th,
                         position,
                         normal,
                         regions: [i, j],
-                    };
-                    return (Some(hit), samples);
+                    });
+                    if hits.len() >= layers {
+                        break;
+                    }
                 }
             }
             (cu, u) = (cv, v);
         }
-        (None, samples)
+        (hits, samples)
     }
 
     /// The gradient of the pair's signed distance, interpolated trilinearly in the cell
@@ -269,31 +281,30 @@ impl<'g> SegmentedCaster<'g> {
     /// The G-buffer of the camera in `u` and each pixel's region pair, rows in parallel,
     /// reporting progress to `job` (stage `ray casting regions`, in rows).
     pub fn render(&self, u: &Uniforms, job: &Job) -> Result<SegmentedImage, RenderError> {
+        let mut layers = self.render_layers(u, job, 1)?;
+        Ok(layers.remove(0))
+    }
+
+    /// [`SegmentedCaster::render`] of the first `layers` surfaces along each ray
+    /// ([`SegmentedCaster::trace_layers`]): one image per layer, the first the nearest; a
+    /// pixel's samples are counted in the first layer only.
+    pub fn render_layers(
+        &self,
+        u: &Uniforms,
+        job: &Job,
+        layers: usize,
+    ) -> Result<Vec<SegmentedImage>, RenderError> {
         let (w, h) = crate::check_image_size(u64::from(u.width), u64::from(u.height))?;
+        check_layers(layers)?;
         let counter = job.counter("ray casting regions", u64::from(h));
         let rows = (0..h)
             .into_par_iter()
             .map(|y| {
                 job.check()?;
-                let row: Vec<(GSample, u32, Option<[i32; 2]>)> = (0..w)
+                let row: Vec<(Vec<SegmentedHit>, u32)> = (0..w)
                     .map(|x| {
                         let (o, d) = pixel_ray(u, x, y);
-                        let (hit, n) = self.trace(o, d.normalize_or_zero());
-                        match hit {
-                            Some(hit) => {
-                                let [a, b] = hit.regions;
-                                let s = GSample {
-                                    position: hit.position,
-                                    depth: hit.t,
-                                    normal: hit.normal,
-                                    dir1: hit.normal.any_orthonormal_vector(),
-                                    id: ID_SURFACE,
-                                    ..GSample::default()
-                                };
-                                (s, n, Some([a.min(b), a.max(b)]))
-                            }
-                            None => (GSample::default(), n, None),
-                        }
+                        self.trace_layers(o, d.normalize_or_zero(), layers)
                     })
                     .collect();
                 counter.advance(1);
@@ -301,18 +312,117 @@ impl<'g> SegmentedCaster<'g> {
             })
             .collect::<Result<Vec<_>, isokit_field::Cancelled>>()
             .map_err(isokit_field::FieldError::from)?;
-        let mut pixels = Vec::with_capacity((w * h) as usize);
-        let (mut samples, mut pairs) = (Vec::new(), Vec::new());
-        for (s, n, p) in rows.into_iter().flatten() {
-            pixels.push(s);
-            samples.push(n);
-            pairs.push(p);
-        }
-        Ok(SegmentedImage {
-            gbuffer: GBuffer::new(w, h, pixels, samples),
-            pairs,
-        })
+        let rays: Vec<(Vec<SegmentedHit>, u32)> = rows.into_iter().flatten().collect();
+        Ok(layer_images(w, h, layers, |ray, k| {
+            (
+                rays[ray].0.get(k).copied(),
+                if k == 0 { rays[ray].1 } else { 0 },
+            )
+        }))
     }
+}
+
+/// Composites shaded layers front to back, each surface with the same `opacity`, over an
+/// opaque `background` (linear RGB): `shaded[k]` is the shaded image of `layers[k]` (a pixel
+/// counts where that layer holds a hit). The translucent rendering of 003's pre-integrated
+/// route, where every slab between two samples contributes the surface found in it.
+pub fn composite(
+    layers: &[SegmentedImage],
+    shaded: &[crate::Image],
+    opacity: f32,
+    background: Vec3,
+) -> Result<crate::Image, RenderError> {
+    if !(opacity > 0.0 && opacity <= 1.0) || layers.len() != shaded.len() || layers.is_empty() {
+        return Err(RenderError::bad(
+            "composite",
+            format!(
+                "opacity {opacity}, {} layers, {} images",
+                layers.len(),
+                shaded.len()
+            ),
+            "needs an opacity above 0 up to 1 and one shaded image per layer",
+        ));
+    }
+    let (w, h) = (shaded[0].width, shaded[0].height);
+    let pixels = (0..(w * h) as usize)
+        .map(|i| {
+            let (mut c, mut trans) = (Vec3::ZERO, 1.0f32);
+            for (layer, image) in layers.iter().zip(shaded) {
+                if layer.pairs[i].is_none() {
+                    break;
+                }
+                let p = image.pixels[i];
+                c += trans * opacity * Vec3::new(p[0], p[1], p[2]);
+                trans *= 1.0 - opacity;
+            }
+            (c + trans * background).extend(1.0).to_array()
+        })
+        .collect();
+    Ok(crate::Image {
+        width: w,
+        height: h,
+        pixels,
+    })
+}
+
+/// The most layers [`SegmentedCaster::render_layers`] makes.
+pub const MAX_LAYERS: usize = 16;
+
+/// Refuses a layer count outside 1 to [`MAX_LAYERS`].
+pub(crate) fn check_layers(layers: usize) -> Result<(), RenderError> {
+    if !(1..=MAX_LAYERS).contains(&layers) {
+        return Err(RenderError::bad(
+            "layers",
+            layers,
+            "must be from 1 to 16 surfaces per ray",
+        ));
+    }
+    Ok(())
+}
+
+/// One image per layer from `hit(ray, layer)`: the hit, if any, and the samples to count.
+pub(crate) fn layer_images(
+    w: u32,
+    h: u32,
+    layers: usize,
+    hit: impl Fn(usize, usize) -> (Option<SegmentedHit>, u32),
+) -> Vec<SegmentedImage> {
+    (0..layers)
+        .map(|k| {
+            let count = (w * h) as usize;
+            let (mut pixels, mut samples, mut pairs) = (
+                Vec::with_capacity(count),
+                Vec::with_capacity(count),
+                Vec::with_capacity(count),
+            );
+            for ray in 0..count {
+                let (found, n) = hit(ray, k);
+                samples.push(n);
+                match found {
+                    Some(hit) => {
+                        let [a, b] = hit.regions;
+                        pixels.push(GSample {
+                            position: hit.position,
+                            depth: hit.t,
+                            normal: hit.normal,
+                            dir1: hit.normal.any_orthonormal_vector(),
+                            id: ID_SURFACE,
+                            ..GSample::default()
+                        });
+                        pairs.push(Some([a.min(b), a.max(b)]));
+                    }
+                    None => {
+                        pixels.push(GSample::default());
+                        pairs.push(None);
+                    }
+                }
+            }
+            SegmentedImage {
+                gbuffer: GBuffer::new(w, h, pixels, samples),
+                pairs,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -482,6 +592,70 @@ mod tests {
         assert!(VertexDiagram::new(&seg, 4096, 4096, h).is_err());
     }
 
+    /// Two stacked planes: region 0 below z = 0, 1 between, 2 above z = 0.5.
+    fn stacked(p: Vec3) -> (f32, i32) {
+        let d = p.z.abs().min((p.z - 0.5).abs());
+        (d, i32::from(p.z > 0.0) + i32::from(p.z > 0.5))
+    }
+
+    #[test]
+    fn the_march_goes_on_past_each_surface_for_the_layers() {
+        let (g, seg) = field(25, stacked);
+        let caster = SegmentedCaster::new(&g, seg, None).unwrap();
+        let u = camera();
+        let layers = caster.render_layers(&u, &Job::new(), 3).unwrap();
+        let (mut both, mut worst) = (0, 0.0f32);
+        for i in 0..layers[0].pairs.len() {
+            let (a, b) = (&layers[0], &layers[1]);
+            if let (Some(p), Some(q)) = (a.pairs[i], b.pairs[i]) {
+                both += 1;
+                // From above: the upper plane first, then the lower; nothing beyond.
+                assert_eq!((p, q), ([1, 2], [0, 1]));
+                assert!(layers[2].pairs[i].is_none());
+                let (x, y) = (a.gbuffer.pixels()[i], b.gbuffer.pixels()[i]);
+                assert!(x.depth < y.depth);
+                // Within a spacing of the box's sides a hit may be the ray's entry.
+                let side = x.position.abs().max(y.position.abs()).max_element();
+                if side < 1.0 - g.spacing() {
+                    worst = worst.max((x.position.z - 0.5).abs().max(y.position.z.abs()));
+                }
+            }
+        }
+        eprintln!("stacked planes: {both} rays through both, worst {worst:.1e} off them");
+        assert!(both > 500 && worst < 1e-4, "{both} {worst}");
+        assert!(caster.render_layers(&u, &Job::new(), 0).is_err());
+        assert!(caster.render_layers(&u, &Job::new(), 17).is_err());
+    }
+
+    #[test]
+    fn layers_composite_front_to_back_over_the_background() {
+        let (g, seg) = field(25, stacked);
+        let caster = SegmentedCaster::new(&g, seg, None).unwrap();
+        let u = camera();
+        let layers = caster.render_layers(&u, &Job::new(), 2).unwrap();
+        let flat = |c: [f32; 4]| crate::Image {
+            width: u.width,
+            height: u.height,
+            pixels: vec![c; (u.width * u.height) as usize],
+        };
+        let shaded = [flat([1.0, 0.0, 0.0, 1.0]), flat([0.0, 1.0, 0.0, 1.0])];
+        let bg = Vec3::new(0.0, 0.0, 1.0);
+        let img = composite(&layers, &shaded, 0.25, bg).unwrap();
+        for (i, p) in img.pixels.iter().enumerate() {
+            let n = layers.iter().take_while(|l| l.pairs[i].is_some()).count();
+            let want = match n {
+                0 => [0.0, 0.0, 1.0],
+                1 => [0.25, 0.0, 0.75],
+                _ => [0.25, 0.75 * 0.25, 0.75 * 0.75],
+            };
+            for k in 0..3 {
+                assert!((p[k] - want[k]).abs() < 1e-6, "{n}: {p:?}");
+            }
+        }
+        assert!(composite(&layers, &shaded[..1], 0.25, bg).is_err());
+        assert!(composite(&layers, &shaded, 0.0, bg).is_err());
+    }
+
     #[test]
     fn the_gpu_twin_casts_what_the_cpu_twin_casts() {
         let Some(gpu) = isokit_gpu::testing::gpu_or_skip(
@@ -520,6 +694,23 @@ mod tests {
             // a dot product within an ulp of 1), the same samples.
             assert!(dz < 1e-3 && angle < 0.1, "{dz} {angle}");
             assert!(same_samples);
+        }
+        // Layers: the same surfaces in the same order.
+        let (g, seg) = field(25, stacked);
+        let caster = SegmentedCaster::new(&g, seg, Some(256)).unwrap();
+        let cpu = caster.render_layers(&u, &Job::new(), 3).unwrap();
+        let gpu = r.render_segmented_layers(&caster, &u, 3).unwrap();
+        for (a, b) in cpu.iter().zip(&gpu) {
+            assert_eq!(a.pairs, b.pairs);
+            let dz = a
+                .gbuffer
+                .pixels()
+                .iter()
+                .zip(b.gbuffer.pixels())
+                .map(|(p, q)| (p.depth - q.depth).abs())
+                .fold(0.0f32, f32::max);
+            assert!(dz < 1e-5, "{dz}");
+            assert_eq!(a.gbuffer.samples(), b.gbuffer.samples());
         }
     }
 }
