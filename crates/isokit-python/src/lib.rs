@@ -9,6 +9,7 @@
 //! - [`field`], `isokit.Field` (a sampled lattice) and the level-set operations;
 //! - [`render`], `isokit.Frame`, `isokit.Molecule`, rendering;
 //! - [`sdf`], `isokit.signed_distance`;
+//! - [`tets`], `isokit.read_tets` → `isokit.TetGrid`, and `isokit.mesh_labels`;
 //! - [`run`], how work runs without the GIL, with Ctrl-C, progress and caught panics;
 //! - [`errors`], the mapping of library errors to Python exceptions;
 //! - [`vocab`], the modeling vocabulary (profiles, extrude, revolve, repetition,
@@ -26,6 +27,7 @@ pub mod render;
 pub mod run;
 pub mod sdf;
 pub mod shape;
+pub mod tets;
 pub mod tree;
 pub mod view;
 pub mod vocab;
@@ -46,6 +48,7 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<render::Frame>()?;
     m.add_class::<render::Molecule>()?;
     m.add_class::<vocab::Param>()?;
+    m.add_class::<tets::TetGrid>()?;
     m.add("Cancelled", py.get_type::<errors::Cancelled>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add(
@@ -74,6 +77,8 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sdf::signed_distance, m)?)?;
     m.add_function(wrap_pyfunction!(field::morph_level_set, m)?)?;
     m.add_function(wrap_pyfunction!(render::molecule, m)?)?;
+    m.add_function(wrap_pyfunction!(tets::read_tets, m)?)?;
+    m.add_function(wrap_pyfunction!(tets::mesh_labels, m)?)?;
     m.add_function(wrap_pyfunction!(view::_view_main, m)?)?;
     Ok(())
 }

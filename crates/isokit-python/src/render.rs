@@ -25,7 +25,7 @@ static RENDERERS: LazyLock<Mutex<HashMap<&'static str, Renderer>>> =
     LazyLock::new(|| Mutex::new(HashMap::new()));
 
 /// Runs `f` with the renderer for `choice`, opening it on first use.
-fn with_renderer<T>(
+pub(crate) fn with_renderer<T>(
     choice: BackendChoice,
     f: impl FnOnce(&mut Renderer) -> PyResult<T>,
 ) -> PyResult<T> {
@@ -212,6 +212,30 @@ enum Planes {
 }
 
 impl Frame {
+    /// A frame of a surface: its shaded image, its G-buffer, what the rendering reported.
+    pub(crate) fn from_surface(image: Image, gbuffer: GBuffer, stats: serde_json::Value) -> Self {
+        Self {
+            image,
+            gbuffer: Planes::Surface(gbuffer),
+            stats,
+            notes: Vec::new(),
+        }
+    }
+
+    /// A frame of a direct volume rendering seen through `camera`.
+    pub(crate) fn from_volume(
+        img: isokit_render::dvr::DvrImage,
+        camera: isokit_field::Camera,
+        stats: serde_json::Value,
+    ) -> Self {
+        Self {
+            image: img.to_image(glam::Vec3::ZERO),
+            gbuffer: Planes::Volume(Box::new(img), camera),
+            stats,
+            notes: Vec::new(),
+        }
+    }
+
     /// The image as PNG bytes.
     pub fn png<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         let bytes = isokit_io::encode_png(
@@ -548,10 +572,6 @@ pub fn render_volume_grid(
         })
     })?;
     let seconds = t.elapsed().as_secs_f64();
-    Ok(Frame {
-        image: img.to_image(glam::Vec3::ZERO),
-        stats: img.stats(backend, seconds),
-        gbuffer: Planes::Volume(Box::new(img), camera),
-        notes: Vec::new(),
-    })
+    let stats = img.stats(backend, seconds);
+    Ok(Frame::from_volume(img, camera, stats))
 }

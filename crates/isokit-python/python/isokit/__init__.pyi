@@ -357,6 +357,50 @@ def signed_distance(
     progress: Progress = None,
 ) -> tuple[np.ndarray, npt.NDArray[np.int64], np.ndarray]: ...
 def molecule(path: PathLike) -> Molecule: ...
+def read_tets(path: PathLike, array: str | None = None) -> TetGrid: ...
+def mesh_labels(
+    labels: npt.ArrayLike,
+    spacing: float | Sequence[float] | None = None,
+    origin: float | Sequence[float] | None = None,
+    smooth: int = 16,
+    progress: Progress = None,
+) -> Mesh: ...
+
+
+class TetGrid:
+    @property
+    def points(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def cells(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def values(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def array(self) -> str: ...
+    def report(self) -> dict[str, Any]: ...
+    def mesh(self, iso: float | None = None, inside: Literal["below", "above"] = "below") -> Mesh: ...
+    def render(
+        self,
+        iso: float | None = None,
+        inside: Literal["below", "above"] = "below",
+        width: int = 512,
+        height: int = 512,
+        shading: str | None = None,
+        camera: Camera | dict[str, Any] | None = None,
+        backend: Literal["auto", "cpu", "gpu"] = "auto",
+        projection: Literal["perspective", "orthographic"] = "perspective",
+    ) -> Frame: ...
+    def render_volume(
+        self,
+        tf: str | PathLike | dict[str, Any],
+        width: int = 512,
+        height: int = 512,
+        classification: Literal["post", "preintegrated"] = "preintegrated",
+        shading: Literal["phong"] | None = None,
+        camera: Camera | dict[str, Any] | None = None,
+        backend: Literal["auto", "cpu", "gpu"] = "auto",
+        projection: Literal["perspective", "orthographic"] = "perspective",
+        table_size: int = 128,
+    ) -> Frame: ...
 
 
 class Viewer:
