@@ -231,9 +231,9 @@ fn segmented_patches_mesh_into_their_junction_with_the_areas_of_the_patches() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("between 3 region pairs"), "{err}");
     let got = areas(&out);
-    // The patches' areas: 2 x 1.02, 2 x 0.98, 2 x 1.99 (measured: −1.1%, +1.3%, −1.3%; the
-    // open rims located from the distances, the junction's vertices up to half a spacing
-    // off the line).
+    // The patches' areas: 2 x 1.02, 2 x 0.98, 2 x 1.99 (measured: −0.3%, +0.0%, −0.2%, the
+    // open rims located from the distances and the junction's vertices placed on the line;
+    // −1.1%, +1.3%, −1.3% with those vertices up to half a spacing off it).
     for (pair, want) in [((1, 2), 2.04), ((1, 3), 1.96), ((2, 3), 3.98)] {
         let rel = got[&pair] / want - 1.0;
         eprintln!("{pair:?}: {rel:+.3}");

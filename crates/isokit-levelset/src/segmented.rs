@@ -14,7 +14,9 @@
 //! samples' `D r` (which grows with the region index).
 //!
 //! [`mesh_segmented`] meshes such a volume by surface nets over those crossings (one
-//! vertex per cell, the mean of its crossing points; one quadrilateral per crossed edge),
+//! vertex per cell, the mean of its crossing points, or where three or more regions meet
+//! the point where the pairs' surfaces, fitted as planes nearby, meet; one quadrilateral
+//! per crossed edge),
 //! each face labelled with its two regions as [`crate::labels`] does: junction edges are
 //! shared by exactly the faces of the pairs that meet there, boundary edges by one face.
 //! [`morph_segmented`] blends two segmented fields with one region numbering (003 Sec. 5.2)
@@ -152,9 +154,163 @@ pub fn mesh_segmented(grid: &Grid, seg: &Segmentation, job: &Job) -> Result<Labe
         .iter()
         .map(|&(sum, count)| sum / f64::from(count))
         .collect();
+    junctions(&mut points, &nets.cells, &nets.quads, grid, seg);
     open_rims(&mut points, &nets.cells, &nets.quads, grid, seg);
     let positions = points.iter().map(|p| (origin + *p * h).as_vec3()).collect();
     Ok(triangulate(positions, &nets.quads))
+}
+
+/// Where three or more regions meet, a cell's crossings lie on two or more surfaces, and
+/// their mean sits between them, up to half a spacing off the junction line. There, each
+/// pair's surface is fitted as a plane to its crossing points on the lattice edges of the
+/// 6 × 6 × 6 samples around the cell whose ends see only that pair's regions around them
+/// (the least-squares plane, by the smallest eigenvector of their covariance), and the
+/// vertex moves to the least-squares point of those planes
+/// (a QEF with rank truncation, as dual contouring solves, Ju et al. 2002): onto the
+/// junction line (or point), moving only across it, so along the line the vertex keeps its
+/// place (where the line leaves the lattice it stays at the lattice's edge). A solution
+/// outside the cell grown by half a spacing keeps the mean. Lattice units.
+fn junctions(
+    points: &mut [DVec3],
+    cells: &[[i64; 3]],
+    quads: &[([u32; 4], [i32; 2])],
+    grid: &Grid,
+    seg: &Segmentation,
+) {
+    let mut pairs: Vec<Vec<[i32; 2]>> = vec![Vec::new(); points.len()];
+    for (q, r) in quads {
+        for &v in q {
+            if !pairs[v as usize].contains(r) {
+                pairs[v as usize].push(*r);
+            }
+        }
+    }
+    let n = grid.dims().map(|d| d as i64);
+    let w = grid.spacing();
+    let at = |s: [i64; 3]| grid.get(s[0] as usize, s[1] as usize, s[2] as usize);
+    // Whether the samples around `s` (3³, within the lattice) are all in region i or j.
+    let clean = |s: [i64; 3], i: i32, j: i32| {
+        (-1..=1).all(|dz| {
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let q = [s[0] + dx, s[1] + dy, s[2] + dz];
+                    (0..3).any(|a| q[a] < 0 || q[a] >= n[a])
+                        || seg.decode(at(q)).is_some_and(|(r, _)| r == i || r == j)
+                })
+            })
+        })
+    };
+    for (v, p) in points.iter_mut().enumerate() {
+        let mut regions: Vec<i32> = pairs[v].iter().flatten().copied().collect();
+        regions.sort_unstable();
+        regions.dedup();
+        if regions.len() < 3 {
+            continue;
+        }
+        let c = cells[v];
+        // Each pair's crossing points on the edges among the 6³ samples around the cell,
+        // where both ends' neighbourhoods hold only that pair's regions (elsewhere a
+        // sample's distance may be to another pair's surface, which biases Eq. 6).
+        let mut by_pair: HashMap<[i32; 2], Vec<DVec3>> = HashMap::new();
+        for z in c[2] - 2..=c[2] + 3 {
+            for y in c[1] - 2..=c[1] + 3 {
+                for x in c[0] - 2..=c[0] + 3 {
+                    let s = [x, y, z];
+                    if (0..3).any(|a| s[a] < 0 || s[a] >= n[a]) {
+                        continue;
+                    }
+                    for a in 0..3 {
+                        let mut t = s;
+                        t[a] += 1;
+                        if t[a] >= n[a] || t[a] > c[a] + 3 {
+                            continue;
+                        }
+                        let Some((i, j, along)) = seg.crossing(at(s), at(t), w) else {
+                            continue;
+                        };
+                        if !clean(s, i, j) || !clean(t, i, j) {
+                            continue;
+                        }
+                        let mut e = DVec3::new(x as f64, y as f64, z as f64);
+                        e[a] += f64::from(along);
+                        by_pair.entry([i.min(j), i.max(j)]).or_default().push(e);
+                    }
+                }
+            }
+        }
+        let planes: Vec<(DVec3, DVec3)> = pairs[v]
+            .iter()
+            .filter_map(|pair| fit_plane(by_pair.get(pair)?))
+            .collect();
+        if planes.len() < 2 {
+            continue;
+        }
+        let x = *p + qef_step(*p, &planes);
+        let lo = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) - 0.5;
+        if x.is_finite() && (0..3).all(|a| x[a] >= lo[a] && x[a] <= lo[a] + 2.0) {
+            *p = x;
+        }
+    }
+}
+
+/// The step from `p` to the least-squares point of the planes `(point, unit normal)`, with
+/// singular values below a tenth of the largest dropped (the directions along a junction
+/// line, where the planes do not constrain it, keep `p`).
+fn qef_step(p: DVec3, planes: &[(DVec3, DVec3)]) -> DVec3 {
+    use nalgebra::{Matrix3, Vector3};
+    let (mut ata, mut atr) = (Matrix3::<f64>::zeros(), Vector3::<f64>::zeros());
+    for (c, nrm) in planes {
+        let nv = Vector3::new(nrm.x, nrm.y, nrm.z);
+        ata += nv * nv.transpose();
+        atr += nv * nrm.dot(*c - p);
+    }
+    let svd = ata.svd(true, true);
+    let (Some(u), Some(vt)) = (svd.u, svd.v_t) else {
+        return DVec3::ZERO;
+    };
+    let smax = svd.singular_values.max().max(0.0).sqrt();
+    let mut inv = Matrix3::<f64>::zeros();
+    for i in 0..3 {
+        let s = svd.singular_values[i].max(0.0).sqrt();
+        if smax > 0.0 && s > 0.1 * smax {
+            inv[(i, i)] = 1.0 / (s * s);
+        }
+    }
+    let x = vt.transpose() * inv * u.transpose() * atr;
+    DVec3::new(x[0], x[1], x[2])
+}
+
+/// The least-squares plane through `points` (three or more, not on one line): its centroid
+/// and unit normal (the covariance's eigenvector of the smallest eigenvalue).
+fn fit_plane(points: &[DVec3]) -> Option<(DVec3, DVec3)> {
+    if points.len() < 3 {
+        return None;
+    }
+    let c = points.iter().copied().sum::<DVec3>() / points.len() as f64;
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    for p in points {
+        let d = nalgebra::Vector3::new(p.x - c.x, p.y - c.y, p.z - c.z);
+        m += d * d.transpose();
+    }
+    let e = m.symmetric_eigen();
+    let (mut small, mut mid) = (0, 1);
+    for k in 0..3 {
+        if e.eigenvalues[k] < e.eigenvalues[small] {
+            small = k;
+        }
+    }
+    for k in 0..3 {
+        if k != small && (mid == small || e.eigenvalues[k] < e.eigenvalues[mid]) {
+            mid = k;
+        }
+    }
+    // Points along one line fix no plane.
+    let spread = e.eigenvalues[mid];
+    if spread.is_nan() || spread <= 1e-9 * e.eigenvalues.max().max(1e-300) {
+        return None;
+    }
+    let nrm = e.eigenvectors.column(small);
+    Some((c, DVec3::new(nrm[0], nrm[1], nrm[2]).normalize()))
 }
 
 /// Where the surface ends (an edge of one quadrilateral: a disc's rim), a cell's crossings
