@@ -1,7 +1,7 @@
 // Ray casting a segmented distance field (003 Sec. 4): the surfaces between the regions of a
 // field sampled as f = min(d, delta) + D r (003 Eq. 4), one ray per invocation. Samples along
-// the ray, half a spacing apart, take their lattice point's value by nearest-neighbour lookup
-// (003 Sec. 4.2); where two consecutive samples' points differ, 003 Eq. 5-7 (or the vertex
+// the ray, half a spacing apart (jumping where the distances say no surface is near), take
+// their lattice point's value by nearest-neighbour lookup (003 Sec. 4.2); where two consecutive samples' points differ, 003 Eq. 5-7 (or the vertex
 // generation diagram, a table from the host) say whether and where the surface crosses the
 // lattice edge between them; the hit is where the ray meets the plane through that crossing
 // with the normal there. Entry point segmented.
@@ -58,7 +58,7 @@ fn decode(f: f32) -> Decoded {
 
 // Segmentation::reach: the largest d_u + d_v of Eq. 7 between samples w apart.
 fn reach(w: f32, r: i32) -> f32 {
-    return w * (1.0 + 1e-4) + 4.0 * 1.1920929e-7 * P.period * f32(r + 1);
+    return w * (1.0 + 1e-4) + 4.0 * 1.1920929e-7 * P.period * (f32(r) + 1.0);
 }
 
 struct Cross {
@@ -160,7 +160,7 @@ fn normal_at(x: vec3<f32>, back: i32, d: vec3<f32>) -> vec3<f32> {
     let len = length(grad);
     var n = -d;
     if (len > 0.0) {
-        n = grad / len;
+        n = grad * (1.0 / len);
     }
     if (dot(n, d) > 0.0) {
         n = -n;
@@ -169,8 +169,8 @@ fn normal_at(x: vec3<f32>, back: i32, d: vec3<f32>) -> vec3<f32> {
 }
 
 // SegmentedCaster::trace_layers: per ray and layer k, at s = 3 (i layers + k):
-// out[s] = (t, 1 when hit, samples (layer 0 only), 0), out[s + 1] = (normal, 0),
-// out[s + 2] = (front region, back region, 0, 0).
+// out[s] = (t, 1 when hit, samples (layer 0 only), position.x), out[s + 1] = (normal,
+// position.y), out[s + 2] = (front region, back region, position.z, 0).
 @compute @workgroup_size(WORKGROUP)
 fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = id.x + id.y * P.stride;
@@ -189,18 +189,34 @@ fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
         out[first + 3u * k + 2u] = vec4<f32>(0.0);
     }
     var samples = 0u;
-    if (span.x <= span.y) {
+    if (span.x < span.y) {
+        // From the entry point oe, s along the ray from there (as the CPU twin).
         let t0 = span.x;
-        let t1 = span.y;
+        let len = span.y - span.x;
+        let oe = o + t0 * d;
         let step = 0.5 * P.spacing;
-        var t = t0;
-        var cu = nearest(o + t * d);
+        var s = 0.0;
+        var cu = nearest(oe);
         var u = value_at(cu);
         samples = 1u;
         var found = 0u;
-        while (t < t1) {
-            t = min(t + step, t1);
-            let cv = nearest(o + t * d);
+        while (s < len) {
+            // Empty space: jump by the sample's distance less 1.87 spacings, untested.
+            let here = decode(u);
+            var dist = 0.0;
+            if (here.ok) {
+                dist = here.d;
+            }
+            let jump = dist - 1.87 * P.spacing;
+            if (jump > step) {
+                s = min(s + jump, len);
+                cu = nearest(oe + s * d);
+                u = value_at(cu);
+                samples += 1u;
+                continue;
+            }
+            s = min(s + step, len);
+            let cv = nearest(oe + s * d);
             let v = value_at(cv);
             samples += 1u;
             if (any(cv != cu)) {
@@ -218,16 +234,17 @@ fn segmented(@builtin(global_invocation_id) id: vec3<u32>) {
                     let x = pu + c.t * (pv - pu);
                     let n = normal_at(x, c.j, d);
                     let dn = abs(dot(d, n));
-                    var th = dot(x - o, d);
+                    var sh = dot(x - oe, d);
                     if (dn > 0.1) {
-                        let reach_t = 0.87 * P.spacing / dn;
-                        th = clamp(dot(x - o, n) / dot(d, n), t - step - reach_t, t + reach_t);
+                        let reach_s = 0.87 * P.spacing / dn;
+                        sh = clamp(dot(x - oe, n) / dot(d, n), s - step - reach_s, s + reach_s);
                     }
-                    th = clamp(th, t0, t1);
-                    let s = first + 3u * found;
-                    out[s] = vec4<f32>(th, 1.0, 0.0, 0.0);
-                    out[s + 1u] = vec4<f32>(n, 0.0);
-                    out[s + 2u] = vec4<f32>(f32(c.i), f32(c.j), 0.0, 0.0);
+                    sh = clamp(sh, 0.0, len);
+                    let slot = first + 3u * found;
+                    let pos = oe + sh * d;
+                    out[slot] = vec4<f32>(t0 + sh, 1.0, 0.0, pos.x);
+                    out[slot + 1u] = vec4<f32>(n, pos.y);
+                    out[slot + 2u] = vec4<f32>(f32(c.i), f32(c.j), pos.z, 0.0);
                     found += 1u;
                     if (found >= P.layers) {
                         break;

@@ -39,7 +39,7 @@ struct TetParams {
 @group(0) @binding(0) var<uniform> P: TetParams;
 @group(0) @binding(1) var<storage, read> points: array<vec4<f32>>; // per point: (x, y, z, value), (gradient, 0)
 @group(0) @binding(2) var<storage, read> cells: array<vec4<u32>>;  // per cell: point indices, neighbours across faces 0..3
-@group(0) @binding(3) var<storage, read> frames: array<vec4<f32>>; // per cell: (p0, 1 when degenerate), the rows of the inverse edge matrix
+@group(0) @binding(3) var<storage, read> frames: array<vec4<f32>>; // per cell: (p0, flag: 1 degenerate, 2 a value not finite), the rows of the inverse edge matrix
 @group(0) @binding(4) var<storage, read> nodes: array<vec4<f32>>;  // per node: (min, first child or face), (max, faces; 0 inner)
 @group(0) @binding(5) var<storage, read> faces: array<vec2<u32>>;  // boundary faces (cell, face) in the hierarchy's order
 @group(0) @binding(6) var<storage, read> rays: array<vec4<f32>>;   // per ray: origin, unit direction
@@ -93,6 +93,9 @@ fn ray_triangle(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<
     let all_pos = wa >= 0.0 && wb >= 0.0 && wc >= 0.0;
     let all_neg = wa <= 0.0 && wb <= 0.0 && wc <= 0.0;
     if (!(all_pos || all_neg)) {
+        return -1.0;
+    }
+    if (wa + wb + wc == 0.0) {
         return -1.0;
     }
     let n = cross(b - a, c - a);
@@ -185,7 +188,7 @@ fn cross_cell(c: u32, o: vec3<f32>, d: vec3<f32>, t_in: f32, entered: bool) -> C
     x.t_in = t_in;
     x.entered = entered;
     let f0 = frames[4u * c];
-    if (f0.w != 0.0) {
+    if (f0.w == 1.0) {
         return x;
     }
     let r0 = frames[4u * c + 1u].xyz;
@@ -239,7 +242,8 @@ fn step_across(c: u32, o: vec3<f32>, d: vec3<f32>, t_in: f32) -> u32 {
                 enter = max(enter, -x.alpha[k] / x.beta[k]);
             }
         }
-        if (enter <= t_in + tol && x.t_out > t_in + tol && x.t_out > best_out) {
+        // >=: of equal exits the last, as the CPU twin's max_by keeps it.
+        if (enter <= t_in + tol && x.t_out > t_in + tol && x.t_out >= best_out) {
             best = n;
             best_out = x.t_out;
         }
@@ -384,6 +388,11 @@ fn tet_iso(@builtin(global_invocation_id) id: vec3<u32>) {
         if (x.entered) {
             known = false;
         }
+        // A value that is not finite: no surface here, and the side unknown after it.
+        if (frames[4u * x.cell].w == 2.0) {
+            known = false;
+            continue;
+        }
         let v = cell_values(x.cell);
         let f_in = value_at(x, v, x.t_in) - P.iso;
         let f_out = value_at(x, v, x.t_out) - P.iso;
@@ -472,7 +481,7 @@ fn tet_dvr(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let v = cell_values(x.cell);
         let len = x.t_out - x.t_in;
-        if (!(len > 0.0)) {
+        if (frames[4u * x.cell].w == 2.0 || !(len > 0.0)) {
             continue;
         }
         segments += 1u;

@@ -605,6 +605,67 @@ fn segmented_fields_are_written_read_and_morphed() {
             ],
             "--band does not apply to --segmented",
         ),
+        (
+            vec![
+                "sdf",
+                &p("a.ply"),
+                "--segmented",
+                "--sign",
+                "winding",
+                "-o",
+                &p("x.nrrd"),
+            ],
+            "--sign does not apply to --segmented",
+        ),
+        (
+            vec![
+                "render",
+                &p("a.nrrd"),
+                "--seg-morph",
+                &p("b.nrrd"),
+                "-o",
+                &p("x.png"),
+            ],
+            "--seg-morph applies to --segmented",
+        ),
+        (
+            vec![
+                "render",
+                &p("a.nrrd"),
+                "--segmented",
+                "--layers",
+                "3",
+                "--opacity",
+                "1",
+                "-o",
+                &p("x.png"),
+            ],
+            "give --opacity below 1",
+        ),
+        (
+            vec![
+                "render",
+                &p("a.nrrd"),
+                "--segmented",
+                "--mode",
+                "dvr",
+                "-o",
+                &p("x.png"),
+            ],
+            "--mode dvr is not available for --segmented",
+        ),
+        (
+            vec![
+                "mesh",
+                &p("a.nrrd"),
+                "--labels",
+                "--seg-delta",
+                "2",
+                "-o",
+                &p("x.ply"),
+            ],
+            "--seg-delta does not apply to --labels",
+        ),
     ] {
         assert_clear_error(&isokit(&args), needle);
     }
@@ -626,6 +687,39 @@ fn segmented_fields_are_written_read_and_morphed() {
             &p("x.png"),
         ]),
         "not a segmented field",
+    );
+    // A field whose samples decode to a region beyond 4095 is refused, not indexed.
+    let mut g = isokit_io::read_volume(&d.join("a.nrrd"))
+        .unwrap()
+        .into_grid()
+        .unwrap();
+    let kv = isokit_io::read_nrrd_key_values(&d.join("a.nrrd")).unwrap();
+    let period: f32 = kv
+        .iter()
+        .find(|(k, _)| k == "period")
+        .unwrap()
+        .1
+        .parse()
+        .unwrap();
+    g.set(3, 3, 3, 5000.0 * period + 0.01);
+    let pairs: Vec<(&str, &str)> = kv.iter().map(|(k, v)| (k.as_str(), v.as_str())).collect();
+    let big = d.join("big.nrrd");
+    isokit_io::write_nrrd_key_values(
+        &big,
+        &isokit_io::Volume::from(g),
+        isokit_io::NrrdEncoding::Raw,
+        &pairs,
+    )
+    .unwrap();
+    assert_clear_error(
+        &isokit(&[
+            "render",
+            big.to_str().unwrap(),
+            "--segmented",
+            "-o",
+            &p("x.png"),
+        ]),
+        "decodes to a region beyond 4095",
     );
     assert!(!d.join("x.png").exists() && !d.join("x.ply").exists() && !d.join("x.nrrd").exists());
 }

@@ -31,7 +31,9 @@ fn refuse(a: &Args, what: &str, extra: &[(bool, &str)]) -> Result<()> {
 
 /// Meshes `a.field` as labels.
 pub fn run(a: &Args) -> Result<()> {
-    refuse(a, "--labels", &[(a.res.is_some(), "--res")])?;
+    let res = [(a.res.is_some(), "--res")];
+    let extra: Vec<(bool, &str)> = res.into_iter().chain(a.segmented_knobs.given()).collect();
+    refuse(a, "--labels", &extra)?;
     if super::tets::is_tets(&a.field) {
         bail!(
             "--labels meshes label volumes (.nrrd .nhdr .npy .nii .nii.gz), not tetrahedral grids"

@@ -54,7 +54,7 @@ fn pair(flag: &str, s: &str) -> Result<[f32; 2]> {
 
 impl LatticeArgs {
     /// True when a flag of a spherical lattice was given.
-    fn any(&self) -> bool {
+    pub fn any(&self) -> bool {
         self.lattice.is_some()
             || self.r_range.is_some()
             || self.theta_range.is_some()

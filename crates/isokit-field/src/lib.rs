@@ -42,6 +42,7 @@ pub mod morton;
 pub mod primitives;
 pub mod profile;
 pub mod rng;
+pub mod segmentation;
 pub mod tet;
 pub mod transform;
 

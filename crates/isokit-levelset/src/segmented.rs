@@ -25,90 +25,9 @@
 
 use crate::labels::{LabelMesh, surface_nets, triangulate};
 use glam::DVec3;
+pub use isokit_field::segmentation::{MAX_REGIONS, Segmentation};
 use isokit_field::{FieldError, Grid, Job};
 use std::collections::HashMap;
-
-/// The constants of 003 Eq. 4: distances clamped at `delta`, regions `period` apart.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Segmentation {
-    delta: f32,
-    period: f32,
-}
-
-/// Regions a [`Segmentation`] encodes, 0 to 4095: an f32 sample `D r + d` keeps `d` to
-/// about 6e-8 of `D r`, i.e. to 2e-3 spacings at the last region with `D` of 8 spacings.
-pub const MAX_REGIONS: i32 = 1 << 12;
-
-impl Segmentation {
-    /// `0 < delta < period`, both finite.
-    pub fn new(delta: f32, period: f32) -> Result<Self, FieldError> {
-        if !(delta.is_finite() && period.is_finite() && delta > 0.0 && delta < period) {
-            return Err(FieldError::BadParameter {
-                name: "segmentation",
-                value: format!("delta {delta}, period {period}"),
-                why: "needs 0 < delta < period, both finite (003 Eq. 4)",
-            });
-        }
-        Ok(Self { delta, period })
-    }
-
-    /// For a lattice of spacing `h`: `δ = 4h`, `D = 8h`.
-    pub fn for_spacing(h: f32) -> Result<Self, FieldError> {
-        Self::new(4.0 * h, 8.0 * h)
-    }
-
-    /// The distance clamp `δ`.
-    pub fn delta(&self) -> f32 {
-        self.delta
-    }
-
-    /// The region period `D`.
-    pub fn period(&self) -> f32 {
-        self.period
-    }
-
-    /// 003 Eq. 4: `min(distance, δ) + D region` (`distance ≥ 0`, `0 ≤ region <
-    /// MAX_REGIONS`, else an error).
-    pub fn encode(&self, distance: f32, region: i32) -> Result<f32, FieldError> {
-        if distance.is_nan() || distance < 0.0 || !(0..MAX_REGIONS).contains(&region) {
-            return Err(FieldError::BadParameter {
-                name: "segmented sample",
-                value: format!("distance {distance}, region {region}"),
-                why: "needs a distance >= 0 and a region from 0 to 4095",
-            });
-        }
-        Ok(distance.min(self.delta) + self.period * region as f32)
-    }
-
-    /// The region and the (clamped) distance of a sample; `None` for a value that is not
-    /// one (negative or not finite).
-    pub fn decode(&self, f: f32) -> Option<(i32, f32)> {
-        if !(f.is_finite() && f >= 0.0) {
-            return None;
-        }
-        let r = (f / self.period).floor();
-        let d = (f - r * self.period).clamp(0.0, self.delta);
-        Some((r as i32, d))
-    }
-
-    /// The largest `d_u + d_v` of Eq. 7 between samples `w` apart, the larger region
-    /// `r`: `w (1 + 1e-4)` plus the rounding of both samples' `D r + d` in f32 (4 ulps of
-    /// `D (r + 1)`), so no edge perpendicular to a surface is lost at high region indices.
-    fn reach(&self, w: f32, r: i32) -> f32 {
-        w * (1.0 + 1e-4) + 4.0 * f32::EPSILON * self.period * (r + 1) as f32
-    }
-
-    /// Whether the surface passes between neighbouring samples `u` and `v` a distance `w`
-    /// apart (003 Eq. 5 and 7), and where: `(region of u, region of v, t from u)` (Eq. 6).
-    pub fn crossing(&self, u: f32, v: f32, w: f32) -> Option<(i32, i32, f32)> {
-        let ((i, du), (j, dv)) = (self.decode(u)?, self.decode(v)?);
-        if i == j || du + dv > self.reach(w, i.max(j)) {
-            return None;
-        }
-        let sum = du + dv;
-        Some((i, j, if sum > 0.0 { du / sum } else { 0.5 }))
-    }
-}
 
 /// The non-manifold surface of a segmented field (see the [module](self) docs), reporting
 /// progress to `job` (stage `segmented surface`, in slices). Samples that are not
@@ -135,11 +54,11 @@ impl Segmentation {
 pub fn mesh_segmented(grid: &Grid, seg: &Segmentation, job: &Job) -> Result<LabelMesh, FieldError> {
     let n = grid.dims().map(|d| d as i64);
     let w = grid.spacing();
-    if seg.delta < w {
+    if seg.delta() < w {
         // Clamped distances would sum below the spacing wherever two regions meet.
         return Err(FieldError::BadParameter {
             name: "segmentation delta",
-            value: format!("{} for spacing {w}", seg.delta),
+            value: format!("{} for spacing {w}", seg.delta()),
             why: "must be at least the lattice spacing (003 Eq. 4: larger than the interval of grid points)",
         });
     }
@@ -375,8 +294,8 @@ fn open_rims(
                 let total = du + dv;
                 if ri == rj
                     || total <= seg.reach(w, ri.max(rj))
-                    || du >= seg.delta
-                    || dv >= seg.delta
+                    || du >= seg.delta()
+                    || dv >= seg.delta()
                 {
                     continue;
                 }
@@ -402,8 +321,9 @@ fn open_rims(
 
 /// 003's step 6: renumbers the regions of a segmented field from 0 in ascending order, so
 /// the indices are dense (a vertex generation diagram then spans no unused region). Returns
-/// the old index of each new one (`old[new]`); samples that are not segmented values are
-/// left as they are. Distances are kept to f32 rounding (each sample decoded and encoded
+/// the old index of each new one (`old[new]`); samples that are not segmented values
+/// (negative, not finite) are left as they are, and one that decodes to a region beyond
+/// [`MAX_REGIONS`] is an error. Distances are kept to f32 rounding (each sample decoded and encoded
 /// again).
 ///
 /// ```
@@ -424,10 +344,14 @@ pub fn renumber(grid: &mut Grid, seg: &Segmentation) -> Result<Vec<i32>, FieldEr
     let mut present = vec![false; MAX_REGIONS as usize];
     for &f in grid.data() {
         if let Some((r, _)) = seg.decode(f) {
-            // Values beyond the last region are not segmented samples here either.
-            if let Some(p) = present.get_mut(r as usize) {
-                *p = true;
-            }
+            let Some(p) = present.get_mut(r as usize) else {
+                return Err(FieldError::BadParameter {
+                    name: "segmented sample",
+                    value: f.to_string(),
+                    why: "decodes to a region beyond 4095 (003 Eq. 4 with this field's period)",
+                });
+            };
+            *p = true;
         }
     }
     let old: Vec<i32> = (0..MAX_REGIONS).filter(|&r| present[r as usize]).collect();

@@ -253,12 +253,12 @@ impl TetGrid {
             let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
             TransferFunction::from_json(&text)
         } else {
-            let name: String = tf.extract().map_err(|_| {
+            let name: PathBuf = tf.extract().map_err(|_| {
                 PyTypeError::new_err(
                     "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
                 )
             })?;
-            TransferFunction::load_for(&name, range, volume.mean_edge())
+            TransferFunction::load_for(&name.to_string_lossy(), range, volume.mean_edge())
         }
         .map_err(value_err)?;
         let classification = match classification {

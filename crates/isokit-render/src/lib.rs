@@ -25,8 +25,10 @@
 //! | `flow.wgsl` | `flow/cpu.rs` ([`shade::flow_image`]) | `flow/gpu.rs` |
 //! | `splat.wgsl`, `splat_shade.wgsl` | `splat/cpu.rs` ([`splat`]), `quadric.rs` ([`quadric::intersect`]) | `splat/gpu.rs` ([`splat::gpu`], also [`gpu::splat`]) |
 //! | `dvr.wgsl` | `dvr/mod.rs` ([`dvr::render_dvr`], [`dvr::render_dvr_spherical`]), `spherical.rs` ([`spherical::render_iso`]) | `dvr/gpu.rs` ([`gpu::GpuRenderer::render_dvr`], [`gpu::GpuRenderer::render_spherical_iso`]) |
+//! | `tets.wgsl`, `common/transfer.wgsl`, `common/slab.wgsl` | `tets/mod.rs` ([`tets::TetCaster`]), `tets/dvr.rs` ([`tets::dvr::TetVolume`]) | `tets/gpu.rs` ([`gpu::GpuRenderer::render_tets`], [`gpu::GpuRenderer::render_tets_dvr`]) |
+//! | `segmented.wgsl`, `common/slab.wgsl` | `segmented/mod.rs` ([`segmented::SegmentedCaster`]) | `segmented/gpu.rs` ([`gpu::GpuRenderer::render_segmented`], [`gpu::GpuRenderer::render_segmented_layers`]) |
 //!
-//! [`tets`] (ray casting through the cells of a tetrahedral grid) has only its CPU side so far.
+//! `dvr.wgsl` also takes `common/transfer.wgsl` and `common/slab.wgsl`.
 //!
 //! `gpu.rs` holds what the GPU host code shares (the device and pipelines, the constants
 //! prepended from Rust, the backend choice).

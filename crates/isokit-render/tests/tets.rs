@@ -380,9 +380,15 @@ fn the_gpu_twin_casts_what_the_cpu_twin_casts() {
             assert!(rel < 1e-3, "{cells_cpu} {cells_gpu}");
         }
     }
-    // Non-finite values are refused on the GPU (the CPU twin renders them).
+    // Non-finite values: their cells hold no surface on either twin (the GPU's flagged on
+    // the host, as WGSL gives NaN no meaning), and the walk goes on through them.
     let mut values = grids[0].1.values().to_vec();
-    values[7] = f32::NAN;
+    let nan = values
+        .iter()
+        .position(|v| v.abs() < 0.05)
+        .expect("a point near the surface");
+    values[nan] = f32::NAN;
+    values[nan + 1] = f32::INFINITY;
     let bad = TetGrid::new(
         grids[0].1.points().to_vec(),
         grids[0].1.tets().to_vec(),
@@ -391,6 +397,13 @@ fn the_gpu_twin_casts_what_the_cpu_twin_casts() {
     )
     .unwrap();
     let caster = TetCaster::new(&bad, 0.0, Inside::Below, TetNormals::Smooth).unwrap();
-    let e = r.render_tets(&caster, &u).unwrap_err();
-    assert!(e.to_string().contains("non-finite"), "{e}");
+    let cpu = caster.render(&u, &job).unwrap();
+    let gpu = r.render_tets(&caster, &u).unwrap();
+    let (masks, both, dz, _) = compare_gbuffers(&cpu, &gpu);
+    eprintln!("non-finite values: {both} hits in both, {masks} masks differ, depth {dz:.1e}");
+    assert!(
+        both > 500 && masks <= 2 && dz / grids[0].2 < 2e-4,
+        "{masks} {dz}"
+    );
+    assert_eq!(cpu.samples(), gpu.samples());
 }

@@ -117,7 +117,7 @@ pub struct Args {
     #[command(flatten)]
     pub lattice: crate::cmd::lattice_args::LatticeArgs,
     #[command(flatten)]
-    pub segmented: super::segmented::SegmentedArgs,
+    pub segmented: super::segmented_args::SegmentedArgs,
     /// Print what the rendering did as one JSON object on stdout.
     #[arg(long)]
     pub stats: bool,

@@ -9,6 +9,7 @@
 mod args;
 mod dvr;
 mod segmented;
+mod segmented_args;
 mod spherical;
 mod summary;
 mod tets;
@@ -35,11 +36,10 @@ pub fn run(a: Args) -> Result<()> {
         check_output(g, &[".exr"])?;
     }
     let (width, height) = check_image_size(a.width, a.height)?;
-    if super::tets::is_tets(&a.input) {
-        return tets::run(&a, width, height);
-    }
-    if a.segmented.segmented {
+    if segmented_args::segmented(&a)? {
         return segmented::run(&a, width, height);
+    } else if super::tets::is_tets(&a.input) {
+        return tets::run(&a, width, height);
     }
     if let Some(lattice) = a.lattice.spherical(&a.input)? {
         return spherical::run(&a, width, height, lattice);

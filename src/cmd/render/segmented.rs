@@ -5,7 +5,8 @@
 //! `--gbuffer` adds the channels `region_a` and `region_b`.
 
 use super::Args;
-use anyhow::{Result, bail};
+use super::segmented_args::{TINTS, composite_knobs, refuse};
+use anyhow::Result;
 use isokit_levelset::segmented::renumber;
 use isokit_render::segmented::SegmentedCaster;
 use isokit_render::{Shading, camera_uniforms, shade};
@@ -13,57 +14,9 @@ use serde_json::json;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-/// The flags of `isokit render --segmented`.
-#[derive(clap::Args, Debug)]
-pub struct SegmentedArgs {
-    /// The input is a PLY of surface patches with the face properties `region_front` and
-    /// `region_back` (sampled at --res, default 64) or a segmented field (`isokit sdf
-    /// --segmented`): render the surfaces between the regions (junctions, boundaries).
-    #[arg(long)]
-    pub segmented: bool,
-    /// --segmented: find the surface through 003's vertex generation diagram, a table of
-    /// this many entries per region period, instead of evaluating 003 Eq. 5–7 per step.
-    #[arg(long, requires = "segmented")]
-    pub diagram: Option<usize>,
-    /// --segmented: the surfaces' opacity; below 1 the first --layers surfaces along each
-    /// ray are composited front to back, so inner interfaces show through [default: 1].
-    #[arg(long, requires = "segmented")]
-    pub opacity: Option<f32>,
-    /// --opacity: surfaces composited per ray, 1 to 16 [default: 8].
-    #[arg(long, requires = "opacity")]
-    pub layers: Option<usize>,
-    #[command(flatten)]
-    pub knobs: crate::cmd::segmented_field::SegmentedKnobs,
-}
-
-/// Linear RGB tints of the region pairs, in the order of the pairs.
-const TINTS: [[f32; 3]; 8] = [
-    [0.90, 0.35, 0.25],
-    [0.25, 0.55, 0.90],
-    [0.35, 0.80, 0.35],
-    [0.95, 0.80, 0.25],
-    [0.70, 0.40, 0.85],
-    [0.25, 0.80, 0.80],
-    [0.95, 0.55, 0.75],
-    [0.60, 0.60, 0.60],
-];
-
 /// Renders `a.input` (surface patches) as `--segmented` says.
 pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
-    a.refuse_dvr_flags_except(&[])?;
-    let extra = [
-        (a.iso.is_some(), "--iso (the surfaces lie between regions)"),
-        (a.array.is_some(), "--array"),
-    ];
-    // --res is the patches' sampling here.
-    let one_ray = super::tets::one_ray_flags(a)?;
-    for &(given, flag) in one_ray.iter().filter(|f| f.1 != "--res").chain(&extra) {
-        if given {
-            bail!(
-                "{flag} is not available for --segmented (rendered on the CPU, one ray per pixel)"
-            );
-        }
-    }
+    refuse(a)?;
     let mode = super::tets::shading_without_curvature(
         a,
         "the surfaces between regions are found without curvature",
@@ -78,15 +31,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
     let u = camera_uniforms(&camera)?;
     let mut renderer = crate::cmd::args::open_renderer(a.backend)?;
     let backend = renderer.backend();
-    let opacity = a.segmented.opacity.unwrap_or(1.0);
-    if !(opacity > 0.0 && opacity <= 1.0) {
-        bail!("--opacity {opacity}: must be above 0 and at most 1");
-    }
-    let n = if opacity < 1.0 {
-        a.segmented.layers.unwrap_or(8)
-    } else {
-        1
-    };
+    let (opacity, n) = composite_knobs(a)?;
     let t = Instant::now();
     let mut layers = match renderer.gpu() {
         Some(gpu) => gpu.render_segmented_layers(&caster, &u, n)?,
@@ -129,7 +74,7 @@ pub fn run(a: &Args, width: u32, height: u32) -> Result<()> {
         }
         shaded.push(image);
     }
-    let image = if n > 1 {
+    let image = if opacity < 1.0 {
         let [r, g, b, _] = sh.background;
         isokit_render::segmented::composite(&layers, &shaded, opacity, glam::Vec3::new(r, g, b))?
     } else {

@@ -52,9 +52,9 @@ pub struct Args {
     /// Algorithm.
     #[arg(long, value_enum, default_value_t = Method::Kdtree)]
     pub method: Method,
-    /// Samples along the longest side of the padded bounds.
-    #[arg(long, default_value_t = 64)]
-    pub res: usize,
+    /// Samples along the longest side of the padded bounds [default: 64].
+    #[arg(long)]
+    pub res: Option<usize>,
     /// Narrow band: only samples within W of the surface are exact; the rest hold ±W with
     /// the right sign (the search exits early beyond W). Required by --method prism.
     #[arg(long)]

@@ -40,7 +40,9 @@ pub fn run(a: Args) -> Result<()> {
     if mesh.triangles.is_empty() {
         bail!("{}: the mesh has no triangles", a.mesh.display());
     }
-    let grid = a.lattice.grid(&a.mesh, mesh.bounds(), a.res)?;
+    let grid = a
+        .lattice
+        .grid(&a.mesh, mesh.bounds(), a.res.unwrap_or(64))?;
     match a.method {
         Method::Kdtree => run_kdtree(&a, &mesh, grid),
         Method::Prism => run_prism(&a, &mesh, grid),

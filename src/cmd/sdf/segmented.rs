@@ -3,14 +3,17 @@
 //! header, for `isokit mesh` and `isokit render` to read with `--segmented`.
 
 use super::Args;
-use super::args::{Backend, Method};
+use super::args::{Backend, Method, Sides};
+use crate::cmd::mesh_args::Sign;
 use crate::cmd::segmented_field::{load, write};
+use crate::cmd::volume_args::Compression;
 use anyhow::{Result, bail};
 use std::time::Instant;
 
 /// Samples the patches in `a.mesh` and writes their field.
 pub fn run(a: &Args) -> Result<()> {
     crate::cmd::check_output(&a.output, &[".nrrd"])?;
+    let defaults = isokit_kdtree::tree::BuildParams::default();
     for (given, flag) in [
         (a.method != Method::Kdtree, "--method prism"),
         (a.band.is_some(), "--band"),
@@ -19,6 +22,16 @@ pub fn run(a: &Args) -> Result<()> {
         (a.lattice.padding.is_some(), "--padding"),
         (a.lattice.placement.bounds.is_some(), "--bounds"),
         (a.lattice.placement.like.is_some(), "--like"),
+        (a.knobs.sign != Sign::Auto, "--sign"),
+        (a.knobs.leaf_size != defaults.leaf_size, "--leaf-size"),
+        (a.knobs.max_overlap != defaults.max_overlap, "--max-overlap"),
+        (a.knobs.beta != 2.0, "--beta"),
+        (a.prism_sides != Sides::Exact, "--prism-sides"),
+        (a.no_gap_repair, "--no-gap-repair"),
+        (
+            a.res.is_some() && a.segmented_knobs.from_labels,
+            "--res with --from-labels (the labels' own lattice)",
+        ),
     ] {
         if given {
             bail!(
@@ -34,10 +47,14 @@ pub fn run(a: &Args) -> Result<()> {
         );
     }
     let t = Instant::now();
-    let res = (!a.segmented_knobs.from_labels).then_some(a.res);
-    let (grid, seg) = load(&a.mesh, res, &a.segmented_knobs)?;
+    let (grid, seg) = load(&a.mesh, a.res, &a.segmented_knobs)?;
     let secs = t.elapsed().as_secs_f64();
-    write(&a.output, &grid, &seg)?;
+    let encoding = match a.out.compression {
+        Compression::None => isokit_io::NrrdEncoding::Raw,
+        Compression::Fast => isokit_io::NrrdEncoding::Gzip,
+        Compression::Best => isokit_io::NrrdEncoding::GzipBest,
+    };
+    write(&a.output, &grid, &seg, encoding)?;
     let d = grid.dims();
     let regions: std::collections::BTreeSet<i32> = grid
         .data()

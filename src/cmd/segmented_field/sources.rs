@@ -106,12 +106,29 @@ pub fn read(path: &Path) -> Result<(Grid, Segmentation)> {
             v.spacing
         );
     }
+    let regions = isokit_levelset::segmented::MAX_REGIONS;
+    if let Some((i, f)) = v.data.iter().enumerate().find(|(_, f)| {
+        seg.decode(**f)
+            .is_some_and(|(r, _)| !(0..regions).contains(&r))
+    }) {
+        bail!(
+            "{}: sample {i} ({f}) decodes to a region beyond {} (with period {}); not a segmented field of isokit",
+            path.display(),
+            regions - 1,
+            seg.period()
+        );
+    }
     Ok((v.into_grid()?, seg))
 }
 
-/// Writes `grid` as an NRRD (raw, atomically) with `field:=segmented`, `delta:=` and
-/// `period:=` in its header.
-pub fn write(path: &Path, grid: &Grid, seg: &Segmentation) -> Result<()> {
+/// Writes `grid` as an NRRD (atomically, encoded as `encoding` says) with
+/// `field:=segmented`, `delta:=` and `period:=` in its header.
+pub fn write(
+    path: &Path,
+    grid: &Grid,
+    seg: &Segmentation,
+    encoding: isokit_io::NrrdEncoding,
+) -> Result<()> {
     let (d, p) = (seg.delta().to_string(), seg.period().to_string());
     let pairs = [
         ("field", "segmented"),
@@ -119,6 +136,6 @@ pub fn write(path: &Path, grid: &Grid, seg: &Segmentation) -> Result<()> {
         ("period", p.as_str()),
     ];
     let vol = isokit_io::Volume::from(grid.clone());
-    isokit_io::write_nrrd_key_values(path, &vol, isokit_io::NrrdEncoding::Raw, &pairs)?;
+    isokit_io::write_nrrd_key_values(path, &vol, encoding, &pairs)?;
     Ok(())
 }

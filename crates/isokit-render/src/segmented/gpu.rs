@@ -144,14 +144,11 @@ impl GpuRenderer {
             } else {
                 0
             };
-            let hit = (r[0][1] > 0.5).then(|| {
-                let (o, d) = rays[ray];
-                SegmentedHit {
-                    t: r[0][0],
-                    position: o + r[0][0] * d,
-                    normal: Vec3::new(r[1][0], r[1][1], r[1][2]),
-                    regions: [r[2][0] as i32, r[2][1] as i32],
-                }
+            let hit = (r[0][1] > 0.5).then(|| SegmentedHit {
+                t: r[0][0],
+                position: Vec3::new(r[0][3], r[1][3], r[2][2]),
+                normal: Vec3::new(r[1][0], r[1][1], r[1][2]),
+                regions: [r[2][0] as i32, r[2][1] as i32],
             });
             (hit, samples)
         }))

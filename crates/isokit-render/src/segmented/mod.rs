@@ -8,10 +8,12 @@
 //! Between two consecutive samples whose lattice points `P_u`, `P_v` differ, the surface
 //! passes where 003 Eq. 5–7 say ([`Segmentation::crossing`], with `w` the points' distance):
 //! at `X = P_u + t (P_v − P_u)` with `t` from Eq. 6, the point the mesher
-//! ([`isokit_levelset::segmented::mesh_segmented`]) puts on that lattice edge; the hit is
+//! (`isokit_levelset::segmented::mesh_segmented`) puts on that lattice edge; the hit is
 //! where the ray meets the plane through `X` with the normal there (exact for planar
 //! surfaces). The march steps half a spacing, so consecutive samples' points differ by at
-//! most one index per axis.
+//! most one index per axis; where a sample's distance says no surface is near, it jumps
+//! ahead by that distance less 1.87 spacings (empty-space skipping by the distances the
+//! field holds, up to the clamp `δ`).
 //!
 //! 003's own route tabulates Eq. 5–7 as the *vertex generation diagram* ([`VertexDiagram`]):
 //! a 2D table over (front value, back value) holding whether a surface passes and where, so
@@ -20,8 +22,8 @@
 //! edge or a corner of a lattice cell (`1`, `√2` or `√3` spacings apart), so the diagram has
 //! one layer for each. Its entries stand for the values up to half an entry either side, so
 //! each layer takes Eq. 7's bound one entry (`D / levels`) wider, lest a pair at the bound
-//! be lost: near a boundary's rim it may accept a pair that far beyond Eq. 7. Its
-//! resolution, levels per region period, is a knob.
+//! be lost: near a boundary's rim it may accept a pair up to one entry beyond Eq. 7's
+//! bound. Its resolution, levels per region period, is a knob.
 //!
 //! Normals: the gradient of the pair's signed distance (`+d` in the front region, `−d` in the
 //! back region, `+d` elsewhere) interpolated trilinearly over the lattice cell around the
@@ -31,8 +33,8 @@
 use crate::kernel::{GSample, ID_SURFACE, Uniforms, pixel_ray};
 use crate::{GBuffer, RenderError};
 use glam::{IVec3, Vec3};
+use isokit_field::segmentation::Segmentation;
 use isokit_field::{Grid, Job};
-use isokit_levelset::segmented::Segmentation;
 use rayon::prelude::*;
 
 pub(crate) mod gpu;
@@ -194,13 +196,27 @@ impl<'g> SegmentedCaster<'g> {
         let Some((t0, t1)) = crate::dvr::slab(o, d, b.min, b.max) else {
             return (hits, 0);
         };
-        let step = 0.5 * self.grid.spacing();
-        let mut t = t0;
-        let (mut cu, mut u) = self.nearest(o + t * d);
+        // The march runs from the entry point `oe`, `s` along the ray from there, so a far
+        // camera neither loses the steps to f32 rounding of `t` nor stalls the march.
+        let (step, len, oe) = (0.5 * self.grid.spacing(), t1 - t0, o + t0 * d);
+        let mut s = 0.0f32;
+        let (mut cu, mut u) = self.nearest(oe);
         let mut samples = 1u32;
-        while t < t1 {
-            t = (t + step).min(t1);
-            let (cv, v) = self.nearest(o + t * d);
+        while s < len {
+            // Empty space: no surface lies within `d − 0.87 h` of the ray here (the sample's
+            // distance, its lattice point up to 0.87 h off the ray), so the march jumps to a
+            // spacing short of that, without testing across the jump (no surface can lie
+            // between, and points that far apart may differ in region beyond a rim).
+            let jump =
+                self.seg.decode(u).map_or(0.0, |(_, dist)| dist) - 1.87 * self.grid.spacing();
+            if jump > step {
+                s = (s + jump).min(len);
+                (cu, u) = self.nearest(oe + s * d);
+                samples += 1;
+                continue;
+            }
+            s = (s + step).min(len);
+            let (cv, v) = self.nearest(oe + s * d);
             samples += 1;
             if cv != cu {
                 let (pu, pv) = (self.point(cu), self.point(cv));
@@ -211,26 +227,25 @@ impl<'g> SegmentedCaster<'g> {
                     }
                     None => self.seg.crossing(u, v, pu.distance(pv)),
                 };
-                if let Some((i, j, s)) = crossing {
+                if let Some((i, j, f)) = crossing {
                     // The ray meets the plane through the crossing with the local normal (exact
                     // for a planar surface); nearly parallel rays take the crossing's
                     // projection. The lattice points are up to 0.87 spacings off the ray, so
                     // the plane is met within 0.87 h / |d · n| of this step, before or after;
                     // never outside the box.
-                    let x = pu + s * (pv - pu);
+                    let x = pu + f * (pv - pu);
                     let normal = self.normal(x, i, j, d);
                     let dn = d.dot(normal).abs();
-                    let th = if dn > 0.1 {
+                    let sh = if dn > 0.1 {
                         let reach = 0.87 * self.grid.spacing() / dn;
-                        ((x - o).dot(normal) / d.dot(normal)).clamp(t - step - reach, t + reach)
+                        ((x - oe).dot(normal) / d.dot(normal)).clamp(s - step - reach, s + reach)
                     } else {
-                        (x - o).dot(d)
+                        (x - oe).dot(d)
                     };
-                    let th = th.clamp(t0, t1);
-                    let position = o + th * d;
+                    let sh = sh.clamp(0.0, len);
                     hits.push(SegmentedHit {
-                        t: th,
-                        position,
+                        t: t0 + sh,
+                        position: oe + sh * d,
                         normal,
                         regions: [i, j],
                     });
@@ -332,7 +347,14 @@ pub fn composite(
     opacity: f32,
     background: Vec3,
 ) -> Result<crate::Image, RenderError> {
-    if !(opacity > 0.0 && opacity <= 1.0) || layers.len() != shaded.len() || layers.is_empty() {
+    let count = shaded.first().map_or(0, |i| i.pixels.len());
+    let sizes_agree = layers.iter().all(|l| l.pairs.len() == count)
+        && shaded.iter().all(|i| i.pixels.len() == count);
+    if !(opacity > 0.0 && opacity <= 1.0)
+        || layers.len() != shaded.len()
+        || layers.is_empty()
+        || !sizes_agree
+    {
         return Err(RenderError::bad(
             "composite",
             format!(
@@ -340,11 +362,11 @@ pub fn composite(
                 layers.len(),
                 shaded.len()
             ),
-            "needs an opacity above 0 up to 1 and one shaded image per layer",
+            "needs an opacity above 0 up to 1 and one shaded image per layer, all of one size",
         ));
     }
     let (w, h) = (shaded[0].width, shaded[0].height);
-    let pixels = (0..(w * h) as usize)
+    let pixels = (0..count)
         .map(|i| {
             let (mut c, mut trans) = (Vec3::ZERO, 1.0f32);
             for (layer, image) in layers.iter().zip(shaded) {
@@ -625,6 +647,22 @@ mod tests {
         assert!(both > 500 && worst < 1e-4, "{both} {worst}");
         assert!(caster.render_layers(&u, &Job::new(), 0).is_err());
         assert!(caster.render_layers(&u, &Job::new(), 17).is_err());
+    }
+
+    #[test]
+    fn a_far_camera_neither_stalls_the_march_nor_loses_the_surface() {
+        // Half a spacing is far below an f32 ulp of the entry's ray parameter here: a march
+        // in t would never advance.
+        let (g, seg) = field(25, stacked);
+        let caster = SegmentedCaster::new(&g, seg, None).unwrap();
+        let o = Vec3::new(0.013, -0.021, 1.0e7);
+        let (hits, samples) = caster.trace_layers(o, -Vec3::Z, 2);
+        assert_eq!(hits.len(), 2, "{samples} samples");
+        assert_eq!(hits[0].regions, [2, 1]);
+        // The planes at z = 0.5 and 0 (positions from the entry point, not from the eye).
+        assert!((hits[0].position.z - 0.5).abs() < 1e-4, "{:?}", hits[0]);
+        assert!(hits[1].position.z.abs() < 1e-4, "{:?}", hits[1]);
+        assert!(samples < 200, "{samples}");
     }
 
     #[test]

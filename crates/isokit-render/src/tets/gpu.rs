@@ -22,9 +22,11 @@
 //! The CPU twin walks in f64, the kernel in f32, so exits and hits agree to f32 rounding; at
 //! a ray through an edge or a vertex of the cells the two may pick different (equally right)
 //! exit faces. A flat cell is stepped across with an f32 tolerance (1e-6 of the ray
-//! parameter) where the CPU twin takes 1e-9. Grids with a non-finite value are refused (WGSL
-//! gives NaN no defined meaning; the CPU twin treats such cells as holding no surface and
-//! as clear).
+//! parameter) where the CPU twin takes 1e-9. WGSL gives NaN no defined meaning: a
+//! non-finite value goes up as 0 and its cells are flagged, so the kernel treats them as the
+//! CPU twin does (crossed, holding no surface, clear). A degenerate boundary face is tested
+//! like any other here, where the kd-tree's test refuses it; either way the walk then steps
+//! across the degenerate cell behind it.
 
 use super::dvr::{TetDvrOptions, TetVolume};
 use super::{FACES, TetCaster, TetHit, Walk, sample};
@@ -183,19 +185,17 @@ impl GridData {
         sign: f32,
         gradients: &[Vec3],
     ) -> Result<Self, RenderError> {
-        if grid.values().iter().any(|v| !v.is_finite()) {
-            return Err(RenderError::BadParameter {
-                name: "tetrahedral grid",
-                value: grid.array().to_string(),
-                why: "has non-finite values, which the GPU twin does not take (render it on the CPU)",
-            });
-        }
+        // WGSL gives NaN and infinity no defined meaning: a non-finite value goes up as 0
+        // and its cells are flagged, to be treated as the CPU twin treats them.
         let points = grid
             .points()
             .iter()
             .zip(grid.values())
             .zip(gradients)
-            .flat_map(|((p, &v), g)| [p.extend(sign * v).to_array(), g.extend(0.0).to_array()])
+            .flat_map(|((p, &v), g)| {
+                let v = if v.is_finite() { sign * v } else { 0.0 };
+                [p.extend(v).to_array(), g.extend(0.0).to_array()]
+            })
             .collect();
         let cells = grid
             .tets()
@@ -212,7 +212,15 @@ impl GridData {
                 let flat = is_degenerate(&p, m.determinant());
                 let inv = if flat { DMat3::ZERO } else { m.inverse() };
                 let row = |i: usize| inv.row(i).as_vec3().extend(0.0).to_array();
-                let p0 = p[0].as_vec3().extend(if flat { 1.0 } else { 0.0 });
+                let unknown = t.iter().any(|&i| !grid.values()[i as usize].is_finite());
+                let flag = if flat {
+                    FLAT
+                } else if unknown {
+                    NOT_FINITE
+                } else {
+                    0.0
+                };
+                let p0 = p[0].as_vec3().extend(flag);
                 [p0.to_array(), row(0), row(1), row(2)]
             })
             .collect();
@@ -225,6 +233,12 @@ impl GridData {
     }
 }
 
+/// A cell's flag in its frame's `w`: degenerate (no inside; the walk steps across it).
+const FLAT: f32 = 1.0;
+/// A cell's flag in its frame's `w`: a point value is not finite (crossed, but it holds no
+/// surface and is clear, as on the CPU twin).
+const NOT_FINITE: f32 = 2.0;
+
 /// The entry points of `tets.wgsl`.
 #[derive(Clone, Copy)]
 enum Entry {
@@ -234,7 +248,7 @@ enum Entry {
 
 impl GpuRenderer {
     /// [`TetCaster::render`] on the GPU: the same G-buffer to f32 rounding (the kernel
-    /// walks in f32; [`crate::tets`] says more). Grids with non-finite values are refused.
+    /// walks in f32; [`crate::tets`] says more).
     pub fn render_tets(
         &self,
         caster: &TetCaster<'_>,
@@ -277,7 +291,7 @@ impl GpuRenderer {
     }
 
     /// [`TetVolume::render`] on the GPU: the same image to f32 rounding (the kernel walks
-    /// in f32). Grids with non-finite values are refused.
+    /// in f32).
     pub fn render_tets_dvr(
         &self,
         vol: &TetVolume<'_>,
@@ -372,6 +386,7 @@ impl GpuRenderer {
         let gpu = &self.gpu;
         let count = rays.len();
         for (what, bytes) in [
+            ("the boundary faces", 8 * data.hierarchy.faces.len()),
             ("the points", 16 * data.points.len()),
             ("the cells", 16 * data.cells.len()),
             ("the cells' frames", 16 * data.frames.len()),

@@ -22,13 +22,13 @@
 //! The GPU twin is [`crate::gpu::GpuRenderer::render_tets`] (`shaders/tets.wgsl`, entry
 //! point `tet_iso`; host code in `tets/gpu.rs`): the same walk in f32, with each cell's
 //! inverse edge matrix made in f64 on the host and the entry faces found in a hierarchy of
-//! boxes; it agrees with this one to f32 rounding (at a ray through a cell's edge the two may
-//! leave by different, equally right faces) and refuses grids with non-finite values. A cell with a non-finite value holds no hit (the walk
-//! goes on through it; marching tetrahedra, which treat NaN as outside, close the surface
-//! around such a point instead, so there the two differ); a degenerate cell (|det| ≤ 1e-9
-//! of its longest edge cubed, as [`TetGrid::report`] counts them) has no inside: the walk
-//! steps across it into the neighbour the ray runs on into. The camera must be outside the
-//! grid (rays start at the first boundary face they meet).
+//! boxes; it agrees with this one to f32 rounding (at a ray through a cell's edge the two
+//! may leave by different, equally right faces). A cell with a non-finite value holds no
+//! hit (the walk goes on through it; marching tetrahedra, which treat NaN as outside,
+//! close the surface around such a point instead, so there the two differ); a degenerate
+//! cell (|det| ≤ 1e-9 of its longest edge cubed, as [`TetGrid::report`] counts them) has
+//! no inside: the walk steps across it into the neighbour the ray runs on into. The camera
+//! must be outside the grid (rays start at the first boundary face they meet).
 //!
 //! [`dvr`] renders the same walk as a volume: each cell's segment of the ray is one entry
 //! of a pre-integration table.
