@@ -141,6 +141,10 @@ fn labels_refuse_what_does_not_apply_and_labels_that_are_not_whole() {
             vec!["mesh", v, "--smooth", "3", "-o", p],
             "--smooth applies to --labels",
         ),
+        (
+            vec!["mesh", v, "--labels", "--smooth", "100000000", "-o", p],
+            "must be at most 10000 relaxation passes",
+        ),
     ] {
         assert_clear_error(&isokit(&args), needle);
     }
@@ -687,6 +691,42 @@ fn segmented_fields_are_written_read_and_morphed() {
             &p("x.png"),
         ]),
         "not a segmented field",
+    );
+    // At the default δ (4 spacings) the planes are too far apart near x = ±1: a warning.
+    isokit_ok(&[
+        "sdf",
+        &p("a.ply"),
+        "--segmented",
+        "--res",
+        "40",
+        "-o",
+        &p("a4.nrrd"),
+    ]);
+    let o = isokit_ok(&[
+        "mesh",
+        &p("a4.nrrd"),
+        "--segmented",
+        "--seg-morph",
+        &p("c.nrrd"),
+        "-o",
+        &p("near.ply"),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("the blend there is not exact"), "{err}");
+    // A segmented field without --segmented, and a tetrahedral grid with it.
+    for args in [
+        vec!["render", &p("a.nrrd"), "-o", &p("x.png")],
+        vec!["mesh", &p("a.nrrd"), "-o", &p("x.ply")],
+    ] {
+        assert_clear_error(
+            &isokit(&args),
+            "is a segmented field (its header says field:=segmented): add --segmented",
+        );
+    }
+    let torus = common::data("tets/torus.vtu");
+    assert_clear_error(
+        &isokit(&["render", &torus, "--segmented", "-o", &p("x.png")]),
+        "is a tetrahedral grid",
     );
     // A field whose samples decode to a region beyond 4095 is refused, not indexed.
     let mut g = isokit_io::read_volume(&d.join("a.nrrd"))

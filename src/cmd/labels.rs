@@ -93,7 +93,7 @@ pub fn run_segmented(a: &Args) -> Result<()> {
     let m = mesh_segmented(&grid, &seg, &job)?;
     if m.mesh.triangles.is_empty() {
         eprintln!(
-            "warning: no surface between regions (are region_front and region_back the same on every face?); the mesh is empty"
+            "warning: no surface between regions (are the patches degenerate, or region_front and region_back the same on every face?); the mesh is empty"
         );
     }
     let d = grid.dims();

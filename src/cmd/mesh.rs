@@ -95,6 +95,7 @@ pub fn run(a: Args) -> Result<()> {
     if a.res.is_some() {
         bail!("--res applies to --segmented");
     }
+    super::segmented_field::refuse_unflagged(&a.field)?;
     if isokit_io::MeshFormat::from_path(&a.field).is_ok() {
         bail!(
             "{} is a mesh, not a field: `isokit sdf` samples a mesh's distance, and --segmented meshes surface patches (a PLY with region_front and region_back)",

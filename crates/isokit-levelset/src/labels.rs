@@ -28,11 +28,15 @@ use std::collections::HashMap;
 /// Knobs of [`label_surface`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LabelOptions {
-    /// Relaxation passes (0: vertices at the cells' centres, a voxel-aligned staircase).
+    /// Relaxation passes (0: vertices at the cells' centres, a voxel-aligned staircase), at
+    /// most [`MAX_SMOOTHING`].
     pub smoothing: usize,
     /// How far each pass moves a vertex towards its neighbours' mean (0 to 1).
     pub relaxation: f32,
 }
+
+/// The most relaxation passes [`LabelOptions::smoothing`] may ask for.
+pub const MAX_SMOOTHING: usize = 10_000;
 
 impl Default for LabelOptions {
     fn default() -> Self {
@@ -137,6 +141,13 @@ pub fn label_surface_spaced(
             name: "relaxation",
             value: opts.relaxation.to_string(),
             why: "must be from 0 to 1",
+        });
+    }
+    if opts.smoothing > MAX_SMOOTHING {
+        return Err(FieldError::BadParameter {
+            name: "smoothing",
+            value: opts.smoothing.to_string(),
+            why: "must be at most 10000 relaxation passes (each vertex stays in its cell: the surface stops moving long before)",
         });
     }
     if !(spacing.is_finite() && spacing.min_element() > 0.0 && origin.is_finite()) {

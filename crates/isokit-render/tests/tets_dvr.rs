@@ -408,7 +408,7 @@ fn a_flat_cell_inside_the_grid_is_stepped_across() {
 
 #[test]
 fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
-    let Some(r) =
+    let Some(mut r) =
         common::twin::gpu_renderer("tets_dvr::the_gpu_twin_renders_what_the_cpu_twin_renders")
     else {
         return;
@@ -482,6 +482,15 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
             }
         }
     }
+    // Rays in chunks (as images too large for one dispatch are traced): the same image.
+    let tets = TetGrid::from_grid(&linear_grid(9), TetSplit::Six).unwrap();
+    let vol = TetVolume::new(&tets);
+    let opts = TetDvrOptions::default();
+    let whole = r.render_tets_dvr(&vol, &cam, &tf, &opts).unwrap();
+    r.set_max_rays_per_dispatch(333);
+    let chunked = r.render_tets_dvr(&vol, &cam, &tf, &opts).unwrap();
+    assert_eq!(whole.rgba, chunked.rgba);
+    assert_eq!(whole.samples, chunked.samples);
     // A flat cell stepped across (with f32's tolerance on the GPU).
     let (_, cut, tf_flat, cam_flat) = flat_cell_grids();
     let vol = TetVolume::new(&cut);

@@ -47,16 +47,21 @@ pub fn segmented(a: &Args) -> Result<bool> {
     {
         bail!("{flag} applies to --segmented");
     }
+    if !a.segmented.segmented {
+        crate::cmd::segmented_field::refuse_unflagged(&a.input)?;
+    }
     Ok(a.segmented.segmented)
 }
 
 /// Refuses the flags `--segmented` does not take.
 pub fn refuse(a: &Args) -> Result<()> {
+    if a.mode == super::args::RenderMode::Dvr {
+        bail!("--mode dvr is not available for --segmented (the surfaces between regions)");
+    }
     a.refuse_dvr_flags_except(&[])?;
     let extra = [
         (a.iso.is_some(), "--iso (the surfaces lie between regions)"),
         (a.array.is_some(), "--array"),
-        (a.mode == super::args::RenderMode::Dvr, "--mode dvr"),
         (a.inside != crate::cmd::args::InsideArg::Below, "--inside"),
         (a.lattice.any(), "a spherical lattice"),
     ];

@@ -63,6 +63,24 @@ impl SegmentedKnobs {
     }
 }
 
+/// Refuses a segmented field (an NRRD whose header says `field:=segmented`) given without
+/// `--segmented`: its values are region indices and distances, not one field to contour.
+pub fn refuse_unflagged(path: &Path) -> Result<()> {
+    let nrrd = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("nrrd") || e.eq_ignore_ascii_case("nhdr"));
+    if nrrd
+        && isokit_io::read_nrrd_key_values(path)
+            .is_ok_and(|kv| kv.iter().any(|(k, v)| k == "field" && v == "segmented"))
+    {
+        bail!(
+            "{} is a segmented field (its header says field:=segmented): add --segmented",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// The segmented field of `path`: patches (`.ply`) sampled at `res` (default 64) along the
 /// longest side of their box padded by 10% of its diagonal, or a segmented NRRD file read
 /// as it is (`--res`, `--seg-delta` and `--seg-period` are refused there); then blended with
@@ -72,6 +90,12 @@ pub fn load(
     res: Option<usize>,
     knobs: &SegmentedKnobs,
 ) -> Result<(Grid, Segmentation)> {
+    if crate::cmd::tets::is_tets(path) {
+        bail!(
+            "--segmented takes surface patches (.ply), a segmented field (`isokit sdf --segmented`) or a label volume with --from-labels; {} is a tetrahedral grid",
+            path.display()
+        );
+    }
     let patches = isokit_io::MeshFormat::from_path(path).is_ok();
     let (grid, seg) = if knobs.from_labels {
         if patches || res.is_some() {
@@ -122,5 +146,30 @@ pub fn load(
     }
     let blend = morph_segmented(&grid, &b, &seg, t)
         .with_context(|| format!("--seg-morph {} --seg-morph-t {t}", other.display()))?;
+    // Near the blend's surfaces (within two spacings), where the two differ in region and
+    // one of them is clamped, their surfaces are more than δ apart: the blend there holds no
+    // true distance to an interface.
+    let near = 2.0 * grid.spacing();
+    let far = grid
+        .data()
+        .iter()
+        .zip(b.data())
+        .zip(blend.data())
+        .filter(|((x, y), z)| {
+            match (seg.decode(**x), seg.decode(**y), seg.decode(**z)) {
+                // At the clamp, to the f32 rounding of `D r + δ`.
+                (Some((i, d)), Some((j, e)), Some((_, f))) => {
+                    i != j && f < near && d.max(e) >= seg.delta() * (1.0 - 1e-4)
+                }
+                _ => false,
+            }
+        })
+        .count();
+    if far > 0 {
+        eprintln!(
+            "warning: in {far} samples near the blend's surfaces the two fields' surfaces are more than δ = {} apart, so the blend there is not exact (003 Sec. 5.2 blends distances clamped at δ); sample both with a larger --seg-delta (and --seg-period)",
+            seg.delta()
+        );
+    }
     Ok((blend, seg))
 }

@@ -359,7 +359,7 @@ def signed_distance(
 def molecule(path: PathLike) -> Molecule: ...
 def read_tets(path: PathLike, array: str | None = None) -> TetGrid: ...
 def mesh_labels(
-    labels: npt.ArrayLike,
+    labels: npt.NDArray[np.integer] | npt.NDArray[np.floating],
     spacing: float | Sequence[float] | None = None,
     origin: float | Sequence[float] | None = None,
     smooth: int = 16,

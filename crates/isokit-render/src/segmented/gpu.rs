@@ -80,21 +80,13 @@ impl GpuRenderer {
         check_layers(layers)?;
         let gpu = &self.gpu;
         let grid = caster.grid;
-        let count = (w * h) as usize;
         check_fits(gpu, "the segmented field", 4 * grid.data().len() as u64)?;
-        check_fits(gpu, "the rays", 32 * count as u64)?;
-        check_fits(gpu, "the output", 48 * (count * layers) as u64)?;
         let rays: Vec<(Vec3, Vec3)> = (0..w * h)
             .map(|pix| {
                 let (o, d) = pixel_ray(u, pix % w, pix / w);
                 (o, d.normalize_or_zero())
             })
             .collect();
-        let ray_data: Vec<[f32; 4]> = rays
-            .iter()
-            .flat_map(|(o, d)| [o.extend(0.0).to_array(), d.extend(0.0).to_array()])
-            .collect();
-        let (groups, stride) = dispatch_grid(gpu, count);
         let (table, levels, n): (&[f32], usize, usize) = match &caster.diagram {
             Some(d) => (&d.t, d.levels, d.n),
             None => (&[-1.0], 2, 1),
@@ -102,7 +94,6 @@ impl GpuRenderer {
         check_fits(gpu, "the vertex generation diagram", 4 * table.len() as u64)?;
         let params = SegParams {
             dims: grid.dims().map(|d| d as u32),
-            count: count as u32,
             origin: grid.origin().to_array(),
             spacing: grid.spacing(),
             delta: caster.seg.delta(),
@@ -110,33 +101,16 @@ impl GpuRenderer {
             diagram: u32::from(caster.diagram.is_some()),
             levels: levels as u32,
             n: n as u32,
-            stride,
             layers: layers as u32,
             ..SegParams::default()
         };
-        let pipeline = match self.segmented.get() {
-            Some(pl) => pl,
-            None => {
-                let s = segmented_shader();
-                let pl = gpu.compute_pipeline(s.label(), s.text(), "segmented")?;
-                self.segmented.get_or_init(|| pl)
-            }
-        };
-        let storage = wgpu::BufferUsages::STORAGE;
-        let (_inputs, out, bind) = scoped(gpu, "allocating the segmented buffers", || {
-            let inputs = [
-                gpu.upload("segmented params", &[params], wgpu::BufferUsages::UNIFORM),
-                gpu.upload("segmented field", grid.data(), storage),
-                gpu.upload("segmented diagram", table, storage),
-                gpu.upload("segmented rays", &ray_data, storage),
-            ];
-            let out = gpu.buffer("segmented output", 48 * (count * layers) as u64, storage);
-            let [a, b, c, d] = &inputs;
-            let bind = gpu.bind_buffers("segmented", pipeline, &[a, b, c, d, &out]);
-            (inputs, out, bind)
-        })?;
-        gpu.dispatch("segmented", pipeline, &bind, groups)?;
-        let out: Vec<[f32; 4]> = gpu.read_buffer(&out, 0, 3 * count * layers)?;
+        // In chunks of rays whose output (48 bytes a layer) fits the device.
+        let fit = (gpu.max_storage_bytes() / (48 * layers as u64)).max(1) as usize;
+        let chunk = self.max_rays.min(fit).max(1);
+        let mut out: Vec<[f32; 4]> = Vec::with_capacity(3 * rays.len() * layers);
+        for part in rays.chunks(chunk) {
+            out.extend(self.dispatch_segmented(part, params, grid.data(), table)?);
+        }
         Ok(layer_images(w, h, layers, |ray, k| {
             let r = &out[3 * (ray * layers + k)..];
             let samples = if k == 0 {
@@ -152,6 +126,53 @@ impl GpuRenderer {
             });
             (hit, samples)
         }))
+    }
+}
+
+impl GpuRenderer {
+    /// Uploads the field, the diagram and `rays`, runs `segmented` once per ray with
+    /// `params` completed, and reads back its three `vec4<f32>` per ray and layer.
+    fn dispatch_segmented(
+        &self,
+        rays: &[(Vec3, Vec3)],
+        mut params: SegParams,
+        field: &[f32],
+        table: &[f32],
+    ) -> Result<Vec<[f32; 4]>, RenderError> {
+        let gpu = &self.gpu;
+        let (count, layers) = (rays.len(), params.layers as usize);
+        let ray_data: Vec<[f32; 4]> = rays
+            .iter()
+            .flat_map(|(o, d)| [o.extend(0.0).to_array(), d.extend(0.0).to_array()])
+            .collect();
+        check_fits(gpu, "the ray buffer", 32 * count as u64)?;
+        check_fits(gpu, "the output buffer", 48 * (count * layers) as u64)?;
+        let (groups, stride) = dispatch_grid(gpu, count);
+        params.count = count as u32;
+        params.stride = stride;
+        let pipeline = match self.segmented.get() {
+            Some(pl) => pl,
+            None => {
+                let s = segmented_shader();
+                let pl = gpu.compute_pipeline(s.label(), s.text(), "segmented")?;
+                self.segmented.get_or_init(|| pl)
+            }
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let (_inputs, out, bind) = scoped(gpu, "allocating the segmented buffers", || {
+            let inputs = [
+                gpu.upload("segmented params", &[params], wgpu::BufferUsages::UNIFORM),
+                gpu.upload("segmented field", field, storage),
+                gpu.upload("segmented diagram", table, storage),
+                gpu.upload("segmented rays", &ray_data, storage),
+            ];
+            let out = gpu.buffer("segmented output", 48 * (count * layers) as u64, storage);
+            let [a, b, c, d] = &inputs;
+            let bind = gpu.bind_buffers("segmented", pipeline, &[a, b, c, d, &out]);
+            (inputs, out, bind)
+        })?;
+        gpu.dispatch("segmented", pipeline, &bind, groups)?;
+        Ok(gpu.read_buffer(&out, 0, 3 * count * layers)?)
     }
 }
 

@@ -701,7 +701,7 @@ mod tests {
         ) else {
             return;
         };
-        let r = crate::gpu::GpuRenderer::new(gpu).unwrap();
+        let mut r = crate::gpu::GpuRenderer::new(gpu).unwrap();
         let (g, seg) = field(33, t_junction);
         let u = camera();
         for levels in [None, Some(256)] {
@@ -733,10 +733,12 @@ mod tests {
             assert!(dz < 1e-3 && angle < 0.1, "{dz} {angle}");
             assert!(same_samples);
         }
-        // Layers: the same surfaces in the same order.
+        // Layers: the same surfaces in the same order, also with the rays in chunks (as
+        // images too large for one dispatch are traced).
         let (g, seg) = field(25, stacked);
         let caster = SegmentedCaster::new(&g, seg, Some(256)).unwrap();
         let cpu = caster.render_layers(&u, &Job::new(), 3).unwrap();
+        r.set_max_rays_per_dispatch(777);
         let gpu = r.render_segmented_layers(&caster, &u, 3).unwrap();
         for (a, b) in cpu.iter().zip(&gpu) {
             assert_eq!(a.pairs, b.pairs);

@@ -373,18 +373,17 @@ impl GpuRenderer {
         })
     }
 
-    /// Uploads `data`, `rays` and `tf` (volume rendering only), runs `entry` once per ray
-    /// with `params` completed, and reads back its two `vec4<f32>` per ray.
+    /// Runs `entry` once per ray, in chunks of rays whose buffers fit the device
+    /// ([`Self::dispatch_tets_chunk`]), and returns the two `vec4<f32>` of each ray.
     fn dispatch_tets(
         &self,
         entry: Entry,
         data: &GridData,
         rays: &[(DVec3, DVec3)],
-        mut params: TetParams,
+        params: TetParams,
         tf: &[[f32; 4]],
     ) -> Result<Vec<[f32; 4]>, RenderError> {
         let gpu = &self.gpu;
-        let count = rays.len();
         for (what, bytes) in [
             ("the boundary faces", 8 * data.hierarchy.faces.len()),
             ("the points", 16 * data.points.len()),
@@ -394,11 +393,32 @@ impl GpuRenderer {
                 "the boundary faces' hierarchy",
                 16 * data.hierarchy.nodes.len(),
             ),
-            ("the rays", 32 * count),
-            ("the output", 32 * count),
+            ("the transfer function and table", 16 * tf.len()),
         ] {
             check_fits(gpu, what, bytes as u64)?;
         }
+        // 32 bytes a ray in, 32 out.
+        let fit = (gpu.max_storage_bytes() / 32).max(1) as usize;
+        let chunk = self.max_rays.min(fit).max(1);
+        let mut out = Vec::with_capacity(2 * rays.len());
+        for part in rays.chunks(chunk) {
+            out.extend(self.dispatch_tets_chunk(entry, data, part, params, tf)?);
+        }
+        Ok(out)
+    }
+
+    /// Uploads `data`, `rays` and `tf` (volume rendering only), runs `entry` once per ray
+    /// with `params` completed, and reads back its two `vec4<f32>` per ray.
+    fn dispatch_tets_chunk(
+        &self,
+        entry: Entry,
+        data: &GridData,
+        rays: &[(DVec3, DVec3)],
+        mut params: TetParams,
+        tf: &[[f32; 4]],
+    ) -> Result<Vec<[f32; 4]>, RenderError> {
+        let gpu = &self.gpu;
+        let count = rays.len();
         let (slot, name) = match entry {
             Entry::Iso => (&self.tet_iso, "tet_iso"),
             Entry::Dvr => (&self.tet_dvr, "tet_dvr"),
