@@ -679,40 +679,15 @@ impl Field {
         gradient: &str,
         table_build: &str,
     ) -> PyResult<Frame> {
-        use isokit_render::dvr::{
-            Classification, DvrGradient, DvrOptions, TableBuild, TransferFunction,
-        };
+        use isokit_render::dvr::{DvrGradient, DvrOptions, TableBuild, TransferFunction};
         let grid = self.grid(py)?;
-        let tf = if tf.cast::<pyo3::types::PyDict>().is_ok() {
-            let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
-            TransferFunction::from_json(&text)
-        } else {
-            let path: PathBuf = tf.extract().map_err(|_| {
-                PyTypeError::new_err(
-                    "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
-                )
-            })?;
-            TransferFunction::load(&path.to_string_lossy(), &grid)
-        }
-        .map_err(value_err)?;
-        let classification = match classification {
-            "post" => Classification::Post,
-            "preintegrated" => Classification::Preintegrated,
-            c => {
-                return Err(PyValueError::new_err(format!(
-                    "classification = {c:?} is not one of \"post\", \"preintegrated\""
-                )));
-            }
-        };
-        let shade = match shading {
-            None => false,
-            Some("phong") => true,
-            Some(m) => {
-                return Err(PyValueError::new_err(format!(
-                    "shading = {m:?}: a volume rendering shades with \"phong\" or not at all (None)"
-                )));
-            }
-        };
+        let (tf, classification, shade) = render::volume_args(
+            py,
+            tf,
+            |name| TransferFunction::load(name, &grid),
+            classification,
+            shading,
+        )?;
         let gradient = match gradient {
             "tricubic" => DvrGradient::Tricubic,
             "central" => DvrGradient::Central,

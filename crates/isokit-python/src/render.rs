@@ -575,3 +575,51 @@ pub fn render_volume_grid(
     let stats = img.stats(backend, seconds);
     Ok(Frame::from_volume(img, camera, stats))
 }
+
+/// The parsed arguments every volume rendering takes: the transfer function (a dict
+/// `{"points": [...]}`, or a preset name or JSON file's path that `load` resolves),
+/// `classification` (`"post"` or `"preintegrated"`) and `shading` (`"phong"` or None).
+pub(crate) fn volume_args(
+    py: Python<'_>,
+    tf: &Bound<'_, PyAny>,
+    load: impl FnOnce(&str) -> Result<isokit_render::dvr::TransferFunction, isokit_render::RenderError>,
+    classification: &str,
+    shading: Option<&str>,
+) -> PyResult<(
+    isokit_render::dvr::TransferFunction,
+    isokit_render::dvr::Classification,
+    bool,
+)> {
+    use isokit_render::dvr::{Classification, TransferFunction};
+    let tf = if tf.cast::<PyDict>().is_ok() {
+        let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
+        TransferFunction::from_json(&text)
+    } else {
+        let path: PathBuf = tf.extract().map_err(|_| {
+            PyTypeError::new_err(
+                "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
+            )
+        })?;
+        load(&path.to_string_lossy())
+    }
+    .map_err(value_err)?;
+    let classification = match classification {
+        "post" => Classification::Post,
+        "preintegrated" => Classification::Preintegrated,
+        c => {
+            return Err(PyValueError::new_err(format!(
+                "classification = {c:?} is not one of \"post\", \"preintegrated\""
+            )));
+        }
+    };
+    let shade = match shading {
+        None => false,
+        Some("phong") => true,
+        Some(m) => {
+            return Err(PyValueError::new_err(format!(
+                "shading = {m:?}: a volume rendering shades with \"phong\" or not at all (None)"
+            )));
+        }
+    };
+    Ok((tf, classification, shade))
+}

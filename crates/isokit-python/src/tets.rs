@@ -8,13 +8,13 @@ use crate::render::{Frame, RenderArgs, with_renderer};
 use crate::run::{guarded, run};
 use crate::shape::{grid_from_array, mesh_tuple, vec3_arg};
 use isokit_field::curvature::Inside;
-use isokit_render::dvr::{Classification, TransferFunction};
+use isokit_render::dvr::TransferFunction;
 use isokit_render::tets::dvr::{TetDvrOptions, TetVolume};
 use isokit_render::tets::{TetCaster, TetNormals};
 use isokit_render::{Shading, ShadingMode, camera_uniforms, shade};
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -48,6 +48,19 @@ fn inside_arg(inside: &str) -> PyResult<Inside> {
 }
 
 impl TetGrid {
+    /// The camera `args` ask for, framing the grid's bounds by default.
+    fn camera(&self, args: &RenderArgs) -> PyResult<isokit_field::Camera> {
+        let s = &args.settings;
+        isokit_scene::camera_for(
+            s.camera.as_ref(),
+            self.grid.bounds(),
+            s.projection,
+            s.width,
+            s.height,
+        )
+        .map_err(value_err)
+    }
+
     /// `iso`, or 0 where the values reach it, else the middle of their range.
     fn iso(&self, iso: Option<f32>) -> PyResult<f32> {
         let Some((lo, hi)) = isokit_field::finite_min_max(self.grid.values()) else {
@@ -183,15 +196,7 @@ impl TetGrid {
                 mode.name()
             )));
         }
-        let s = &args.settings;
-        let camera = isokit_scene::camera_for(
-            s.camera.as_ref(),
-            self.grid.bounds(),
-            s.projection,
-            s.width,
-            s.height,
-        )
-        .map_err(value_err)?;
+        let camera = self.camera(&args)?;
         let u = camera_uniforms(&camera).map_err(value_err)?;
         let t = std::time::Instant::now();
         let (gb, backend) = py.detach(|| {
@@ -249,48 +254,17 @@ impl TetGrid {
     ) -> PyResult<Frame> {
         let volume = py.detach(|| guarded(|| Ok(TetVolume::new(&self.grid))))?;
         let range = isokit_field::finite_min_max(self.grid.values()).unwrap_or((0.0, 1.0));
-        let tf = if tf.cast::<PyDict>().is_ok() {
-            let text: String = py.import("json")?.call_method1("dumps", (tf,))?.extract()?;
-            TransferFunction::from_json(&text)
-        } else {
-            let name: PathBuf = tf.extract().map_err(|_| {
-                PyTypeError::new_err(
-                    "tf must be a preset name, a JSON file's path or a dict {\"points\": [...]}",
-                )
-            })?;
-            TransferFunction::load_for(&name.to_string_lossy(), range, volume.mean_edge())
-        }
-        .map_err(value_err)?;
-        let classification = match classification {
-            "post" => Classification::Post,
-            "preintegrated" => Classification::Preintegrated,
-            c => {
-                return Err(PyValueError::new_err(format!(
-                    "classification = {c:?} is not one of \"post\", \"preintegrated\""
-                )));
-            }
-        };
-        let shade = match shading {
-            None => false,
-            Some("phong") => true,
-            Some(m) => {
-                return Err(PyValueError::new_err(format!(
-                    "shading = {m:?}: a volume rendering shades with \"phong\" or not at all (None)"
-                )));
-            }
-        };
+        let (tf, classification, shade) = crate::render::volume_args(
+            py,
+            tf,
+            |name| TransferFunction::load_for(name, range, volume.mean_edge()),
+            classification,
+            shading,
+        )?;
         let args = RenderArgs::parse(
             width, height, None, camera, backend, None, None, projection, None,
         )?;
-        let s = &args.settings;
-        let camera = isokit_scene::camera_for(
-            s.camera.as_ref(),
-            self.grid.bounds(),
-            s.projection,
-            s.width,
-            s.height,
-        )
-        .map_err(value_err)?;
+        let camera = self.camera(&args)?;
         let opts = TetDvrOptions {
             classification,
             shade,
