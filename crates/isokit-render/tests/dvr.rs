@@ -140,13 +140,6 @@ fn reference(grid: &Grid, cam: &Camera, tf: &TransferFunction, step: f64) -> Vec
         .collect()
 }
 
-fn max_diff(a: &[Vec4], b: &[Vec4]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).abs().max_element())
-        .fold(0.0, f32::max)
-}
-
 fn mean_diff(a: &[Vec4], b: &[Vec4]) -> f32 {
     a.iter()
         .zip(b)
@@ -168,7 +161,7 @@ fn post_classification_at_a_fine_step_matches_the_f64_integral() {
         ..DvrOptions::default()
     };
     let got = render_dvr(&grid, &cam, &tf, &opts).unwrap();
-    let err = max_diff(&got.rgba, &want);
+    let err = common::max_diff(&got.rgba, &want);
     eprintln!("post-classified at h/64 against the f64 reference: max error {err:.2e}");
     assert!(err < 1e-3, "{err}");
     // The scene is not trivial: some rays nearly opaque, some clear.
@@ -262,8 +255,8 @@ fn skipping_and_early_termination_change_no_pixel_beyond_their_tolerance() {
         assert!(skip.skipped_blocks > 0 && skip.samples < plain.samples);
         assert!(both.samples < skip.samples);
         let (d_skip, d_term) = (
-            max_diff(&skip.rgba, &plain.rgba),
-            max_diff(&both.rgba, &plain.rgba),
+            common::max_diff(&skip.rgba, &plain.rgba),
+            common::max_diff(&both.rgba, &plain.rgba),
         );
         eprintln!(
             "{classification:?}: skipping {} blocks, max change {d_skip:.1e}; terminating at 0.99, max change {d_term:.1e}; samples {} -> {} -> {}",
@@ -423,20 +416,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
             };
             let cpu = render_dvr(&grid, &cam, &tf, &opts).unwrap();
             let gpu = r.render_dvr(&grid, &cam, &tf, &opts).unwrap();
-            let d = max_diff(&cpu.rgba, &gpu.rgba);
-            let mask = cpu
-                .depth
-                .iter()
-                .zip(&gpu.depth)
-                .filter(|(a, b)| a.is_finite() != b.is_finite())
-                .count();
-            let dz = cpu
-                .depth
-                .iter()
-                .zip(&gpu.depth)
-                .filter(|(a, b)| a.is_finite() && b.is_finite())
-                .map(|(a, b)| (a - b).abs() / h)
-                .fold(0.0f32, f32::max);
+            let (d, mask, dz) = common::dvr_difference(&cpu, &gpu, h);
             eprintln!(
                 "{classification:?}, block {block}, shaded {shade} ({gradient:?}): max colour/opacity difference {d:.1e}, depth {dz:.1e} voxel, {mask} depth masks differ, samples {} / {}, skipped {} / {}",
                 cpu.samples, gpu.samples, cpu.skipped_blocks, gpu.skipped_blocks
@@ -606,7 +586,7 @@ fn the_incremental_table_approximates_the_integrated_segments() {
     };
     let a = render_dvr(&grid, &cam, &tf, &o(TableBuild::Integrated)).unwrap();
     let b = render_dvr(&grid, &cam, &tf, &o(TableBuild::Incremental)).unwrap();
-    let d = max_diff(&a.rgba, &b.rgba);
+    let d = common::max_diff(&a.rgba, &b.rgba);
     eprintln!("the image with the incremental table: max difference {d:.2e}");
     assert!(d > 0.0 && d < 0.03, "{d}");
 }

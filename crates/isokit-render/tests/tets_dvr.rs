@@ -81,14 +81,6 @@ fn exact(cam: &Camera, tf: &TransferFunction) -> Vec<Option<Vec4>> {
         .collect()
 }
 
-/// The largest difference of any channel between two images.
-fn max_diff(a: &[Vec4], b: &[Vec4]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (*x - *y).abs().max_element())
-        .fold(0.0f32, f32::max)
-}
-
 fn worst(img: &[Vec4], reference: &[Option<Vec4>]) -> (f32, usize) {
     let mut compared = 0;
     let w = img
@@ -445,20 +437,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
                 };
                 let cpu = vol.render(&cam, &tf, &opts, &job).unwrap();
                 let gpu = r.render_tets_dvr(&vol, &cam, &tf, &opts).unwrap();
-                let d = max_diff(&cpu.rgba, &gpu.rgba);
-                let masks = cpu
-                    .depth
-                    .iter()
-                    .zip(&gpu.depth)
-                    .filter(|(a, b)| a.is_finite() != b.is_finite())
-                    .count();
-                let dz = cpu
-                    .depth
-                    .iter()
-                    .zip(&gpu.depth)
-                    .filter(|(a, b)| a.is_finite() && b.is_finite())
-                    .map(|(a, b)| (a - b).abs() / grid.spacing())
-                    .fold(0.0f32, f32::max);
+                let (d, masks, dz) = common::dvr_difference(&cpu, &gpu, grid.spacing());
                 eprintln!(
                     "{name} {split:?} {classification:?} table {table_size} shaded {shade} termination {termination}: colour/opacity {d:.1e}, depth {dz:.1e} spacing, {masks} depth masks differ, segments {} / {}",
                     cpu.samples, gpu.samples
@@ -500,7 +479,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
     };
     let cpu = vol.render(&cam_flat, &tf_flat, &opts, &job).unwrap();
     let gpu = r.render_tets_dvr(&vol, &cam_flat, &tf_flat, &opts).unwrap();
-    let d = max_diff(&cpu.rgba, &gpu.rgba);
+    let d = common::max_diff(&cpu.rgba, &gpu.rgba);
     eprintln!(
         "flat cell: colour/opacity {d:.1e}, segments {} / {}",
         cpu.samples, gpu.samples
@@ -519,7 +498,7 @@ fn the_gpu_twin_renders_what_the_cpu_twin_renders() {
     let gpu = r
         .render_tets_dvr(&vol, &cam, &tf, &TetDvrOptions::default())
         .unwrap();
-    let d = max_diff(&cpu.rgba, &gpu.rgba);
+    let d = common::max_diff(&cpu.rgba, &gpu.rgba);
     eprintln!(
         "non-finite values: colour/opacity {d:.1e}, segments {} / {}",
         cpu.samples, gpu.samples

@@ -179,12 +179,7 @@ struct GridData {
 }
 
 impl GridData {
-    fn new(
-        grid: &TetGrid,
-        walk: &Walk,
-        sign: f32,
-        gradients: &[Vec3],
-    ) -> Result<Self, RenderError> {
+    fn new(grid: &TetGrid, walk: &Walk, sign: f32, gradients: &[Vec3]) -> Self {
         // WGSL gives NaN and infinity no defined meaning: a non-finite value goes up as 0
         // and its cells are flagged, to be treated as the CPU twin treats them.
         let points = grid
@@ -224,12 +219,12 @@ impl GridData {
                 [p0.to_array(), row(0), row(1), row(2)]
             })
             .collect();
-        Ok(Self {
+        Self {
             points,
             cells,
             frames,
             hierarchy: Hierarchy::new(grid, walk),
-        })
+        }
     }
 }
 
@@ -255,7 +250,7 @@ impl GpuRenderer {
         u: &Uniforms,
     ) -> Result<GBuffer, RenderError> {
         let (w, h) = crate::check_image_size(u64::from(u.width), u64::from(u.height))?;
-        let data = GridData::new(caster.grid, &caster.walk, caster.sign, &caster.gradients)?;
+        let data = GridData::new(caster.grid, &caster.walk, caster.sign, &caster.gradients);
         let rays: Vec<(DVec3, DVec3)> = (0..w * h)
             .map(|pix| {
                 let (o, d) = pixel_ray(u, pix % w, pix / w);
@@ -302,7 +297,7 @@ impl GpuRenderer {
         let (width, height) =
             crate::check_image_size(camera.width() as u64, camera.height() as u64)?;
         let table = vol.table(tf, opts)?;
-        let data = GridData::new(vol.grid, &vol.walk, 1.0, &vol.gradients)?;
+        let data = GridData::new(vol.grid, &vol.walk, 1.0, &vol.gradients);
         let rays: Vec<(DVec3, DVec3)> = (0..width * height)
             .map(|pix| {
                 let r = crate::dvr::pixel_ray(camera, pix);

@@ -129,3 +129,35 @@ pub fn mesh_band(path: &std::path::Path, res: usize) -> (isokit_field::BrickGrid
     let f = bricks.evaluated_fraction();
     (bricks, f)
 }
+
+/// The largest difference of any channel between two RGBA images.
+pub fn max_diff(a: &[glam::Vec4], b: &[glam::Vec4]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max)
+}
+
+/// How two volume renderings of one view differ: the largest colour/opacity difference,
+/// the pixels where only one passes opacity 0.5, and the largest depth difference where
+/// both do, in units of `spacing`.
+pub fn dvr_difference(
+    a: &isokit_render::dvr::DvrImage,
+    b: &isokit_render::dvr::DvrImage,
+    spacing: f32,
+) -> (f32, usize, f32) {
+    let masks = a
+        .depth
+        .iter()
+        .zip(&b.depth)
+        .filter(|(x, y)| x.is_finite() != y.is_finite())
+        .count();
+    let dz = a
+        .depth
+        .iter()
+        .zip(&b.depth)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, y)| (x - y).abs() / spacing)
+        .fold(0.0f32, f32::max);
+    (max_diff(&a.rgba, &b.rgba), masks, dz)
+}
