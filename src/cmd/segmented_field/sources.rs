@@ -52,8 +52,7 @@ pub fn sample_patches(
 /// The segmented field of the label volume at `path` (`isokit_scene::segmented::from_labels`,
 /// relaxed 16 times as `isokit mesh --labels` is by default).
 pub(super) fn from_labels(path: &Path, knobs: &SegmentedKnobs) -> Result<(Grid, Segmentation)> {
-    let v = isokit_io::read_volume(path)?;
-    v.check()?;
+    let v = crate::cmd::volume_args::VolumeIn::default().read(path)?;
     if !v.is_uniform() {
         bail!(
             "{}: --from-labels needs one spacing on all axes (labels are never resampled), not {}",
@@ -97,8 +96,7 @@ pub fn read(path: &Path) -> Result<(Grid, Segmentation)> {
     };
     let seg = Segmentation::new(number("delta")?, number("period")?)
         .with_context(|| path.display().to_string())?;
-    let v = isokit_io::read_volume(path)?;
-    v.check()?;
+    let v = crate::cmd::volume_args::VolumeIn::default().read(path)?;
     if !v.is_uniform() {
         bail!(
             "{}: a segmented field needs one spacing on all axes (it is never resampled), not {}",
