@@ -3,7 +3,7 @@
 use anyhow::{Result, bail};
 use isokit_field::Aabb;
 use isokit_io::lattice::{read_sidecar, sidecar_path};
-use isokit_io::{FileKind, VolumeFormat, detect_kind, read_exr_info, read_png, read_points};
+use isokit_io::{FileKind, VolumeFormat, detect_kind, read_exr_info, read_png};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -11,7 +11,8 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Mesh (.obj .gltf .glb .ply .stl .off), cloud (.ply .xyz), volume (.nrrd .nhdr .npy
-    /// .nii .nii.gz .inr .inr.gz), tetrahedral grid (.vtk .vtu) or image (.png; .exr: header only).
+    /// .nii .nii.gz .inr .inr.gz), Zarr store (.zarr, or a writer's .zarr.partial),
+    /// tetrahedral grid (.vtk .vtu) or image (.png; .exr: header only).
     pub file: PathBuf,
     /// Tetrahedral grids: the point array (default: the first with one component).
     #[arg(long)]
@@ -35,7 +36,7 @@ pub(super) fn bounds_json(b: &Aabb) -> Value {
     }
 }
 
-fn bounds_text(b: &Aabb) -> String {
+pub(super) fn bounds_text(b: &Aabb) -> String {
     if b.is_empty() {
         "empty".into()
     } else {
@@ -56,35 +57,21 @@ fn is_exr(path: &std::path::Path) -> bool {
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     let path = &a.file;
-    let kind = detect_kind(path)?;
-    if a.array.is_some() && kind != FileKind::TetGrid {
+    let kind = if super::store::is_store_name(path) {
+        None
+    } else {
+        Some(detect_kind(path)?)
+    };
+    if a.array.is_some() && kind != Some(FileKind::TetGrid) {
         bail!("--array applies to tetrahedral grids (.vtk .vtu)");
     }
+    let Some(kind) = kind else {
+        return print(&a, super::store::describe(path)?);
+    };
     let (text, value) = match kind {
         FileKind::Mesh => super::mesher_args::describe_mesh(path, a.self_intersections)?,
         FileKind::TetGrid => super::tets::describe(path, a.array.as_deref())?,
-        FileKind::PointCloud => {
-            let c = read_points(path)?;
-            let b = Aabb::from_points(&c.points);
-            let non_finite = c.points.iter().filter(|p| !p.is_finite()).count();
-            let normals = c.normals.is_some();
-            let v = json!({
-                "kind": "points",
-                "points": c.points.len(),
-                "normals": normals,
-                "non_finite_points": non_finite,
-                "bounds": bounds_json(&b),
-            });
-            let t = format!(
-                "{}: point cloud\n  points: {}\n  normals: {}\n  non-finite points: {}\n  bounds: {}",
-                path.display(),
-                c.points.len(),
-                if normals { "yes" } else { "no" },
-                non_finite,
-                bounds_text(&b)
-            );
-            (t, v)
-        }
+        FileKind::PointCloud => super::points::describe(path)?,
         FileKind::Volume => {
             let vol = a.volume.read(path)?;
             let npy = VolumeFormat::from_path(path).ok() == Some(VolumeFormat::Npy);
@@ -183,10 +170,13 @@ pub fn run(a: Args) -> Result<()> {
             )
         }
     };
+    print(&a, (text, value))
+}
+
+fn print(a: &Args, (text, mut value): (String, Value)) -> Result<()> {
     if a.json {
-        let mut v = value;
-        v["file"] = json!(path.display().to_string());
-        println!("{v}");
+        value["file"] = json!(a.file.display().to_string());
+        println!("{value}");
     } else {
         println!("{text}");
     }

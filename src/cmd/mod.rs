@@ -26,11 +26,14 @@ pub mod render;
 pub mod sample;
 pub mod sample_options;
 pub mod scene;
+pub mod scene_store;
 pub mod sdf;
 pub mod segmented_field;
+pub mod store;
 pub mod tets;
 pub mod view;
 pub mod volume_args;
+pub mod volume_out;
 
 use anyhow::{Context, bail};
 use glam::Vec3;

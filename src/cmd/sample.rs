@@ -109,7 +109,8 @@ fn transformed(a: &Args, node: Node) -> Result<Node> {
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    check_output(&a.output, &[".nrrd", ".npy"])?;
+    check_output(&a.output, &super::volume_args::VOLUME_OUTPUTS)?;
+    a.out.check(&a.output)?;
     let shape = a.shape.0;
     let scene = Scene::from_node(transformed(&a, shape_node(shape, &a.options)?)?)?;
     let name = shape.cli_name();

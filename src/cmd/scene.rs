@@ -1,5 +1,5 @@
-//! `isokit scene SCENE -o out.nrrd|npy|obj|ply|stl|off [--res N] [--band W] [--mesher mc|dual]
-//! [--stats]`: a scene file evaluated lazily to a band field or a mesh.
+//! `isokit scene SCENE -o out.nrrd|npy|zarr|obj|ply|stl|off [--res N] [--band W]
+//! [--mesher mc|dual] [--stats]`: a scene file evaluated lazily to a band field or a mesh.
 
 use super::check_output;
 use super::mesher_args::MesherArg;
@@ -16,8 +16,9 @@ use std::time::Instant;
 pub struct Args {
     /// Scene file (.json or .toml).
     pub scene: PathBuf,
-    /// Output: a volume (.nrrd, .npy with its lattice sidecar; see below) or a mesh (.obj,
-    /// .ply, .stl, .off, .glb, .gltf; PLY and glTF carry the nodes' colours).
+    /// Output: a volume (.nrrd, .npy with its lattice sidecar, a .zarr store sampled chunk by
+    /// chunk; see below) or a mesh (.obj, .ply, .stl, .off, .glb, .gltf; PLY and glTF carry
+    /// the nodes' colours).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Samples along the longest side of the domain [default: the scene's
@@ -45,6 +46,9 @@ pub struct Args {
     /// `seconds`, per-source query counts, …).
     #[arg(long)]
     pub stats: bool,
+    /// .zarr output: finish a killed run's <output>.partial (its missing chunks only).
+    #[arg(long)]
+    pub resume: bool,
     /// The domain: --bounds (instead of the scene's box padded by the band) or another
     /// volume's lattice.
     #[command(flatten)]
@@ -53,7 +57,6 @@ pub struct Args {
     pub out: super::volume_args::VolumeOut,
 }
 
-const VOLUMES: [&str; 2] = [".nrrd", ".npy"];
 const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
 
 /// The node kinds a scene file can hold, for `--help` (from the library's list).
@@ -66,10 +69,19 @@ pub fn node_kinds_help() -> String {
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    let all: Vec<&str> = VOLUMES.iter().chain(&MESHES).copied().collect();
+    let all: Vec<&str> = super::volume_args::VOLUME_OUTPUTS
+        .iter()
+        .chain(&MESHES)
+        .copied()
+        .collect();
     check_output(&a.output, &all)?;
+    a.out.check(&a.output)?;
     let name = a.output.to_string_lossy().to_ascii_lowercase();
     let to_mesh = MESHES.iter().any(|e| name.ends_with(e));
+    let to_store = super::volume_out::is_zarr(&a.output);
+    if a.resume && (a.dense || !to_store) {
+        bail!("--resume continues a lazily sampled .zarr output");
+    }
     if !to_mesh && a.mesher != MesherArg::Mc {
         bail!(
             "--mesher applies to mesh outputs ({}) only",
@@ -118,6 +130,9 @@ pub fn run(a: Args) -> Result<()> {
         let out = (st.sampling.clone(), Some(st.triangles));
         mesh_stats = Some(st);
         out
+    } else if to_store && !a.dense {
+        let stats = super::scene_store::write(&scene, &opts, &a.out, &a.output, a.resume, &job)?;
+        (stats, None)
     } else if a.dense {
         let (mut grid, stats) = scene.sample_dense(&opts)?;
         clamp_to_band(&mut grid, stats.band);

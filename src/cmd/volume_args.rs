@@ -6,15 +6,19 @@
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use isokit_field::{Aabb, Grid};
-use isokit_io::lattice::{Lattice, read_sidecar, sidecar_path};
-use isokit_io::{NrrdEncoding, Volume, VolumeFormat, read_volume, write_volume_with};
+use isokit_io::lattice::{read_sidecar, sidecar_path};
+use isokit_io::{Volume, VolumeFormat, read_volume};
+
+pub use super::volume_out::{Compression, VOLUME_OUTPUTS, VolumeOut};
 use std::path::{Path, PathBuf};
 
 /// The layout of the volumes the commands write, for `--help`.
 pub const LAYOUT: &str = "Output volume: .nrrd (float, gzip by --compression; band, inside and \
-sign as key/value pairs) or .npy (float32, shape (nz, ny, nx), x fastest) with its lattice in \
+sign as key/value pairs), .npy (float32, shape (nz, ny, nx), x fastest) with its lattice in \
 the sidecar <file>.npy.json: origin [x, y, z], spacing [x, y, z], dims [nx, ny, nz], \
-axis_order \"zyx\", band, inside, sign.";
+axis_order \"zyx\", band, inside, sign; or a Zarr v3 store .zarr (a directory: float32 \
+(nz, ny, nx) in --chunk³ chunks, gzip, the sidecar's keys as attributes; chunks holding only \
++band are not written).";
 
 /// Where the sampled lattice lies.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -100,56 +104,6 @@ impl LatticeArgs {
             }
             None => super::padded_grid(input, input_bounds, res, self.padding),
         }
-    }
-}
-
-/// How a volume is compressed where its format compresses (NRRD).
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Compression {
-    /// Raw samples (NRRD `encoding: raw`).
-    None,
-    /// Gzip at the fast level (1): close to the default level's size in a fraction of its
-    /// time.
-    #[default]
-    Fast,
-    /// Gzip at the best level (9): a little smaller, several times slower.
-    Best,
-}
-
-/// How an output volume is written.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct VolumeOut {
-    /// Compression of .nrrd output (.npy is never compressed).
-    #[arg(long, value_enum, default_value_t = Compression::Fast)]
-    pub compression: Compression,
-}
-
-impl VolumeOut {
-    /// Writes `volume` to `path` with its lattice (NPY: the sidecar) and the meaning of its
-    /// samples: `band` (exact within it, ±band beyond) and the sign method of a mesh.
-    pub fn write(
-        &self,
-        path: &Path,
-        volume: &Volume,
-        band: Option<f32>,
-        sign: Option<&str>,
-    ) -> Result<()> {
-        let meta = Lattice {
-            band,
-            sign: sign.map(str::to_owned),
-            ..Lattice::of(volume)
-        };
-        self.write_meta(path, volume, &meta)
-    }
-
-    /// Writes `volume` with the band, inside and sign of `meta`.
-    pub fn write_meta(&self, path: &Path, volume: &Volume, meta: &Lattice) -> Result<()> {
-        let enc = match self.compression {
-            Compression::None => NrrdEncoding::Raw,
-            Compression::Fast => NrrdEncoding::Gzip,
-            Compression::Best => NrrdEncoding::GzipBest,
-        };
-        Ok(write_volume_with(path, volume, meta, enc)?)
     }
 }
 

@@ -58,6 +58,14 @@ pub struct BrickGrid {
     reused: usize,
 }
 
+/// Where a sampled grid lies in the lattice its sample positions are computed from: the
+/// lattice's sample `(0, 0, 0)` and the index of the grid's first sample in it.
+#[derive(Clone, Copy)]
+struct Window {
+    origin: Vec3,
+    first: [i32; 3],
+}
+
 /// An earlier sampling to take bricks from ([`BrickGrid::sample_field_reusing`]).
 #[derive(Clone, Copy)]
 pub struct Reuse<'a> {
@@ -285,8 +293,81 @@ impl BrickGrid {
         reuse: Option<Reuse<'_>>,
         job: &Job,
     ) -> Result<Self, FieldError> {
+        let window = Window {
+            origin,
+            first: [0; 3],
+        };
+        Self::sample_impl(
+            field, dims, window, spacing, brick, apron, band, background, reuse, job,
+        )
+    }
+
+    /// [`BrickGrid::sample_field_job`] over a block of a larger lattice: the `dims` samples
+    /// from index `first` of the lattice whose sample `(0, 0, 0)` lies at `lattice_origin`.
+    /// Each sample's position is computed from the whole lattice's origin and its index in
+    /// it, exactly as a sampling of the whole lattice computes it, so the block's samples are
+    /// those of the whole sampling bit for bit wherever the whole sampling's bricks and the
+    /// block's agree on being kept (everywhere once both are clamped to `±band`: a skipped
+    /// brick's samples all lie beyond the band). The grid's own origin is the block's first
+    /// sample (rounded to f32). Bricks are laid from `first`, so blocks aligned to the brick
+    /// size make the same decisions as the whole sampling.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "lattice, block geometry plus brick layout and job"
+    )]
+    pub fn sample_field_window(
+        field: &dyn Field,
+        lattice_origin: Vec3,
+        spacing: f32,
+        first: [usize; 3],
+        dims: [usize; 3],
+        brick: usize,
+        apron: usize,
+        band: f32,
+        background: f32,
+        job: &Job,
+    ) -> Result<Self, FieldError> {
+        if first
+            .iter()
+            .zip(&dims)
+            .any(|(&f, &d)| f.saturating_add(d) > crate::MAX_AXIS)
+        {
+            return Err(FieldError::BadParameter {
+                name: "block",
+                value: format!("{first:?} + {dims:?}"),
+                why: "reaches beyond the largest lattice",
+            });
+        }
+        let window = Window {
+            origin: lattice_origin,
+            first: first.map(|v| v as i32),
+        };
+        Self::sample_impl(
+            field, dims, window, spacing, brick, apron, band, background, None, job,
+        )
+    }
+
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "grid geometry plus brick layout, reuse and job"
+    )]
+    fn sample_impl(
+        field: &dyn Field,
+        dims: [usize; 3],
+        window: Window,
+        spacing: f32,
+        brick: usize,
+        apron: usize,
+        band: f32,
+        background: f32,
+        reuse: Option<Reuse<'_>>,
+        job: &Job,
+    ) -> Result<Self, FieldError> {
         job.check()?;
-        let mut b = Self::new(dims, origin, spacing, brick, apron, background)?;
+        let first = IVec3::from_array(window.first);
+        let origin = window.origin;
+        let own_origin = origin + spacing * first.as_vec3();
+        let mut b = Self::new(dims, own_origin, spacing, brick, apron, background)?;
         let reuse = reuse.filter(|r| r.previous.same_lattice(&b));
         // Per brick: the earlier brick's slot where it is reused.
         let old: Vec<Option<u32>> = match &reuse {
@@ -302,7 +383,7 @@ impl BrickGrid {
         let lip = field.lipschitz().max(0.0);
         let reach = 0.5 * ((brick + 2 * apron) as f32) * spacing * 3f32.sqrt();
         let mi = b.max_index();
-        let pos = |q: IVec3| origin + spacing * q.clamp(IVec3::ZERO, mi).as_vec3();
+        let pos = |q: IVec3| origin + spacing * (q.clamp(IVec3::ZERO, mi) + first).as_vec3();
         // Pass 1: one evaluation per brick decides which bricks may hold the band.
         let coords = b.all_brick_coords();
         // `Some(true)` keep, `Some(false)` skip as outside, `None` skip as inside.
@@ -320,7 +401,8 @@ impl BrickGrid {
                     };
                 }
                 let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
-                let centre = origin + spacing * (lo.as_vec3() + Vec3::splat(0.5 * brick as f32));
+                let centre =
+                    origin + spacing * ((lo + first).as_vec3() + Vec3::splat(0.5 * brick as f32));
                 let v = field.value(centre);
                 if v.is_finite() && v.abs() - lip * reach > band {
                     (v > 0.0).then_some(false)

@@ -13,7 +13,7 @@ pub enum FileKind {
     Mesh,
     /// A point cloud (`.xyz`, or `.ply` and `.obj` without faces).
     PointCloud,
-    /// A volume (`.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz`).
+    /// A volume (`.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz`, or a `.zarr` store).
     Volume,
     /// An image (`.png .exr`). PNG is read by [`crate::read_png`]; of an EXR only the
     /// header is read ([`crate::read_exr_info`]).
@@ -37,7 +37,7 @@ pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
             }
         }
         "xyz" => FileKind::PointCloud,
-        "nrrd" | "nhdr" | "npy" | "nii" | "nii.gz" | "inr" | "inr.gz" => FileKind::Volume,
+        "nrrd" | "nhdr" | "npy" | "nii" | "nii.gz" | "inr" | "inr.gz" | "zarr" => FileKind::Volume,
         "png" | "exr" => FileKind::Image,
         "vtk" | "vtu" => FileKind::TetGrid,
         "ply" => {
@@ -56,7 +56,7 @@ pub fn detect_kind(path: &Path) -> Result<FileKind, IoError> {
         _ => {
             return Err(IoError::UnknownFormat {
                 path: path.to_path_buf(),
-                expected: "a mesh (.obj .gltf .glb .ply .stl .off), point cloud (.ply .xyz), volume (.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz), tetrahedral grid (.vtk .vtu) or image (.png .exr)",
+                expected: "a mesh (.obj .gltf .glb .ply .stl .off), point cloud (.ply .xyz), volume (.nrrd .nhdr .npy .nii .nii.gz .inr .inr.gz .zarr), tetrahedral grid (.vtk .vtu) or image (.png .exr)",
             });
         }
     })

@@ -69,6 +69,7 @@ mod stl;
 mod tets;
 mod util;
 mod volume;
+pub mod zarr;
 
 /// Building blocks for readers of formats that live in other crates (molecules in
 /// `isokit-molecule`): a whole-file read, bounded gzip inflation and the byte excerpts

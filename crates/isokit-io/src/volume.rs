@@ -177,11 +177,14 @@ pub enum VolumeFormat {
     NiftiGz,
     /// INRIMAGE-4 (`.inr`, or gzipped `.inr.gz`), the format of CGAL's sample images.
     Inr,
+    /// A Zarr v3 store (a directory `.zarr`; [`crate::zarr`]).
+    Zarr,
 }
 
 impl VolumeFormat {
     /// The extensions [`VolumeFormat::from_path`] accepts, for messages.
-    pub const EXTENSIONS: &'static str = ".nrrd, .nhdr, .npy, .nii, .nii.gz, .inr or .inr.gz";
+    pub const EXTENSIONS: &'static str =
+        ".nrrd, .nhdr, .npy, .nii, .nii.gz, .inr, .inr.gz or .zarr";
 
     /// The format named by a path's extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Self, IoError> {
@@ -192,6 +195,7 @@ impl VolumeFormat {
             Some("nii") => VolumeFormat::Nifti,
             Some("nii.gz") => VolumeFormat::NiftiGz,
             Some("inr" | "inr.gz") => VolumeFormat::Inr,
+            Some("zarr") => VolumeFormat::Zarr,
             _ => {
                 return Err(IoError::UnknownFormat {
                     path: path.to_path_buf(),
@@ -225,6 +229,9 @@ impl VolumeFormat {
 ///   all 1.
 /// - `.inr` / `.inr.gz`: INRIMAGE-4 (the [`crate::inr`] module says what is read): float and
 ///   fixed-point samples, either byte order, spacing `VX VY VZ`, origin `TX TY TZ`.
+/// - `.zarr`: a Zarr v3 store, a directory ([`crate::zarr::read_zarr`]): a float32 or float64
+///   array of shape `(nz, ny, nx)` at its root, the lattice from its attributes (else origin
+///   0, spacing 1); an incomplete store (a killed writer's) is refused.
 ///
 /// Compressed data (NRRD `gzip`, `.nii.gz`, `.inr.gz`) is inflated only up to the size the header
 /// claims, and that size is first checked against [`isokit_field::MAX_SAMPLES`] (8 GiB of
@@ -234,6 +241,9 @@ impl VolumeFormat {
 /// (mostly background) compress very well.
 pub fn read_volume(path: &Path) -> Result<Volume, IoError> {
     let format = VolumeFormat::from_path(path)?;
+    if format == VolumeFormat::Zarr {
+        return Ok(crate::zarr::read_zarr(path)?.0);
+    }
     let bytes = read_file(path)?;
     let mut volume = read_volume_from(&bytes, format, path)?;
     if format == VolumeFormat::Npy
@@ -260,6 +270,10 @@ fn read_volume_from(bytes: &[u8], format: VolumeFormat, path: &Path) -> Result<V
         VolumeFormat::Npy => npy::read_npy_volume(bytes, path),
         VolumeFormat::Nifti | VolumeFormat::NiftiGz => nifti::read_nifti(bytes, path),
         VolumeFormat::Inr => inr::read_inr(bytes, path),
+        VolumeFormat::Zarr => Err(IoError::unsupported(
+            path,
+            "a Zarr store is a directory: read it by its path (read_volume)",
+        )),
     }
 }
 
@@ -298,6 +312,10 @@ pub fn write_volume_with(
     match extension(path).as_deref() {
         Some("nrrd") => nrrd::write_nrrd(path, volume, encoding, Some(meta)),
         Some("npy") => lattice::write_npy_volume(path, volume, meta),
+        Some("zarr") => {
+            crate::zarr::write_zarr(path, volume, meta, crate::zarr::ZarrOptions::default())
+                .map(|_| ())
+        }
         _ => Err(unknown_output(path)),
     }
 }
@@ -305,7 +323,7 @@ pub fn write_volume_with(
 fn unknown_output(path: &Path) -> IoError {
     IoError::UnknownFormat {
         path: path.to_path_buf(),
-        expected: ".nrrd or .npy (volumes are written in these)",
+        expected: ".nrrd, .npy or .zarr (volumes are written in these)",
     }
 }
 

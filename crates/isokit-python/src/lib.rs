@@ -60,6 +60,7 @@ fn _isokit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add("GBUFFER_CHANNELS", isokit_render::GBUFFER_CHANNELS.to_vec())?;
     m.add_function(wrap_pyfunction!(shape::_primitive, m)?)?;
+    m.add_function(wrap_pyfunction!(shape::_shape_from_json, m)?)?;
     m.add_function(wrap_pyfunction!(shape::_primitives, m)?)?;
     m.add_function(wrap_pyfunction!(shape::_mesh_path, m)?)?;
     m.add_function(wrap_pyfunction!(shape::_mesh_arrays, m)?)?;

@@ -236,6 +236,7 @@ impl Shape {
             apron: 0,
             bounds: bounds.map(|[a, b]| Aabb::from_corners(Vec3::from(a), Vec3::from(b))),
             lattice: None,
+            block: None,
         }
     }
 }
@@ -743,6 +744,72 @@ impl Shape {
         })?;
         let stats = crate::field::json_to_py(py, &stats.to_json())?;
         Field::from_grid(py, grid, band, Inside::Below, None, Some(stats))
+    }
+
+    /// The lattice `sample` would use with these arguments, without sampling: a dict with
+    /// `dims` (nx, ny, nz), `origin`, `spacing`, `band` and `brick` (what `isokit.dask`
+    /// splits into blocks).
+    #[pyo3(signature = (res = None, band = None, bounds = None, brick = None))]
+    fn _plan<'py>(
+        &self,
+        py: Python<'py>,
+        res: Option<usize>,
+        band: Option<f32>,
+        bounds: Option<&Bound<'py, PyAny>>,
+        brick: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        self.solid("sample")?;
+        let opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
+        let plan = self.scene()?.plan(&opts).map_err(scene_err)?;
+        let d = PyDict::new(py);
+        d.set_item("dims", plan.dims)?;
+        d.set_item("origin", plan.origin.to_array())?;
+        d.set_item("spacing", plan.spacing)?;
+        d.set_item("band", plan.band)?;
+        d.set_item("brick", plan.brick)?;
+        Ok(d)
+    }
+
+    /// One block of the lazily sampled band, clamped to `±band`: the `dims` (nx, ny, nz)
+    /// samples from index `first` of the lattice `sample` uses with the same arguments, as a
+    /// float32 array of shape `(nz, ny, nx)`, equal bit for bit to that block of
+    /// `sample(...).values`. The GIL is released while it samples.
+    #[pyo3(signature = (first, dims, res = None, band = None, bounds = None, brick = None))]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one argument per Python keyword argument"
+    )]
+    fn _sample_block<'py>(
+        &self,
+        py: Python<'py>,
+        first: [usize; 3],
+        dims: [usize; 3],
+        res: Option<usize>,
+        band: Option<f32>,
+        bounds: Option<&Bound<'py, PyAny>>,
+        brick: Option<usize>,
+    ) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
+        self.solid("sample")?;
+        let mut opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
+        opts.block = Some(isokit_scene::Block { first, dims });
+        let grid = run(py, None, "sample", |job| {
+            let scene = self.scene()?;
+            let (g, _) = scene.sample_grid_job(&opts, job).map_err(scene_err)?;
+            Ok(g)
+        })?;
+        let [nx, ny, nz] = grid.dims();
+        let arr = numpy::ndarray::Array3::from_shape_vec((nz, ny, nx), grid.into_data())
+            .map_err(value_err)?;
+        Ok(numpy::PyArray3::from_owned_array(py, arr))
+    }
+
+    /// Pickling (Dask and multiprocessing send shapes to other processes): the shape travels
+    /// as its scene file (`to_json`), so shapes holding arrays in memory are refused, naming
+    /// the node; save them first (`to_json(save_sources_to=DIR)`, then `isokit.load_scene`).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let text = self.to_json(None, None)?;
+        let f = py.import("isokit._isokit")?.getattr("_shape_from_json")?;
+        Ok((f, (text,)))
     }
 
     /// The surface as a triangle mesh `(V, F)`: float64 `(n, 3)` vertices and int64 `(m, 3)`
@@ -1527,5 +1594,16 @@ pub fn load_scene(path: std::path::PathBuf) -> PyResult<Shape> {
         let mut shape = Shape::with_file(file);
         shape.refs = refs;
         Ok(shape)
+    })
+}
+
+/// A shape from the text of its scene file (JSON, paths absolute): how a pickled shape is
+/// rebuilt (`Shape.__reduce__`).
+#[pyfunction]
+pub fn _shape_from_json(text: &str) -> PyResult<Shape> {
+    guarded(|| {
+        let file = isokit_scene::parse(text, isokit_scene::SceneFormat::Json, "pickled shape")
+            .map_err(scene_err)?;
+        Ok(Shape::with_file(file))
     })
 }

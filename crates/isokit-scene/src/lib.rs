@@ -88,7 +88,9 @@ pub use render::{
     camera_for, scene_options, shading_for,
 };
 pub use reuse::{Changed, Sampled, changed_boxes};
-pub use sample::{Plan, SampleOptions, SampleStats, SourceStats, band_to_grid, clamp_to_band};
+pub use sample::{
+    Block, Plan, SampleOptions, SampleStats, SourceStats, band_to_grid, clamp_to_band,
+};
 pub use scene::{ColoredPart, MAX_DEPTH, MAX_NODES, NodeHash, Pass, Scene, SourceInfo};
 
 use std::collections::HashMap;

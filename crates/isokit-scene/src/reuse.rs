@@ -205,22 +205,45 @@ impl Scene {
             }),
             _ => None,
         };
-        let grid = BrickGrid::sample_field_reusing(
-            &field,
-            plan.dims,
-            plan.origin,
-            plan.spacing,
-            plan.brick,
-            opts.apron,
-            plan.band,
-            plan.band,
-            reuse,
-            job,
-        )
+        let grid = match opts.block {
+            None => BrickGrid::sample_field_reusing(
+                &field,
+                plan.dims,
+                plan.origin,
+                plan.spacing,
+                plan.brick,
+                opts.apron,
+                plan.band,
+                plan.band,
+                reuse,
+                job,
+            ),
+            Some(block) => {
+                self.sampled_dims(opts)?;
+                BrickGrid::sample_field_window(
+                    &field,
+                    plan.origin,
+                    plan.spacing,
+                    block.first,
+                    block.dims,
+                    plan.brick,
+                    opts.apron,
+                    plan.band,
+                    plan.band,
+                    job,
+                )
+            }
+        }
         .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
-        let dense = plan.dims.iter().map(|&d| d as f64).product::<f64>();
+        // The statistics describe what was sampled: the block where there is one.
+        let sampled = Plan {
+            dims: grid.dims(),
+            origin: grid.origin(),
+            ..plan
+        };
+        let dense = sampled.dims.iter().map(|&d| d as f64).product::<f64>();
         let mut stats = self.stats(
-            &plan,
+            &sampled,
             grid.evaluated_fraction(),
             dense,
             grid.brick_count(),

@@ -27,6 +27,19 @@ pub struct SampleOptions {
     /// domain (another volume's, so that the two combine sample for sample); `resolution`
     /// and `bounds` are then not used.
     pub lattice: Option<([usize; 3], Vec3, f32)>,
+    /// Sample only this block of the lattice (its samples equal those of the whole
+    /// sampling bit for bit once clamped to `±band`, as a volume file holds them): what a
+    /// distributed sampling computes per chunk. Not with [`Scene::sample_dense`].
+    pub block: Option<Block>,
+}
+
+/// A block of a sampling's lattice: `dims` samples from index `first` (x, y, z).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Block {
+    /// Index of the block's first sample in the lattice.
+    pub first: [usize; 3],
+    /// Samples along x, y, z.
+    pub dims: [usize; 3],
 }
 
 impl Default for SampleOptions {
@@ -38,6 +51,7 @@ impl Default for SampleOptions {
             apron: 0,
             bounds: None,
             lattice: None,
+            block: None,
         }
     }
 }
@@ -159,11 +173,11 @@ impl Scene {
         opts: &SampleOptions,
         job: &Job,
     ) -> Result<(Grid, SampleStats), SceneError> {
-        let plan = self.plan(opts)?;
-        let [nx, ny, nz] = plan.dims;
+        let dims = self.sampled_dims(opts)?;
+        let [nx, ny, nz] = dims;
         isokit_field::memory::check(
             &format!("the dense output grid of {nx} x {ny} x {nz} samples"),
-            isokit_field::memory::grid_bytes(plan.dims),
+            isokit_field::memory::grid_bytes(dims),
             "lower the resolution (sampling.resolution or --res), or write a mesh (.obj, .ply, .stl, .off) instead, or raise the budget",
         )
         .map_err(|e| SceneError::new(self.name(), "sampling", e.to_string()))?;
@@ -176,6 +190,13 @@ impl Scene {
     /// Samples every node of the same lattice [`Scene::sample`] uses, in full (no
     /// clamping, no pruning): the baseline lazy sampling is measured against.
     pub fn sample_dense(&self, opts: &SampleOptions) -> Result<(Grid, SampleStats), SceneError> {
+        if opts.block.is_some() {
+            return Err(SceneError::new(
+                self.name(),
+                "sampling",
+                "a dense sampling covers the whole lattice: sample blocks lazily",
+            ));
+        }
         let t0 = Instant::now();
         self.reset_counts();
         let plan = self.plan(opts)?;
@@ -347,6 +368,34 @@ impl Scene {
 }
 
 impl Scene {
+    /// The dimensions of what a sampling with `opts` gives: the block's, else the lattice's
+    /// (checked against the lattice).
+    pub fn sampled_dims(&self, opts: &SampleOptions) -> Result<[usize; 3], SceneError> {
+        let plan = self.plan(opts)?;
+        match opts.block {
+            None => Ok(plan.dims),
+            Some(b) => {
+                let inside = (0..3).all(|a| {
+                    b.dims[a] >= 1
+                        && b.first[a]
+                            .checked_add(b.dims[a])
+                            .is_some_and(|end| end <= plan.dims[a])
+                });
+                if !inside {
+                    return Err(SceneError::new(
+                        self.name(),
+                        "sampling",
+                        format!(
+                            "the block of {:?} samples from {:?} is not inside the lattice of {:?} samples",
+                            b.dims, b.first, plan.dims
+                        ),
+                    ));
+                }
+                Ok(b.dims)
+            }
+        }
+    }
+
     /// The plan of [`Scene::plan`] on a given lattice.
     fn plan_on(
         &self,

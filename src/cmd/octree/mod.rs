@@ -20,7 +20,8 @@ use serde_json::json;
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
     if let Some(o) = &a.output {
-        check_output(o, &[".nrrd", ".npy"])?;
+        check_output(o, &crate::cmd::volume_args::VOLUME_OUTPUTS)?;
+        a.out.check(o)?;
     }
     let l = a.max_level;
     if l > isokit_octree::MAX_LEVEL {

@@ -12,7 +12,8 @@ use isokit_points::{NormalOptions, Solver, cloud_to_grid};
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    check_output(&a.output, &[".nrrd", ".npy"])?;
+    check_output(&a.output, &super::volume_args::VOLUME_OUTPUTS)?;
+    a.out.check(&a.output)?;
     if let Some(w) = a.band
         && !(w.is_finite() && w > 0.0)
     {
@@ -124,4 +125,29 @@ pub fn run(a: Args) -> Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+/// `isokit info CLOUD`: the text and JSON (`kind` `"points"`) that describe a point cloud.
+pub fn describe(path: &std::path::Path) -> Result<(String, serde_json::Value)> {
+    use crate::cmd::info::{bounds_json, bounds_text};
+    let c = isokit_io::read_points(path)?;
+    let b = isokit_field::Aabb::from_points(&c.points);
+    let non_finite = c.points.iter().filter(|p| !p.is_finite()).count();
+    let normals = c.normals.is_some();
+    let v = serde_json::json!({
+        "kind": "points",
+        "points": c.points.len(),
+        "normals": normals,
+        "non_finite_points": non_finite,
+        "bounds": bounds_json(&b),
+    });
+    let t = format!(
+        "{}: point cloud\n  points: {}\n  normals: {}\n  non-finite points: {}\n  bounds: {}",
+        path.display(),
+        c.points.len(),
+        if normals { "yes" } else { "no" },
+        non_finite,
+        bounds_text(&b)
+    );
+    Ok((t, v))
 }

@@ -24,7 +24,8 @@ pub fn run(a: Args) -> Result<()> {
     if let Some((_, flag)) = a.segmented_knobs.given().into_iter().find(|g| g.0) {
         bail!("{flag} applies to --segmented");
     }
-    check_output(&a.output, &[".nrrd", ".npy"])?;
+    check_output(&a.output, &super::volume_args::VOLUME_OUTPUTS)?;
+    a.out.check(&a.output)?;
     if let Some(w) = a.band
         && !(w.is_finite() && w > 0.0)
     {

@@ -1,0 +1,326 @@
+//! Zarr v3 stores: written and read back bit for bit, chunks outside the band not written,
+//! replaced only whole, a killed writer's partial store detected and resumed, hostile stores
+//! refused with an error (never a panic).
+
+mod common;
+
+use common::TempDir;
+use glam::Vec3;
+use isokit_field::curvature::Inside;
+use isokit_io::lattice::Lattice;
+use isokit_io::zarr::{ZarrOptions, ZarrWriter, partial_path, read_zarr, write_zarr, zarr_info};
+use isokit_io::{Volume, read_volume};
+use std::fs;
+use std::path::Path;
+
+/// A sphere of radius 0.5 clamped to a band of 0.1, on a lattice whose sides are not
+/// multiples of the chunk.
+fn sphere_band(dims: [usize; 3]) -> (Volume, Lattice) {
+    let h = 0.02;
+    let origin = Vec3::new(-0.7, -0.6, -0.55);
+    let band = 0.1f32;
+    let mut data = Vec::with_capacity(dims.iter().product());
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            for i in 0..dims[0] {
+                let p = origin + h * Vec3::new(i as f32, j as f32, k as f32);
+                data.push((p.length() - 0.5).clamp(-band, band));
+            }
+        }
+    }
+    let v = Volume {
+        dims,
+        origin,
+        spacing: Vec3::splat(h),
+        data,
+    };
+    let meta = Lattice {
+        band: Some(band),
+        sign: Some("pseudonormal".into()),
+        ..Lattice::of(&v)
+    };
+    (v, meta)
+}
+
+fn opts(chunk: usize) -> ZarrOptions {
+    ZarrOptions {
+        chunk,
+        gzip: Some(1),
+    }
+}
+
+#[test]
+fn a_band_field_reads_back_bit_for_bit_and_chunks_beyond_the_band_are_not_written() {
+    let t = TempDir::new("zarr-roundtrip");
+    let (v, meta) = sphere_band([70, 61, 56]);
+    for (chunk, gzip) in [(8, Some(1)), (16, None), (64, Some(9))] {
+        let path = t.path(&format!("s{chunk}.zarr"));
+        let w = write_zarr(&path, &v, &meta, ZarrOptions { chunk, gzip }).unwrap();
+        let (back, lattice, has) = read_zarr(&path).unwrap();
+        assert!(has);
+        assert_eq!(back.dims, v.dims);
+        assert_eq!(back.origin, v.origin);
+        assert_eq!(back.spacing, v.spacing);
+        assert!(
+            back.data
+                .iter()
+                .zip(&v.data)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "chunk {chunk}: samples differ"
+        );
+        assert_eq!(lattice, meta);
+        // Through the generic reader too.
+        assert_eq!(read_volume(&path).unwrap(), back);
+        let info = zarr_info(&path).unwrap();
+        assert!(info.complete && info.missing.is_empty());
+        assert_eq!(info.array, "/field");
+        assert_eq!(info.chunks as usize, w.chunks);
+        assert_eq!(info.present as usize, w.written);
+        assert_eq!(info.fill, Some(f64::from(0.1f32)));
+        // The corners' chunks lie wholly beyond the band: not written.
+        assert!(
+            chunk > 16 || w.written < w.chunks,
+            "chunk {chunk}: {} of {} written",
+            w.written,
+            w.chunks
+        );
+        println!(
+            "chunk {chunk}: {} of {} chunks written",
+            w.written, w.chunks
+        );
+        assert!(!partial_path(&path).exists());
+    }
+}
+
+#[test]
+fn chunks_wholly_inside_are_written_so_absent_never_means_the_wrong_sign() {
+    let t = TempDir::new("zarr-inside");
+    // A big sphere: the centre chunks hold only -band.
+    let (mut v, meta) = sphere_band([64, 64, 64]);
+    let c = Vec3::new(-0.7, -0.6, -0.55) + 0.02 * 31.5;
+    for k in 0..64 {
+        for j in 0..64 {
+            for i in 0..64 {
+                let p =
+                    Vec3::new(-0.7, -0.6, -0.55) + 0.02 * Vec3::new(i as f32, j as f32, k as f32);
+                v.data[i + 64 * (j + 64 * k)] = ((p - c).length() - 0.6).clamp(-0.1, 0.1);
+            }
+        }
+    }
+    let path = t.path("inside.zarr");
+    let w = write_zarr(&path, &v, &meta, opts(8)).unwrap();
+    // Per chunk of 8³: all at +band (absent), all at -band (must be present), or mixed.
+    let (mut outside, mut inside) = (0, 0);
+    for n in 0..w.chunks {
+        let (cz, cy, cx) = (n / 64, (n / 8) % 8, n % 8);
+        let vals: Vec<f32> = (0..512)
+            .map(|m| {
+                let (i, j, k) = (cx * 8 + m % 8, cy * 8 + (m / 8) % 8, cz * 8 + m / 64);
+                v.data[i + 64 * (j + 64 * k)]
+            })
+            .collect();
+        outside += usize::from(vals.iter().all(|&x| x == 0.1));
+        inside += usize::from(vals.iter().all(|&x| x == -0.1));
+    }
+    assert!(
+        inside > 0 && outside > 0,
+        "inside {inside}, outside {outside}"
+    );
+    assert_eq!(w.written, w.chunks - outside);
+    assert_eq!(
+        zarr_info(&path).unwrap().present as usize,
+        w.chunks - outside
+    );
+    let (back, _, _) = read_zarr(&path).unwrap();
+    assert_eq!(back.data, v.data);
+}
+
+#[test]
+fn a_store_is_replaced_whole_and_other_directories_are_not_replaced() {
+    let t = TempDir::new("zarr-replace");
+    let (v, meta) = sphere_band([40, 30, 20]);
+    let path = t.path("f.zarr");
+    write_zarr(&path, &v, &meta, opts(16)).unwrap();
+    let mut v2 = v.clone();
+    v2.data.iter_mut().for_each(|x| *x = -*x);
+    write_zarr(&path, &v2, &meta, opts(8)).unwrap();
+    let (back, _, _) = read_zarr(&path).unwrap();
+    assert_eq!(back.data, v2.data);
+    assert_eq!(zarr_info(&path).unwrap().chunk_shape, [8, 8, 8]);
+    assert_eq!(t.entries(), vec!["f.zarr".to_string()]);
+    // A folder that is not a store is never replaced.
+    let dir = t.path("mine.zarr");
+    fs::create_dir(&dir).unwrap();
+    fs::write(dir.join("notes.txt"), "keep").unwrap();
+    let e = write_zarr(&dir, &v, &meta, opts(8))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a Zarr store"), "{e}");
+    assert_eq!(fs::read_to_string(dir.join("notes.txt")).unwrap(), "keep");
+    // Bad knobs are refused before anything is made.
+    for (chunk, gzip) in [(0, Some(1)), (513, Some(1)), (8, Some(10))] {
+        let p = t.path("k.zarr");
+        assert!(write_zarr(&p, &v, &meta, ZarrOptions { chunk, gzip }).is_err());
+        assert!(!p.exists() && !partial_path(&p).exists());
+    }
+}
+
+#[test]
+fn a_killed_writers_store_lists_its_missing_chunks_and_resume_finishes_it() {
+    let t = TempDir::new("zarr-resume");
+    let (v, meta) = sphere_band([50, 40, 33]);
+    let path = t.path("r.zarr");
+    let block = |w: &ZarrWriter, idx| {
+        let (first, dims): ([usize; 3], [usize; 3]) = w.chunk_block(idx);
+        let mut out = Vec::new();
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                let s = first[0] + 50 * (first[1] + y + 40 * (first[2] + z));
+                out.extend_from_slice(&v.data[s..s + dims[0]]);
+            }
+        }
+        out
+    };
+    // A writer that stops after 5 of its chunks, as a killed run does (no finish).
+    let w = ZarrWriter::create(&path, &meta, opts(16)).unwrap();
+    let all = w.pending();
+    assert_eq!(all.len(), 4 * 3 * 3);
+    for &idx in &all[..5] {
+        w.write_chunk(idx, &block(&w, idx)).unwrap();
+    }
+    drop(w);
+    assert!(!path.exists());
+    let partial = partial_path(&path);
+    let info = zarr_info(&partial).unwrap();
+    assert!(!info.complete);
+    assert_eq!(info.missing.len(), all.len() - 5);
+    assert_eq!(
+        info.missing[0],
+        [all[5][0] as u64, all[5][1] as u64, all[5][2] as u64]
+    );
+    let e = read_zarr(&partial).unwrap_err().to_string();
+    assert!(e.contains("incomplete"), "{e}");
+    // Resuming with another lattice is refused; with the same one only the rest is left.
+    let mut other = meta.clone();
+    other.band = Some(0.2);
+    assert!(ZarrWriter::resume(&path, &other, opts(16)).is_err());
+    assert!(ZarrWriter::resume(&path, &meta, opts(8)).is_err());
+    let w = ZarrWriter::resume(&path, &meta, opts(16)).unwrap();
+    let rest = w.pending();
+    assert_eq!(rest, all[5..].to_vec());
+    for &idx in &rest {
+        w.write_chunk(idx, &block(&w, idx)).unwrap();
+    }
+    w.finish().unwrap();
+    let (back, _, _) = read_zarr(&path).unwrap();
+    assert_eq!(back.data, v.data);
+    assert!(!partial.exists());
+    // A writer that did not write every chunk cannot finish.
+    let w = ZarrWriter::create(&t.path("q.zarr"), &meta, opts(16)).unwrap();
+    assert!(w.finish().is_err());
+}
+
+#[test]
+fn a_store_without_lattice_attributes_reads_with_origin_zero_and_spacing_one() {
+    let t = TempDir::new("zarr-plain");
+    let (v, meta) = sphere_band([20, 10, 6]);
+    let path = t.path("p.zarr");
+    write_zarr(&path, &v, &meta, opts(8)).unwrap();
+    // Strip every attribute from the group and the array.
+    for f in ["zarr.json", "field/zarr.json"] {
+        let p = path.join(f);
+        let mut j: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(&p).unwrap()).unwrap();
+        j.as_object_mut().unwrap().remove("attributes");
+        fs::write(&p, j.to_string()).unwrap();
+    }
+    let (back, lattice, has) = read_zarr(&path).unwrap();
+    assert!(!has);
+    assert_eq!(back.origin, Vec3::ZERO);
+    assert_eq!(back.spacing, Vec3::ONE);
+    assert_eq!(back.data, v.data);
+    assert_eq!(lattice.band, None);
+    assert_eq!(lattice.inside, Inside::Below);
+}
+
+/// Some chunk file below `dir`.
+fn a_chunk_file(dir: &Path) -> std::path::PathBuf {
+    let mut at = dir.to_path_buf();
+    while at.is_dir() {
+        at = fs::read_dir(&at).unwrap().next().unwrap().unwrap().path();
+    }
+    at
+}
+
+fn edit_json(path: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut j: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(path).unwrap()).unwrap();
+    f(&mut j);
+    fs::write(path, j.to_string()).unwrap();
+}
+
+#[test]
+fn hostile_stores_are_refused_with_an_error() {
+    let t = TempDir::new("zarr-hostile");
+    let (v, meta) = sphere_band([20, 18, 16]);
+    let fresh = |name: &str| {
+        let p = t.path(name);
+        write_zarr(&p, &v, &meta, opts(8)).unwrap();
+        p
+    };
+    let refused = |p: &Path, needle: &str| {
+        let err = read_zarr(p).map(|_| ()).unwrap_err();
+        let source = std::error::Error::source(&err).map(|s| s.to_string());
+        let e = format!("{err}: {}", source.unwrap_or_default());
+        assert!(e.to_lowercase().contains(needle), "{}: {e}", p.display());
+    };
+    refused(&t.path("missing.zarr"), "no such");
+    fs::create_dir(t.path("empty.zarr")).unwrap();
+    refused(&t.path("empty.zarr"), "not a zarr store");
+    let p = fresh("json.zarr");
+    fs::write(p.join("field/zarr.json"), "{not json").unwrap();
+    refused(&p, "json.zarr");
+    let p = fresh("root.zarr");
+    fs::write(p.join("zarr.json"), "[1, 2").unwrap();
+    refused(&p, "root.zarr");
+    let p = fresh("dims.zarr");
+    edit_json(&p.join("zarr.json"), |j| {
+        j["attributes"]["dims"] = serde_json::json!([1, 2, 3])
+    });
+    refused(&p, "do not match");
+    let p = fresh("spacing.zarr");
+    edit_json(&p.join("zarr.json"), |j| {
+        j["attributes"]["spacing"] = serde_json::json!([0, 1, 1])
+    });
+    refused(&p, "spacing");
+    let p = fresh("type.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["data_type"] = "int16".into();
+        j["fill_value"] = 0.into();
+    });
+    refused(&p, "int16");
+    let p = fresh("chunk.zarr");
+    let chunk = a_chunk_file(&p.join("field/c"));
+    fs::write(&chunk, b"\x1f\x8b\x08\0garbage").unwrap();
+    refused(&p, "chunk.zarr");
+    let p = fresh("short.zarr");
+    let chunk = a_chunk_file(&p.join("field/c"));
+    let raw = fs::read(&chunk).unwrap();
+    fs::write(&chunk, &raw[..raw.len() / 2]).unwrap();
+    refused(&p, "short.zarr");
+    let p = fresh("huge.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["shape"] = serde_json::json!([1u64 << 40, 1u64 << 40, 1u64 << 40])
+    });
+    edit_json(&p.join("zarr.json"), |j| {
+        j["attributes"]["dims"] = serde_json::json!([1u64 << 40, 1u64 << 40, 1u64 << 40]);
+    });
+    assert!(read_zarr(&p).is_err());
+    let p = fresh("twod.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["shape"] = serde_json::json!([18, 20]);
+        j["chunk_grid"]["configuration"]["chunk_shape"] = serde_json::json!([8, 8]);
+        j["dimension_names"] = serde_json::json!(["y", "x"]);
+    });
+    assert!(read_zarr(&p).is_err());
+}

@@ -1,0 +1,188 @@
+"""Band fields on Dask: each block of the lattice is one job of the Rust sampler.
+
+>>> import isokit, isokit.dask
+>>> part = isokit.load_scene("examples/scenes/demo.json")
+>>> field = isokit.dask.sample(part, res=384, chunks=64)    # a dask array (nz, ny, nx)
+>>> isokit.dask.to_zarr(field, "part.zarr")                 # the store `isokit` reads
+
+``sample`` plans the lattice exactly as ``shape.sample`` does (same ``res``, ``band``,
+``bounds``, ``brick``) and makes a dask array whose blocks are computed by the extension
+with the GIL released: every block equals the same block of ``shape.sample(...).values``
+bit for bit (the sampler computes each sample's position from the whole lattice). The
+shape travels to the workers as its scene file (``shape.to_json()``), and each worker
+process compiles it once and keeps it (a mesh's kd-tree, a cloud's solve), not once per
+block. Paths in the scene must be readable by the workers (absolute; the same machine, or
+a shared file system). Shapes holding arrays in memory are saved to files first
+(``save_sources_to``).
+
+``to_zarr`` writes the store layout of ``isokit ... -o field.zarr`` (a group with the
+lattice attributes, the ``field`` array and ``x``, ``y``, ``z`` coordinates), into
+``PATH.partial`` first and renamed when every block is written; chunks that hold only the
+fill value ``+band`` are not written.
+
+Needs ``dask[array]`` (and ``distributed`` for clusters) and ``zarr>=3``; none is imported
+until used.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import threading
+from typing import Any
+
+import numpy as np
+
+from . import _isokit
+
+__all__ = ["sample", "lattice_of", "to_zarr"]
+
+# Per process (per Dask worker): scene text -> compiled shape, so that a worker builds a
+# mesh's kd-tree once for all the blocks it computes.
+_SHAPES: dict[str, Any] = {}
+_SHAPES_LOCK = threading.Lock()
+_SHAPES_LIMIT = 8
+
+# The lattice of each array `sample` made, by the array's name.
+_LATTICES: dict[str, dict] = {}
+
+
+def _shape_of(text: str):
+    with _SHAPES_LOCK:
+        shape = _SHAPES.get(text)
+        if shape is None:
+            if len(_SHAPES) >= _SHAPES_LIMIT:
+                _SHAPES.clear()
+            shape = _isokit._shape_from_json(text)
+            _SHAPES[text] = shape
+        return shape
+
+
+def _block(text: str, kw: dict, block_info=None):
+    (z0, z1), (y0, y1), (x0, x1) = block_info[None]["array-location"]
+    shape = _shape_of(text)
+    return shape._sample_block((x0, y0, z0), (x1 - x0, y1 - y0, z1 - z0), **kw)
+
+
+def _scene_text(shape) -> str:
+    try:
+        return shape.to_json()
+    except ValueError:
+        # Arrays held in memory: written to files the workers read (this machine).
+        folder = tempfile.mkdtemp(prefix="isokit-dask-sources-")
+        return shape.to_json(save_sources_to=folder)
+
+
+def sample(shape, res=None, band=None, bounds=None, chunks=64, brick=None):
+    """The lazily sampled band of ``shape`` as a dask array of shape ``(nz, ny, nx)``.
+
+    ``res``, ``band``, ``bounds``, ``brick``: as for ``shape.sample`` (the same lattice).
+    ``chunks``: the blocks, as dask takes them (an int for cubes, default 64³: a whole
+    number of bricks keeps the sampler's brick decisions those of the whole sampling).
+    Values are exact within ``band`` and ``±band`` beyond (negative inside).
+    ``lattice_of(array)`` gives the lattice (origin, spacing, dims, band).
+    """
+    import dask.array as da
+
+    text = _scene_text(shape)
+    kw = {"res": res, "band": band, "bounds": bounds, "brick": brick}
+    plan = shape._plan(**kw)
+    nx, ny, nz = plan["dims"]
+    blocks = da.core.normalize_chunks(chunks, shape=(nz, ny, nx), dtype=np.float32)
+    token = da.core.tokenize(text, kw, blocks)
+    arr = da.map_blocks(
+        _block,
+        text,
+        kw,
+        chunks=blocks,
+        dtype=np.float32,
+        meta=np.empty((0, 0, 0), dtype=np.float32),
+        name=f"isokit-sample-{token}",
+    )
+    _LATTICES[arr.name] = {
+        "origin": list(plan["origin"]),
+        "spacing": [plan["spacing"]] * 3,
+        "dims": [nx, ny, nz],
+        "axis_order": "zyx",
+        "band": plan["band"],
+        "inside": "below",
+        "sign": None,
+    }
+    return arr
+
+
+def lattice_of(array) -> dict:
+    """The lattice of an array made by ``sample``: ``origin``, ``spacing``, ``dims`` (x, y,
+    z), ``axis_order``, ``band``, ``inside``, ``sign`` (the keys of the stores' attributes)."""
+    try:
+        return dict(_LATTICES[array.name])
+    except (AttributeError, KeyError):
+        raise ValueError(
+            "this array was not made by isokit.dask.sample (pass lattice=... to to_zarr)"
+        ) from None
+
+
+def to_zarr(array, path, lattice=None, compute=True, gzip_level=1, **kwargs):
+    """Writes ``array`` (from ``sample``, or any 3-D float32 dask array with ``lattice``
+    given: a dict like ``lattice_of``'s) as an isokit Zarr store at ``path``. The store is made at ``PATH.partial`` and
+    renamed over ``path`` when complete; an existing directory that is not a Zarr store is
+    refused. With ``compute=False`` a ``dask.delayed`` is returned that writes and renames
+    when computed. Extra keyword arguments go to ``dask.array.to_zarr``."""
+    import dask
+    import dask.array as da
+    import zarr
+    from zarr.codecs import BytesCodec, GzipCodec
+
+    meta = dict(lattice) if lattice is not None else lattice_of(array)
+    path = os.fspath(path)
+    if os.path.exists(path) and not (
+        os.path.isfile(os.path.join(path, "zarr.json"))
+        or os.path.isfile(os.path.join(path, ".zarray"))
+    ):
+        raise ValueError(f"{path}: exists and is not a Zarr store: not replaced")
+    if array.ndim != 3:
+        raise ValueError(f"a field is 3-D (nz, ny, nx), not {array.ndim}-D")
+    nz, ny, nx = array.shape
+    if list(meta["dims"]) != [nx, ny, nz]:
+        raise ValueError(f"lattice dims {meta['dims']} do not match the array's shape (z, y, x) {array.shape}")
+    partial = path + ".partial"
+    shutil.rmtree(partial, ignore_errors=True)
+    fill = float(meta["band"]) if meta.get("band") is not None else 0.0
+    # Dask writes whole blocks: the Zarr chunks are the blocks (regular ones).
+    chunks = tuple(c[0] for c in array.chunks)
+    if any(len(set(c[:-1])) > 1 or c[-1] > c[0] for c in array.chunks):
+        array = array.rechunk(chunks)
+    root = zarr.open_group(partial, mode="w", zarr_format=3)
+    root.attrs.update({**meta, "isokit": {"complete": False}})
+    for axis, name in enumerate("xyz"):
+        n = meta["dims"][axis]
+        c = root.create_array(name, shape=(n,), chunks=(n,), dtype="float64",
+                              dimension_names=[name], compressors=None)
+        c[:] = float(meta["origin"][axis]) + float(meta["spacing"][axis]) * np.arange(n)
+    field = root.create_array(
+        "field",
+        shape=array.shape,
+        chunks=chunks,
+        dtype="float32",
+        fill_value=np.float32(fill),
+        dimension_names=["z", "y", "x"],
+        serializer=BytesCodec(endian="little"),
+        compressors=[GzipCodec(level=gzip_level)] if gzip_level is not None else None,
+        attributes=dict(meta),
+    )
+    stored = da.store(array, field, lock=False, compute=False, **kwargs)
+
+    def finish(_):
+        zarr.open_group(partial, mode="r+").attrs["isokit"] = {"complete": True}
+        old = None
+        if os.path.exists(path):
+            old = f"{path}.old-{os.getpid()}"
+            os.rename(path, old)
+        os.rename(partial, path)
+        if old:
+            shutil.rmtree(old, ignore_errors=True)
+        return path
+
+    done = dask.delayed(finish)(stored)
+    return done.compute() if compute else done
