@@ -144,6 +144,9 @@ pub enum VolumeData {
     /// taps stay within the band (for `ρ = 0` and a band of at least 2√3 voxels,
     /// everywhere).
     Band(BrickGrid),
+    /// Samples read on demand from a Zarr store through a bounded cache of decoded chunks
+    /// (a field larger than memory; see [`Volume::from_store`]).
+    Store(std::sync::Arc<isokit_io::zarr::ZarrSource>),
 }
 
 impl VolumeData {
@@ -152,6 +155,7 @@ impl VolumeData {
         match self {
             Self::Dense(g) => g.dims(),
             Self::Band(b) => b.dims(),
+            Self::Store(s) => s.dims(),
         }
     }
 
@@ -160,6 +164,7 @@ impl VolumeData {
         match self {
             Self::Dense(g) => g.origin(),
             Self::Band(b) => b.origin(),
+            Self::Store(s) => s.origin(),
         }
     }
 
@@ -168,6 +173,12 @@ impl VolumeData {
         match self {
             Self::Dense(g) => g.spacing(),
             Self::Band(b) => b.spacing(),
+            // Uniform (checked by `Volume::from_store`); the mean, as a volume file's
+            // spacing becomes a grid's (`isokit_io::Volume::into_grid`).
+            Self::Store(s) => {
+                let h = s.spacing();
+                (h.x + h.y + h.z) / 3.0
+            }
         }
     }
 
@@ -184,6 +195,11 @@ impl VolumeData {
                     b.get(at(c.x, d[0]), at(c.y, d[1]), at(c.z, d[2])),
                     b.background(),
                 )
+            }
+            Self::Store(s) => {
+                let d = s.dims();
+                let at = |v: i32, n: usize| v.clamp(0, n as i32 - 1) as usize;
+                s.get(at(c.x, d[0]), at(c.y, d[1]), at(c.z, d[2]))
             }
         }
     }
@@ -251,6 +267,16 @@ impl VolumeData {
                         None => dst.fill(bg.background()),
                     }
                     x = end;
+                }
+            }
+            Self::Store(st) => {
+                if a < b {
+                    st.read_row(
+                        a as usize,
+                        yu,
+                        zu,
+                        &mut out[(a - x0) as usize..(b - x0) as usize],
+                    );
                 }
             }
         }
@@ -540,6 +566,23 @@ impl Volume {
     /// A volume over a sparse band (e.g. a scene's lazily sampled band).
     pub fn from_brick_grid(grid: BrickGrid, layout: Layout) -> Result<Self, RenderError> {
         Self::new(VolumeData::Band(grid), layout)
+    }
+
+    /// A volume over a Zarr store read on demand ([`VolumeData::Store`]): only the chunks
+    /// the block scan and the brick cache ask for are decoded, and at most the source's
+    /// cache of them is held. The store's spacing must be uniform.
+    pub fn from_store(
+        source: std::sync::Arc<isokit_io::zarr::ZarrSource>,
+        layout: Layout,
+    ) -> Result<Self, RenderError> {
+        let h = source.spacing();
+        if h.max_element() - h.min_element() > isokit_io::ISOTROPY_TOL * h.max_element() {
+            return Err(RenderError::BadVolume {
+                dims: source.dims(),
+                why: "a store read on demand needs the same spacing on every axis",
+            });
+        }
+        Self::new(VolumeData::Store(source), layout)
     }
 
     /// A volume over either kind of samples; computes the block min/max (one pass over the

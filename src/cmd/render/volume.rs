@@ -5,10 +5,24 @@
 use super::Args;
 use anyhow::{Context, Result, bail};
 use isokit_field::Grid;
+use isokit_io::zarr::ZarrSource;
+use isokit_render::VolumeData;
 use isokit_render::clip::colour_caps;
 use isokit_render::{Combine, Inside, Layout, Shading, Volume};
 use isokit_scene::{Frame, RenderSettings};
 use std::path::PathBuf;
+use std::sync::Arc;
+
+/// The decoded chunks a store read on demand keeps (least recently used dropped first).
+const STORE_CACHE_BYTES: usize = 256 << 20;
+
+/// Fails when a store read on demand could not read a chunk (its samples read as NaN).
+pub(super) fn check_store(volume: &Volume) -> Result<()> {
+    match volume.data() {
+        VolumeData::Store(s) => s.error().map_or(Ok(()), |e| bail!("{e}")),
+        _ => Ok(()),
+    }
+}
 
 /// Refuses what `--clip` does not go with in the isosurface mode.
 pub(super) fn check_clip(a: &Args) -> Result<()> {
@@ -53,6 +67,19 @@ pub(super) fn load(
     a: &Args,
     s: &RenderSettings,
 ) -> Result<(Volume, Vec<PathBuf>, String, Option<Caps>)> {
+    if crate::cmd::volume_out::is_zarr(&a.input) && a.clip.file().is_none() && a.csg.csg.is_none() {
+        let source = Arc::new(ZarrSource::open(&a.input, STORE_CACHE_BYTES)?);
+        let d = source.dims();
+        let what = format!(
+            "{} x {} x {} volume (a Zarr store read on demand: at most {} decoded chunks held)",
+            d[0],
+            d[1],
+            d[2],
+            source.cache_chunks()
+        );
+        let volume = Volume::from_store(source, Layout::default())?;
+        return Ok((volume, vec![a.input.clone()], what, None));
+    }
     let grid = a.volume.read_grid(&a.input)?;
     let d = grid.dims();
     let mut what = format!("{} x {} x {} volume", d[0], d[1], d[2]);

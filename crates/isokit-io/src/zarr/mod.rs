@@ -43,7 +43,10 @@ use zarrs::filesystem::FilesystemStore;
 use zarrs::group::{Group, GroupBuilder};
 
 use crate::lattice::{Lattice, check_band};
+
+mod source;
 use crate::{IoError, Volume};
+pub use source::ZarrSource;
 
 /// The default chunk side: 64³ samples (1 MiB of f32), 8³ bricks of the default size.
 pub const DEFAULT_CHUNK: usize = 64;
@@ -484,8 +487,8 @@ fn replace_dir(from: &Path, to: &Path) -> Result<(), IoError> {
 
 /// An open store: its samples' array, the attributes that describe it (the group's where
 /// the array is in a group, else the array's) and the array's path in the store.
-struct Opened {
-    array: Array<FilesystemStore>,
+pub(crate) struct Opened {
+    pub(crate) array: Array<FilesystemStore>,
     attrs: serde_json::Map<String, Value>,
     at: String,
 }
@@ -684,25 +687,11 @@ pub fn zarr_info(path: &Path) -> Result<ZarrInfo, IoError> {
 /// arrays are read; the size is checked against the memory budget before anything is
 /// allocated; an incomplete store (its writer did not finish) is refused.
 pub fn read_zarr(path: &Path) -> Result<(Volume, Lattice, bool), IoError> {
-    let o = open(path)?;
-    let (lattice, has_lattice) = lattice_of(&o, path)?;
-    let array = &o.array;
-    if !is_complete(&o) {
-        return Err(IoError::malformed(
-            path,
-            "the store is incomplete (its writer did not finish): `isokit info` lists the missing chunks",
-        ));
-    }
+    let r = open_readable(path)?;
+    let (array, lattice) = (&r.opened.array, &r.lattice);
     let dims = lattice.dims;
     let n = isokit_field::checked_len(dims)?;
-    let dt = array.data_type();
-    let f64s = *dt == data_type::float64();
-    if !f64s && *dt != data_type::float32() {
-        return Err(IoError::unsupported(
-            path,
-            format!("data type {dt}: float32 and float64 arrays are read"),
-        ));
-    }
+    let f64s = r.f64s;
     isokit_field::memory::check(
         &format!(
             "the {} x {} x {} samples of the store",
@@ -728,8 +717,55 @@ pub fn read_zarr(path: &Path) -> Result<(Volume, Lattice, bool), IoError> {
         spacing: Vec3::from(lattice.spacing),
         data,
     };
-    volume
+    Ok((volume, r.lattice, r.has_lattice))
+}
+
+/// An open store whose samples can be read: complete, float32 or float64, its lattice
+/// valid.
+pub(crate) struct Readable {
+    pub(crate) opened: Opened,
+    pub(crate) lattice: Lattice,
+    pub(crate) has_lattice: bool,
+    pub(crate) f64s: bool,
+    pub(crate) fill: f32,
+}
+
+pub(crate) fn open_readable(path: &Path) -> Result<Readable, IoError> {
+    let opened = open(path)?;
+    let (lattice, has_lattice) = lattice_of(&opened, path)?;
+    if !is_complete(&opened) {
+        return Err(IoError::malformed(
+            path,
+            "the store is incomplete (its writer did not finish): `isokit info` lists the missing chunks",
+        ));
+    }
+    let dt = opened.array.data_type();
+    let f64s = *dt == data_type::float64();
+    if !f64s && *dt != data_type::float32() {
+        return Err(IoError::unsupported(
+            path,
+            format!("data type {dt}: float32 and float64 arrays are read"),
+        ));
+    }
+    let probe = Volume {
+        dims: [1; 3],
+        origin: Vec3::from(lattice.origin),
+        spacing: Vec3::from(lattice.spacing),
+        data: vec![0.0],
+    };
+    probe
         .check()
         .map_err(|e| IoError::malformed(path, format!("the lattice is invalid: {e}")))?;
-    Ok((volume, lattice, has_lattice))
+    isokit_field::checked_len(lattice.dims)?;
+    let fill = serde_json::to_value(opened.array.metadata())
+        .ok()
+        .and_then(|m| m.get("fill_value").and_then(Value::as_f64))
+        .map_or(f32::NAN, |v| v as f32);
+    Ok(Readable {
+        opened,
+        lattice,
+        has_lattice,
+        f64s,
+        fill,
+    })
 }

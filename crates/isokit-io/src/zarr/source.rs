@@ -1,0 +1,196 @@
+//! Reading a store's samples on demand, chunk by chunk through a bounded cache of decoded
+//! chunks, so that a field larger than memory can be ray cast (the renderer's brick cache
+//! asks for the boxes of samples it uploads).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use glam::Vec3;
+use zarrs::array::Array;
+use zarrs::filesystem::FilesystemStore;
+
+use super::{open_readable, zerr};
+use crate::IoError;
+use crate::lattice::Lattice;
+
+/// A decoded chunk: its samples (x fastest, the chunk's full shape), or `None` for a chunk
+/// that is not stored (every sample the fill value).
+type Decoded = Option<Arc<Vec<f32>>>;
+
+/// The decoded chunks kept, with the clock of their last use.
+#[derive(Default)]
+struct Chunks {
+    map: HashMap<[u64; 3], (Decoded, u64)>,
+    clock: u64,
+}
+
+/// The samples of a Zarr store read on demand: chunks are decoded when first asked for and
+/// kept in a cache of at most `cache_bytes` (least recently used dropped first). Reads never
+/// fail: a chunk that cannot be read or decoded reads as NaN and [`ZarrSource::error`] says
+/// why (check it after the work that read).
+pub struct ZarrSource {
+    path: PathBuf,
+    array: Array<FilesystemStore>,
+    lattice: Lattice,
+    f64s: bool,
+    fill: f32,
+    /// Chunk shape along x, y, z.
+    chunk: [usize; 3],
+    capacity: usize,
+    chunks: Mutex<Chunks>,
+    loads: AtomicU64,
+    error: Mutex<Option<String>>,
+}
+
+impl std::fmt::Debug for ZarrSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ZarrSource")
+            .field("path", &self.path)
+            .field("dims", &self.lattice.dims)
+            .field("chunk", &self.chunk)
+            .field("capacity", &self.capacity)
+            .finish()
+    }
+}
+
+impl ZarrSource {
+    /// Opens the store at `path` for reading on demand with a cache of decoded chunks of at
+    /// most `cache_bytes` (at least one chunk). The store must be complete and hold float32
+    /// or float64 samples (as [`super::read_zarr`]); nothing but its metadata is read here.
+    pub fn open(path: &Path, cache_bytes: usize) -> Result<Self, IoError> {
+        let r = open_readable(path)?;
+        let shape = r
+            .opened
+            .array
+            .chunk_shape(&[0, 0, 0])
+            .map_err(|e| zerr(path, e))?;
+        let c: Vec<usize> = shape.iter().map(|v| v.get() as usize).collect();
+        let chunk = [c[2], c[1], c[0]];
+        let per = chunk.iter().product::<usize>() * 4;
+        Ok(Self {
+            path: path.to_path_buf(),
+            array: r.opened.array,
+            lattice: r.lattice,
+            f64s: r.f64s,
+            fill: r.fill,
+            chunk,
+            capacity: (cache_bytes / per.max(1)).max(1),
+            chunks: Mutex::new(Chunks::default()),
+            loads: AtomicU64::new(0),
+            error: Mutex::new(None),
+        })
+    }
+
+    /// Samples along x, y, z.
+    pub fn dims(&self) -> [usize; 3] {
+        self.lattice.dims
+    }
+
+    /// Position of sample (0, 0, 0).
+    pub fn origin(&self) -> Vec3 {
+        Vec3::from(self.lattice.origin)
+    }
+
+    /// Distance between samples along x, y, z.
+    pub fn spacing(&self) -> Vec3 {
+        Vec3::from(self.lattice.spacing)
+    }
+
+    /// The lattice and meaning of the samples (the store's attributes).
+    pub fn lattice(&self) -> &Lattice {
+        &self.lattice
+    }
+
+    /// Chunks decoded so far (a chunk dropped from the cache and asked for again counts
+    /// again).
+    pub fn loads(&self) -> u64 {
+        self.loads.load(Ordering::Relaxed)
+    }
+
+    /// Decoded chunks the cache holds at most.
+    pub fn cache_chunks(&self) -> usize {
+        self.capacity
+    }
+
+    /// The first failure to read a chunk, if any (its samples read as NaN).
+    pub fn error(&self) -> Option<String> {
+        self.error.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    fn decode(&self, key: [u64; 3]) -> Decoded {
+        self.loads.fetch_add(1, Ordering::Relaxed);
+        let got = if self.f64s {
+            self.array
+                .retrieve_chunk_if_exists::<Vec<f64>>(&key)
+                .map(|o| o.map(|v| v.into_iter().map(|x| x as f32).collect::<Vec<f32>>()))
+        } else {
+            self.array.retrieve_chunk_if_exists::<Vec<f32>>(&key)
+        };
+        match got {
+            Ok(v) => v.map(Arc::new),
+            Err(e) => {
+                let mut slot = self.error.lock().unwrap_or_else(|p| p.into_inner());
+                slot.get_or_insert_with(|| format!("{}: chunk {key:?}: {e}", self.path.display()));
+                Some(Arc::new(vec![f32::NAN; self.chunk.iter().product()]))
+            }
+        }
+    }
+
+    /// Chunk `key` (z, y, x), decoded or from the cache.
+    fn chunk(&self, key: [u64; 3]) -> Decoded {
+        {
+            let mut c = self.chunks.lock().unwrap_or_else(|p| p.into_inner());
+            c.clock += 1;
+            let now = c.clock;
+            if let Some((d, used)) = c.map.get_mut(&key) {
+                *used = now;
+                return d.clone();
+            }
+        }
+        // Decoded outside the lock: other threads read other chunks meanwhile (two may
+        // decode the same chunk at once; both results are the same).
+        let d = self.decode(key);
+        let mut c = self.chunks.lock().unwrap_or_else(|p| p.into_inner());
+        while c.map.len() >= self.capacity {
+            let Some(oldest) = c.map.iter().min_by_key(|(_, (_, u))| *u).map(|(k, _)| *k) else {
+                break;
+            };
+            c.map.remove(&oldest);
+        }
+        let now = c.clock;
+        c.map.insert(key, (d.clone(), now));
+        d
+    }
+
+    /// Samples `(x0 + i, y, z)` for `i` in `0..out.len()`; every index must lie inside the
+    /// lattice (the caller clamps).
+    pub fn read_row(&self, x0: usize, y: usize, z: usize, out: &mut [f32]) {
+        let [cx, cy, cz] = self.chunk;
+        let key_yz = [(z / cz) as u64, (y / cy) as u64];
+        let (ly, lz) = (y % cy, z % cz);
+        let mut x = x0;
+        let end = x0 + out.len();
+        while x < end {
+            let kx = x / cx;
+            let stop = ((kx + 1) * cx).min(end);
+            let dst = &mut out[x - x0..stop - x0];
+            match self.chunk([key_yz[0], key_yz[1], kx as u64]) {
+                Some(data) => {
+                    let at = (x - kx * cx) + cx * (ly + cy * lz);
+                    dst.copy_from_slice(&data[at..at + dst.len()]);
+                }
+                None => dst.fill(self.fill),
+            }
+            x = stop;
+        }
+    }
+
+    /// One sample (inside the lattice).
+    pub fn get(&self, x: usize, y: usize, z: usize) -> f32 {
+        let mut v = [0.0];
+        self.read_row(x, y, z, &mut v);
+        v[0]
+    }
+}
