@@ -114,15 +114,30 @@ fn a_killed_run_leaves_an_incomplete_store_that_resume_finishes() {
         "-o",
         fresh.to_str().unwrap(),
     ]);
-    // What a killed run leaves: the partial store with some chunks done and no rename.
+    // What a killed run leaves: the partial store with two chunks done (two that hold only
+    // the fill value) and no chunk file, and no rename.
     let partial = d.join("k.zarr.partial");
     copy_dir(&fresh, &partial);
+    std::fs::remove_dir_all(partial.join("field/c")).unwrap();
+    let absent: Vec<String> = (0..4)
+        .flat_map(|y| (0..4).map(move |x| format!("0 {y} {x}")))
+        .filter(|k| !fresh.join("field/c").join(k.replace(' ', "/")).exists())
+        .take(2)
+        .collect();
+    assert_eq!(
+        absent.len(),
+        2,
+        "two chunks of fill value in the first slab"
+    );
     let group = partial.join("zarr.json");
     let mut g: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&group).unwrap()).unwrap();
-    g["attributes"]["isokit"] = serde_json::json!({ "complete": false });
+    let print = g["attributes"]["isokit"]["fingerprint"].clone();
+    assert!(print.is_string(), "{g}");
+    g["attributes"]["isokit"] = serde_json::json!({ "complete": false, "fingerprint": print });
     std::fs::write(&group, g.to_string()).unwrap();
-    std::fs::write(partial.join(".isokit-progress"), "0 0 0 0\n0 0 1 0\n").unwrap();
+    let progress = format!("{} 0\n{} 0\n", absent[0], absent[1]);
+    std::fs::write(partial.join(".isokit-progress"), progress).unwrap();
     let info = json(&isokit_ok(&["info", "--json", z.to_str().unwrap()]));
     assert_eq!(info["complete"], false);
     let chunks = info["chunks"].as_u64().unwrap();

@@ -32,13 +32,28 @@ pub fn write(
         inside: isokit_field::curvature::Inside::Below,
         sign: None,
     };
+    // What the samples come from: the scene's content (files by path, size and time) and
+    // the brick size (the lattice itself is compared on its own).
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    std::hash::Hash::hash(
+        &(scene.hashes().first().map(|n| n.hash), plan.brick),
+        &mut h,
+    );
     let zopts = ZarrOptions {
         chunk: out.chunk,
         gzip: out.compression.gzip_level(),
+        fingerprint: Some(std::hash::Hasher::finish(&h)),
     };
+    let partial = isokit_io::zarr::partial_path(path);
     let writer = if resume {
         ZarrWriter::resume(path, &meta, zopts)?
     } else {
+        if partial.is_dir() {
+            eprintln!(
+                "note: starting afresh: removing {} that an earlier run left (--resume continues one)",
+                partial.display()
+            );
+        }
         ZarrWriter::create(path, &meta, zopts)?
     };
     let pending = writer.pending();
@@ -46,7 +61,7 @@ pub fn write(
     if resume && pending.len() < total {
         eprintln!(
             "resuming {}: {} of {total} chunks left to sample",
-            isokit_io::zarr::partial_path(path).display(),
+            partial.display(),
             pending.len()
         );
     }

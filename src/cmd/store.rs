@@ -2,7 +2,7 @@
 //! writer's partial store lists the chunks it had not finished).
 
 use anyhow::{Result, bail};
-use isokit_io::zarr::{partial_path, read_zarr, zarr_info};
+use isokit_io::zarr::{ZarrSource, partial_path, zarr_info};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -29,7 +29,7 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
     let at = located(path)?;
     let info = zarr_info(&at)?;
     let l = &info.lattice;
-    let shown: Vec<[u64; 3]> = info.missing.iter().take(20).copied().collect();
+    let shown = &info.missing;
     let mut v = json!({
         "kind": "zarr",
         "store": at.display().to_string(),
@@ -47,7 +47,7 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
         "chunks_present": info.present,
         "fill_value": info.fill,
         "complete": info.complete,
-        "missing_chunks": info.missing.len(),
+        "missing_chunks": info.missing_chunks,
         "missing": shown,
     });
     let mut t = format!(
@@ -74,11 +74,18 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
         info.fill.map_or("(not a number)".into(), |f| f.to_string()),
     );
     if info.complete {
-        let (vol, _, _) = read_zarr(&at)?;
-        let range = vol.min_max().map(|(lo, hi)| [lo, hi]);
-        let nan = vol.data.iter().filter(|x| !x.is_finite()).count();
+        // Chunk by chunk: a store larger than memory is summarized too.
+        let source = ZarrSource::open(&at, 0)?;
+        let (range, nan) = source.summary();
+        let range = range.map(|(lo, hi)| [lo, hi]);
         v["range"] = json!(range);
         v["non_finite_samples"] = json!(nan);
+        let vol = isokit_io::Volume {
+            dims: l.dims,
+            origin: source.origin(),
+            spacing: source.spacing(),
+            data: Vec::new(),
+        };
         v["bounds"] = super::info::bounds_json(&vol.bounds());
         t += &format!(
             "\n  range: {}\n  non-finite samples: {nan}\n  complete",
@@ -87,7 +94,7 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
     } else {
         t += &format!(
             "\n  INCOMPLETE: its writer did not finish; {} of {} chunks missing{}{}",
-            info.missing.len(),
+            info.missing_chunks,
             info.chunks,
             if shown.is_empty() {
                 ""

@@ -99,6 +99,7 @@ impl VolumeOut {
             let opts = ZarrOptions {
                 chunk: self.chunk,
                 gzip: self.compression.gzip_level(),
+                fingerprint: None,
             };
             zarr::write_zarr(path, volume, meta, opts)?;
             return Ok(());

@@ -46,6 +46,7 @@ fn opts(chunk: usize) -> ZarrOptions {
     ZarrOptions {
         chunk,
         gzip: Some(1),
+        fingerprint: None,
     }
 }
 
@@ -55,7 +56,12 @@ fn a_band_field_reads_back_bit_for_bit_and_chunks_beyond_the_band_are_not_writte
     let (v, meta) = sphere_band([70, 61, 56]);
     for (chunk, gzip) in [(8, Some(1)), (16, None), (64, Some(9))] {
         let path = t.path(&format!("s{chunk}.zarr"));
-        let w = write_zarr(&path, &v, &meta, ZarrOptions { chunk, gzip }).unwrap();
+        let o = ZarrOptions {
+            chunk,
+            gzip,
+            fingerprint: None,
+        };
+        let w = write_zarr(&path, &v, &meta, o).unwrap();
         let (back, lattice, has) = read_zarr(&path).unwrap();
         assert!(has);
         assert_eq!(back.dims, v.dims);
@@ -72,7 +78,7 @@ fn a_band_field_reads_back_bit_for_bit_and_chunks_beyond_the_band_are_not_writte
         // Through the generic reader too.
         assert_eq!(read_volume(&path).unwrap(), back);
         let info = zarr_info(&path).unwrap();
-        assert!(info.complete && info.missing.is_empty());
+        assert!(info.complete && info.missing.is_empty() && info.missing_chunks == 0);
         assert_eq!(info.array, "/field");
         assert_eq!(info.chunks as usize, w.chunks);
         assert_eq!(info.present as usize, w.written);
@@ -160,7 +166,12 @@ fn a_store_is_replaced_whole_and_other_directories_are_not_replaced() {
     // Bad knobs are refused before anything is made.
     for (chunk, gzip) in [(0, Some(1)), (513, Some(1)), (8, Some(10))] {
         let p = t.path("k.zarr");
-        assert!(write_zarr(&p, &v, &meta, ZarrOptions { chunk, gzip }).is_err());
+        let o = ZarrOptions {
+            chunk,
+            gzip,
+            fingerprint: None,
+        };
+        assert!(write_zarr(&p, &v, &meta, o).is_err());
         assert!(!p.exists() && !partial_path(&p).exists());
     }
 }
@@ -193,7 +204,7 @@ fn a_killed_writers_store_lists_its_missing_chunks_and_resume_finishes_it() {
     let partial = partial_path(&path);
     let info = zarr_info(&partial).unwrap();
     assert!(!info.complete);
-    assert_eq!(info.missing.len(), all.len() - 5);
+    assert_eq!(info.missing_chunks as usize, all.len() - 5);
     assert_eq!(
         info.missing[0],
         [all[5][0] as u64, all[5][1] as u64, all[5][2] as u64]
@@ -279,10 +290,10 @@ fn hostile_stores_are_refused_with_an_error() {
     refused(&t.path("empty.zarr"), "not a zarr store");
     let p = fresh("json.zarr");
     fs::write(p.join("field/zarr.json"), "{not json").unwrap();
-    refused(&p, "json.zarr");
+    refused(&p, "error parsing metadata for field/zarr.json");
     let p = fresh("root.zarr");
     fs::write(p.join("zarr.json"), "[1, 2").unwrap();
-    refused(&p, "root.zarr");
+    refused(&p, "neither an array nor a group");
     let p = fresh("dims.zarr");
     edit_json(&p.join("zarr.json"), |j| {
         j["attributes"]["dims"] = serde_json::json!([1, 2, 3])
@@ -302,12 +313,12 @@ fn hostile_stores_are_refused_with_an_error() {
     let p = fresh("chunk.zarr");
     let chunk = a_chunk_file(&p.join("field/c"));
     fs::write(&chunk, b"\x1f\x8b\x08\0garbage").unwrap();
-    refused(&p, "chunk.zarr");
+    refused(&p, "deflate");
     let p = fresh("short.zarr");
     let chunk = a_chunk_file(&p.join("field/c"));
     let raw = fs::read(&chunk).unwrap();
     fs::write(&chunk, &raw[..raw.len() / 2]).unwrap();
-    refused(&p, "short.zarr");
+    refused(&p, "deflate");
     let p = fresh("huge.zarr");
     edit_json(&p.join("field/zarr.json"), |j| {
         j["shape"] = serde_json::json!([1u64 << 40, 1u64 << 40, 1u64 << 40])
@@ -316,6 +327,31 @@ fn hostile_stores_are_refused_with_an_error() {
         j["attributes"]["dims"] = serde_json::json!([1u64 << 40, 1u64 << 40, 1u64 << 40]);
     });
     assert!(read_zarr(&p).is_err());
+    let p = fresh("rect.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["chunk_grid"] = serde_json::json!({"name": "rectilinear", "configuration":
+            {"kind": "inline", "chunk_shapes": [[8, 8, 2], [8, 8, 2], [8, 8]]}});
+    });
+    assert!(read_zarr(&p).is_err());
+    assert!(zarr_info(&p).is_err());
+    assert!(isokit_io::zarr::ZarrSource::open(&p, 1 << 20).is_err());
+    let p = fresh("bigchunk.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["chunk_grid"]["configuration"]["chunk_shape"] = serde_json::json!([1u64 << 22, 8, 8]);
+    });
+    refused(&p, "chunks of");
+    assert!(isokit_io::zarr::ZarrSource::open(&p, 1 << 20).is_err());
+    let p = fresh("manychunks.zarr");
+    edit_json(&p.join("field/zarr.json"), |j| {
+        j["shape"] = serde_json::json!([1u64 << 12, 1u64 << 12, 1u64 << 12]);
+        j["chunk_grid"]["configuration"]["chunk_shape"] = serde_json::json!([1, 1, 1]);
+        j.as_object_mut().unwrap().remove("attributes");
+    });
+    edit_json(&p.join("zarr.json"), |j| {
+        j.as_object_mut().unwrap().remove("attributes");
+    });
+    let e = zarr_info(&p).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("chunks"), "{e}");
     let p = fresh("twod.zarr");
     edit_json(&p.join("field/zarr.json"), |j| {
         j["shape"] = serde_json::json!([18, 20]);
@@ -323,4 +359,60 @@ fn hostile_stores_are_refused_with_an_error() {
         j["dimension_names"] = serde_json::json!(["y", "x"]);
     });
     assert!(read_zarr(&p).is_err());
+}
+
+#[test]
+fn a_progress_file_cut_short_or_garbled_never_marks_an_unwritten_chunk_done() {
+    let t = TempDir::new("zarr-progress");
+    let (v, meta) = sphere_band([40, 36, 30]);
+    let path = t.path("g.zarr");
+    let o = ZarrOptions {
+        fingerprint: Some(7),
+        ..opts(16)
+    };
+    let w = ZarrWriter::create(&path, &meta, o).unwrap();
+    let all = w.pending();
+    let block = |w: &ZarrWriter, idx| {
+        let (first, dims): ([usize; 3], [usize; 3]) = w.chunk_block(idx);
+        let mut out = Vec::new();
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                let s = first[0] + 40 * (first[1] + y + 36 * (first[2] + z));
+                out.extend_from_slice(&v.data[s..s + dims[0]]);
+            }
+        }
+        out
+    };
+    for &idx in &all[..3] {
+        w.write_chunk(idx, &block(&w, idx)).unwrap();
+    }
+    // A chunk outside the grid is refused, not a panic.
+    assert!(w.write_chunk([9, 9, 9], &[]).is_err());
+    drop(w);
+    // Lines outside the grid, of the wrong length or flag, and one cut short by a kill
+    // (which the next append would otherwise complete into a valid-looking line).
+    let progress = partial_path(&path).join(".isokit-progress");
+    let mut f = fs::OpenOptions::new().append(true).open(&progress).unwrap();
+    std::io::Write::write_all(&mut f, b"99 0 0 1\n1 1\n1 1 1 7\nx y z 1\n1 1 ").unwrap();
+    drop(f);
+    let info = zarr_info(&partial_path(&path)).unwrap();
+    assert_eq!(info.missing_chunks as usize, all.len() - 3);
+    // Another input (fingerprint) cannot resume it; the same one finishes it.
+    let other = ZarrOptions {
+        fingerprint: Some(8),
+        ..o
+    };
+    let e = ZarrWriter::resume(&path, &meta, other)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("input"), "{e}");
+    let w = ZarrWriter::resume(&path, &meta, o).unwrap();
+    assert_eq!(w.pending(), all[3..].to_vec());
+    for idx in w.pending() {
+        w.write_chunk(idx, &block(&w, idx)).unwrap();
+    }
+    w.finish().unwrap();
+    assert_eq!(read_zarr(&path).unwrap().0.data, v.data);
+    assert!(!path.join(".isokit-progress").exists());
 }

@@ -27,6 +27,7 @@ fn store(dir: &std::path::Path, name: &str) -> (std::path::PathBuf, isokit_field
         ZarrOptions {
             chunk: 16,
             gzip: Some(1),
+            fingerprint: None,
         },
     )
     .unwrap();

@@ -166,8 +166,10 @@ impl Scene {
         let t0 = Instant::now();
         self.reset_counts();
         let fresh = self.plan(opts)?;
+        // A block is sampled whole (blocks are jobs of a distributed sampling, not edits).
         let usable = previous.filter(|p| {
-            p.opts == *opts
+            opts.block.is_none()
+                && p.opts == *opts
                 && p.lipschitz == self.lipschitz()
                 && p.plan.brick == fresh.brick
                 && fits(p.plan, fresh)

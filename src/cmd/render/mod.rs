@@ -150,10 +150,10 @@ fn render_once(
         let p = Renderer::cpu().prepare(RenderTarget::Volume(&volume), s, &Job::default())?;
         let renderer = open(renderer, a)?;
         let mut frame = renderer.render_prepared(&p, &name)?;
-        volume::check_store(&volume)?;
         let clip_caps = caps.as_ref().map(|c| c.colour(&mut frame, p.shading()));
         frame.stats.warm_trace_seconds = warm(a, renderer, &p, &name)?;
         let views = views(a, renderer, &p, &name)?;
+        volume::check_store(&volume)?;
         (frame, views, files, what, clip_caps)
     };
     for n in &frame.notes {

@@ -51,8 +51,11 @@ pub use source::ZarrSource;
 /// The default chunk side: 64³ samples (1 MiB of f32), 8³ bricks of the default size.
 pub const DEFAULT_CHUNK: usize = 64;
 
-/// The largest chunk side accepted (512³ f32 = 512 MiB per chunk in memory).
-pub const MAX_CHUNK: usize = 512;
+/// The largest chunk side accepted (256³ f32 = 64 MiB per chunk in memory).
+pub const MAX_CHUNK: usize = 256;
+
+/// The most chunks a store may have (a lattice of 16384³ in chunks of 64³ has 2^24).
+pub const MAX_CHUNKS: u64 = 1 << 24;
 
 /// The file in a partial store that lists the chunks done so far, one `z y x w` per line
 /// (`w` 1 where a chunk file was written, 0 where the chunk holds only the fill value).
@@ -65,6 +68,10 @@ pub struct ZarrOptions {
     pub chunk: usize,
     /// Gzip level 0–9 (1, the fast level, by default; `None`: no compression).
     pub gzip: Option<u32>,
+    /// What the samples were computed from (a hash of the scene and the sampling
+    /// options), kept in the attributes: [`ZarrWriter::resume`] refuses a partial store
+    /// started from something else.
+    pub fingerprint: Option<u64>,
 }
 
 impl Default for ZarrOptions {
@@ -72,6 +79,7 @@ impl Default for ZarrOptions {
         Self {
             chunk: DEFAULT_CHUNK,
             gzip: Some(1),
+            fingerprint: None,
         }
     }
 }
@@ -107,7 +115,9 @@ pub struct ZarrInfo {
     pub fill: Option<f64>,
     /// False for a store whose writer did not finish.
     pub complete: bool,
-    /// For an incomplete store: the chunks `(z, y, x)` its writer had not finished.
+    /// For an incomplete store: how many chunks its writer had not finished.
+    pub missing_chunks: u64,
+    /// The first 20 of them, `(z, y, x)`.
     pub missing: Vec<[u64; 3]>,
 }
 
@@ -117,9 +127,18 @@ fn zerr(path: &Path, e: impl std::fmt::Display) -> IoError {
 
 /// `NAME.zarr` → `NAME.zarr.partial`, where a write goes before it is renamed.
 pub fn partial_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_owned();
-    s.push(".partial");
-    PathBuf::from(s)
+    sibling(path, ".partial")
+}
+
+/// `path`'s file name with `suffix` appended, in the same folder (a trailing separator
+/// of `path` ignored).
+fn sibling(path: &Path, suffix: &str) -> PathBuf {
+    let mut name = path.file_name().unwrap_or(path.as_os_str()).to_owned();
+    name.push(suffix);
+    match path.parent() {
+        Some(dir) => dir.join(name),
+        None => PathBuf::from(name),
+    }
 }
 
 /// True when `path` is a directory holding a Zarr v3 array or group (`zarr.json`) or a
@@ -173,12 +192,16 @@ fn attributes(
     meta: &Lattice,
     complete: bool,
     w: Option<ZarrWritten>,
+    fingerprint: Option<u64>,
 ) -> serde_json::Map<String, Value> {
     let mut a = match meta.to_json() {
         Value::Object(m) => m,
         _ => serde_json::Map::new(),
     };
     let mut own = json!({ "complete": complete });
+    if let Some(f) = fingerprint {
+        own["fingerprint"] = json!(format!("{f:016x}"));
+    }
     if let Some(w) = w {
         own["chunks"] = json!(w.chunks);
         own["chunks_written"] = json!(w.written);
@@ -200,6 +223,7 @@ pub struct ZarrWriter {
     fill: f32,
     /// Chunks along z, y, x.
     grid: [usize; 3],
+    fingerprint: Option<u64>,
     /// The progress file and the chunks done (with whether a file was written).
     done: Mutex<(File, HashMap<[usize; 3], bool>)>,
 }
@@ -237,11 +261,17 @@ impl ZarrWriter {
             .chunk_shape(&[0, 0, 0])
             .map_err(|e| zerr(&partial, e))?;
         let same_chunk = chunk.iter().all(|c| c.get() == opts.chunk as u64);
-        if theirs != *meta || !same_chunk || o.at != "/field" {
+        let print = o
+            .attrs
+            .get("isokit")
+            .and_then(|i| i.get("fingerprint"))
+            .cloned();
+        let same_source = print == opts.fingerprint.map(|f| Value::String(format!("{f:016x}")));
+        if theirs != *meta || !same_chunk || o.at != "/field" || !same_source {
             return Err(IoError::invalid_input(
                 path,
                 format!(
-                    "cannot resume {}: it was started with another lattice or chunk side (its lattice {}); run again without --resume",
+                    "cannot resume {}: it was started with another lattice, chunk side or input (its lattice {}); run again without --resume",
                     partial.display(),
                     theirs.to_json()
                 ),
@@ -249,22 +279,27 @@ impl ZarrWriter {
         }
         let group = Group::open(o.array.storage(), "/").map_err(|e| zerr(&partial, e))?;
         let progress = partial.join(PROGRESS);
-        let mut done = HashMap::new();
-        if let Ok(text) = fs::read_to_string(&progress) {
-            for line in text.lines() {
-                let v: Vec<usize> = line.split(' ').filter_map(|t| t.parse().ok()).collect();
-                if let [z, y, x, w] = v[..] {
-                    done.insert([z, y, x], w == 1);
-                }
-            }
-        }
-        let file = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&progress)
-            .map_err(|e| IoError::io(&progress, e))?;
         let [nx, ny, nz] = meta.dims;
         let c = opts.chunk;
+        let grid = [nz.div_ceil(c), ny.div_ceil(c), nx.div_ceil(c)];
+        let text = fs::read(&progress).unwrap_or_default();
+        let done = read_progress(&text, grid.map(|g| g as u64))
+            .into_iter()
+            .map(|(k, w)| (k.map(|v| v as usize), w))
+            .collect();
+        // A line a kill cut short is dropped: the file is cut back to its last whole line.
+        let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let file = OpenOptions::new()
+            .create(true)
+            .write(true)
+            .truncate(false)
+            .open(&progress)
+            .and_then(|mut f| {
+                f.set_len(whole as u64)?;
+                std::io::Seek::seek(&mut f, std::io::SeekFrom::End(0))?;
+                Ok(f)
+            })
+            .map_err(|e| IoError::io(&progress, e))?;
         Ok(Self {
             path: path.to_path_buf(),
             partial,
@@ -273,7 +308,8 @@ impl ZarrWriter {
             meta: meta.clone(),
             chunk: c,
             fill: meta.band.unwrap_or(0.0),
-            grid: [nz.div_ceil(c), ny.div_ceil(c), nx.div_ceil(c)],
+            grid,
+            fingerprint: opts.fingerprint,
             done: Mutex::new((file, done)),
         })
     }
@@ -287,7 +323,7 @@ impl ZarrWriter {
         fs::create_dir_all(partial).map_err(|e| IoError::io(partial, e))?;
         let store = Arc::new(FilesystemStore::new(partial).map_err(|e| zerr(partial, e))?);
         let group = GroupBuilder::new()
-            .attributes(attributes(meta, false, None))
+            .attributes(attributes(meta, false, None, opts.fingerprint))
             .build(store.clone(), "/")
             .map_err(|e| zerr(partial, e))?;
         group.store_metadata().map_err(|e| zerr(partial, e))?;
@@ -318,7 +354,7 @@ impl ZarrWriter {
                 .map_err(|e| IoError::invalid_input(partial, e.to_string()))?;
             builder.bytes_to_bytes_codecs(vec![Arc::new(codec)]);
         }
-        let mut array_attrs = attributes(meta, true, None);
+        let mut array_attrs = attributes(meta, true, None, None);
         array_attrs.remove("isokit");
         builder.attributes(array_attrs);
         let array = builder
@@ -336,6 +372,7 @@ impl ZarrWriter {
             chunk: c,
             fill,
             grid: [nz.div_ceil(c), ny.div_ceil(c), nx.div_ceil(c)],
+            fingerprint: opts.fingerprint,
             done: Mutex::new((file, HashMap::new())),
         })
     }
@@ -357,10 +394,11 @@ impl ZarrWriter {
 
     /// The block of the lattice chunk `idx` (z, y, x) holds: its first sample and its
     /// samples along x, y, z (smaller than the chunk at the lattice's far ends).
+    /// Empty (`dims` 0) for a chunk outside the grid.
     pub fn chunk_block(&self, idx: [usize; 3]) -> ([usize; 3], [usize; 3]) {
         let c = self.chunk;
-        let first = [idx[2] * c, idx[1] * c, idx[0] * c];
-        let dims = std::array::from_fn(|a| c.min(self.meta.dims[a] - first[a]));
+        let first = [idx[2], idx[1], idx[0]].map(|i| i.saturating_mul(c));
+        let dims = std::array::from_fn(|a| c.min(self.meta.dims[a].saturating_sub(first[a])));
         (first, dims)
     }
 
@@ -369,7 +407,7 @@ impl ZarrWriter {
     /// Safe to call from several threads for different chunks.
     pub fn write_chunk(&self, idx: [usize; 3], block: &[f32]) -> Result<(), IoError> {
         let (_, dims) = self.chunk_block(idx);
-        if block.len() != dims.iter().product::<usize>() || (0..3).any(|a| idx[a] >= self.grid[a]) {
+        if (0..3).any(|a| idx[a] >= self.grid[a]) || block.len() != dims.iter().product::<usize>() {
             return Err(IoError::invalid_input(
                 &self.partial,
                 format!(
@@ -394,18 +432,19 @@ impl ZarrWriter {
             self.array
                 .store_chunk(&key, data)
                 .map_err(|e| zerr(&self.partial, e))?;
+        } else {
+            // A file an interrupted run left there would read instead of the fill value.
+            self.array
+                .erase_chunk(&idx.map(|v| v as u64))
+                .map_err(|e| zerr(&self.partial, e))?;
         }
         let mut done = self.done.lock().unwrap_or_else(|p| p.into_inner());
         let progress = self.partial.join(PROGRESS);
-        writeln!(
-            done.0,
-            "{} {} {} {}",
-            idx[0],
-            idx[1],
-            idx[2],
-            u8::from(wrote)
-        )
-        .map_err(|e| IoError::io(&progress, e))?;
+        // One write per line, so a kill leaves at most one line cut short (dropped when read).
+        let line = format!("{} {} {} {}\n", idx[0], idx[1], idx[2], u8::from(wrote));
+        done.0
+            .write_all(line.as_bytes())
+            .map_err(|e| IoError::io(&progress, e))?;
         done.1.insert(idx, wrote);
         Ok(())
     }
@@ -413,14 +452,11 @@ impl ZarrWriter {
     /// Marks the store complete and renames it over the target (an existing store there is
     /// replaced). Every chunk must have been written.
     pub fn finish(mut self) -> Result<ZarrWritten, IoError> {
-        let (chunks, written, missing) = {
+        let missing = self.pending().len();
+        let (chunks, written) = {
             let done = self.done.lock().unwrap_or_else(|p| p.into_inner());
             let chunks = self.grid.iter().product::<usize>();
-            (
-                chunks,
-                done.1.values().filter(|w| **w).count(),
-                chunks - done.1.len(),
-            )
+            (chunks, done.1.values().filter(|w| **w).count())
         };
         if missing > 0 {
             return Err(IoError::invalid_input(
@@ -429,13 +465,13 @@ impl ZarrWriter {
             ));
         }
         let w = ZarrWritten { chunks, written };
-        *self.group.attributes_mut() = attributes(&self.meta, true, Some(w));
+        *self.group.attributes_mut() = attributes(&self.meta, true, Some(w), self.fingerprint);
         self.group
             .store_metadata()
             .map_err(|e| zerr(&self.partial, e))?;
-        let progress = self.partial.join(PROGRESS);
-        fs::remove_file(&progress).map_err(|e| IoError::io(&progress, e))?;
         replace_dir(&self.partial, &self.path)?;
+        // The progress list goes once the store is in place (a complete store ignores it).
+        let _ = fs::remove_file(self.path.join(PROGRESS));
         Ok(w)
     }
 
@@ -456,6 +492,20 @@ fn check_target(path: &Path, meta: &Lattice, opts: ZarrOptions) -> Result<(), Io
             format!("chunk side {} must be 1 to {MAX_CHUNK}", opts.chunk),
         ));
     }
+    let chunks = meta
+        .dims
+        .iter()
+        .map(|&d| d.div_ceil(opts.chunk) as u64)
+        .product::<u64>();
+    if chunks > MAX_CHUNKS {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "{chunks} chunks of {}³ samples: at most {MAX_CHUNKS}; use larger chunks",
+                opts.chunk
+            ),
+        ));
+    }
     if opts.gzip.is_some_and(|l| l > 9) {
         return Err(IoError::invalid_input(path, "gzip level must be 0 to 9"));
     }
@@ -468,21 +518,55 @@ fn check_target(path: &Path, meta: &Lattice, opts: ZarrOptions) -> Result<(), Io
     Ok(())
 }
 
-/// Puts the finished store `from` at `to`: an existing store there is moved aside first and
-/// removed after the rename, so `to` is always either the old store or the new one.
+/// Puts the finished store `from` at `to`. A directory cannot be renamed over a non-empty
+/// one, so an existing store is first moved aside (to a fresh `NAME.old-PID-NANOS`), then
+/// removed; the rename back is tried if the new store cannot be put in place. Between the
+/// two renames (microseconds) `to` does not exist: a run killed exactly then leaves the old
+/// store beside it and the new one complete in `NAME.partial`. A target that stopped being
+/// a store meanwhile is not replaced.
 fn replace_dir(from: &Path, to: &Path) -> Result<(), IoError> {
     if !to.exists() {
         return fs::rename(from, to).map_err(|e| IoError::io(to, e));
     }
-    let mut old = to.as_os_str().to_owned();
-    old.push(format!(".old-{}", std::process::id()));
-    let old = PathBuf::from(old);
+    if !is_store(to) {
+        return Err(IoError::invalid_input(
+            to,
+            "exists and is not a Zarr store: not replaced (remove it or choose another name)",
+        ));
+    }
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let old = sibling(to, &format!(".old-{}-{nanos}", std::process::id()));
     fs::rename(to, &old).map_err(|e| IoError::io(to, e))?;
     if let Err(e) = fs::rename(from, to) {
         let _ = fs::rename(&old, to);
         return Err(IoError::io(to, e));
     }
-    fs::remove_dir_all(&old).map_err(|e| IoError::io(&old, e))
+    // The new store is in place; an old copy that cannot be removed is only litter.
+    let _ = fs::remove_dir_all(&old);
+    Ok(())
+}
+
+/// The chunks a progress file lists as done, with whether a file was written: only whole
+/// lines of four numbers, the chunk inside `grid` (z, y, x) and the flag 0 or 1 (a line a
+/// kill cut short, or anything else, is ignored).
+fn read_progress(text: &[u8], grid: [u64; 3]) -> HashMap<[u64; 3], bool> {
+    let whole = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let text = String::from_utf8_lossy(&text[..whole]);
+    let mut done = HashMap::new();
+    for line in text.lines() {
+        let v: Vec<Option<u64>> = line.split(' ').map(|t| t.parse().ok()).collect();
+        if let [Some(z), Some(y), Some(x), Some(w)] = v[..]
+            && z < grid[0]
+            && y < grid[1]
+            && x < grid[2]
+            && w <= 1
+        {
+            done.insert([z, y, x], w == 1);
+        }
+    }
+    done
 }
 
 /// An open store: its samples' array, the attributes that describe it (the group's where
@@ -532,8 +616,8 @@ fn open(path: &Path) -> Result<Opened, IoError> {
             paths.sort();
             let mut candidates = Vec::new();
             for p in &paths {
-                // Arrays that cannot be opened (an unknown codec, say) are reported only
-                // when nothing else is found.
+                // An array that cannot be opened (an unknown codec, say) stays a
+                // candidate, so that its error is what is reported when it is the one.
                 match Array::open(store.clone(), p) {
                     Ok(a) if a.dimensionality() == 3 => candidates.push((p.clone(), Ok(a))),
                     Ok(_) => {}
@@ -619,36 +703,70 @@ fn is_complete(o: &Opened) -> bool {
         .unwrap_or(true)
 }
 
+/// The chunk shape and the chunk grid `(z, y, x)` of an open array: a regular grid (other
+/// grids are refused), chunks of at most `MAX_CHUNK³` samples, at most [`MAX_CHUNKS`]
+/// chunks, and a lattice within [`isokit_field::MAX_SAMPLES`].
+fn chunk_layout(o: &Opened, path: &Path) -> Result<([u64; 3], [u64; 3]), IoError> {
+    let meta = serde_json::to_value(o.array.metadata()).unwrap_or(Value::Null);
+    if let Some(name) = meta.get("chunk_grid").and_then(|g| g.get("name")) {
+        if name != "regular" {
+            return Err(IoError::unsupported(
+                path,
+                format!("chunk grid {name}: only regular chunk grids are read"),
+            ));
+        }
+    }
+    let s = o.array.shape();
+    let too_big = || IoError::unsupported(path, format!("shape {s:?} is too large"));
+    let dims = [s[2], s[1], s[0]].map(|v| usize::try_from(v).unwrap_or(usize::MAX));
+    isokit_field::checked_len(dims).map_err(|_| too_big())?;
+    let shape = o.array.chunk_shape(&[0, 0, 0]).map_err(|e| zerr(path, e))?;
+    let c: Vec<u64> = shape.iter().map(|v| v.get()).collect();
+    let per = c.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
+    let limit = (MAX_CHUNK as u64).pow(3);
+    if c.len() != 3 || per.is_none_or(|p| p > limit) {
+        return Err(IoError::unsupported(
+            path,
+            format!("chunks of {c:?} samples: at most {limit} samples a chunk are read"),
+        ));
+    }
+    let g = o.array.chunk_grid_shape();
+    let grid = [g[0], g[1], g[2]];
+    let count = grid.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
+    if count.is_none_or(|n| n > MAX_CHUNKS) {
+        return Err(IoError::unsupported(
+            path,
+            format!("a grid of {grid:?} chunks: at most {MAX_CHUNKS} chunks are read"),
+        ));
+    }
+    Ok(([c[0], c[1], c[2]], grid))
+}
+
+/// The array's fill value as f32 (NaN when it is not a float32 or float64 value).
+fn fill_of(array: &Array<FilesystemStore>) -> f32 {
+    let b = array.fill_value().as_ne_bytes();
+    match b.len() {
+        4 => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+        8 => f64::from_ne_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]) as f32,
+        _ => f32::NAN,
+    }
+}
+
 /// Describes the store at `path` (or its partial store) without reading its samples.
 pub fn zarr_info(path: &Path) -> Result<ZarrInfo, IoError> {
     let o = open(path)?;
     let (lattice, has_lattice) = lattice_of(&o, path)?;
+    let (chunk_shape, grid) = chunk_layout(&o, path)?;
     let array = &o.array;
-    let g = array.chunk_grid_shape();
-    let grid = [g[0], g[1], g[2]];
     let chunks = grid.iter().product::<u64>();
-    let chunk_shape = array
-        .chunk_shape(&[0, 0, 0])
-        .map_err(|e| zerr(path, e))?
-        .iter()
-        .map(|v| v.get())
-        .collect::<Vec<_>>();
     let complete = is_complete(&o);
-    let mut present = 0;
-    let mut done = std::collections::HashSet::new();
-    if !complete {
-        if let Ok(text) = fs::read_to_string(path.join(PROGRESS)) {
-            for line in text.lines() {
-                let v: Vec<u64> = line.split(' ').filter_map(|t| t.parse().ok()).collect();
-                if let [z, y, x, _] = v[..] {
-                    done.insert([z, y, x]);
-                }
-            }
-        }
-    }
-    let mut missing = Vec::new();
-    // Chunk files are counted from the grid (at most a few million chunks for any volume
-    // this crate can hold).
+    let done = if complete {
+        HashMap::new()
+    } else {
+        read_progress(&fs::read(path.join(PROGRESS)).unwrap_or_default(), grid)
+    };
+    let (mut present, mut missing_chunks, mut missing) = (0, 0, Vec::new());
+    // Chunk files are looked up over the grid (at most MAX_CHUNKS); 20 missing ones named.
     for z in 0..grid[0] {
         for y in 0..grid[1] {
             for x in 0..grid[2] {
@@ -656,14 +774,17 @@ pub fn zarr_info(path: &Path) -> Result<ZarrInfo, IoError> {
                 if path.join(key.as_str()).is_file() {
                     present += 1;
                 }
-                if !complete && !done.contains(&[z, y, x]) {
-                    missing.push([z, y, x]);
+                if !complete && !done.contains_key(&[z, y, x]) {
+                    missing_chunks += 1;
+                    if missing.len() < 20 {
+                        missing.push([z, y, x]);
+                    }
                 }
             }
         }
     }
     let meta = serde_json::to_value(array.metadata()).unwrap_or(Value::Null);
-    let fill = meta.get("fill_value").and_then(Value::as_f64);
+    let fill = Some(f64::from(fill_of(array))).filter(|f| !f.is_nan());
     let data_type = match meta.get("data_type") {
         Some(Value::String(s)) => s.clone(),
         _ => array.data_type().to_string(),
@@ -673,11 +794,12 @@ pub fn zarr_info(path: &Path) -> Result<ZarrInfo, IoError> {
         has_lattice,
         array: o.at.clone(),
         data_type,
-        chunk_shape: [chunk_shape[0], chunk_shape[1], chunk_shape[2]],
+        chunk_shape,
         chunks,
         present,
         fill,
         complete,
+        missing_chunks,
         missing,
     })
 }
@@ -757,10 +879,8 @@ pub(crate) fn open_readable(path: &Path) -> Result<Readable, IoError> {
         .check()
         .map_err(|e| IoError::malformed(path, format!("the lattice is invalid: {e}")))?;
     isokit_field::checked_len(lattice.dims)?;
-    let fill = serde_json::to_value(opened.array.metadata())
-        .ok()
-        .and_then(|m| m.get("fill_value").and_then(Value::as_f64))
-        .map_or(f32::NAN, |v| v as f32);
+    chunk_layout(&opened, path)?;
+    let fill = fill_of(&opened.array);
     Ok(Readable {
         opened,
         lattice,

@@ -187,6 +187,48 @@ impl ZarrSource {
         }
     }
 
+    /// The smallest and largest finite sample and the number of non-finite ones, read chunk
+    /// by chunk (each decoded once, outside the cache; absent chunks count as their fill
+    /// value), so a store of any size is summarized in the memory of one chunk.
+    pub fn summary(&self) -> (Option<(f32, f32)>, u64) {
+        let [cx, cy, cz] = self.chunk;
+        let [nx, ny, nz] = self.lattice.dims;
+        let (mut lo, mut hi, mut bad) = (f32::INFINITY, f32::NEG_INFINITY, 0u64);
+        let mut see = |v: f32, n: u64| {
+            if v.is_finite() {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            } else {
+                bad += n;
+            }
+        };
+        for kz in 0..nz.div_ceil(cz) {
+            for ky in 0..ny.div_ceil(cy) {
+                for kx in 0..nx.div_ceil(cx) {
+                    let (wx, wy, wz) = (
+                        cx.min(nx - kx * cx),
+                        cy.min(ny - ky * cy),
+                        cz.min(nz - kz * cz),
+                    );
+                    match self.decode([kz as u64, ky as u64, kx as u64]) {
+                        None => see(self.fill, (wx * wy * wz) as u64),
+                        Some(d) => {
+                            for z in 0..wz {
+                                for y in 0..wy {
+                                    let at = cx * (y + cy * z);
+                                    for &v in &d[at..at + wx] {
+                                        see(v, 1);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        ((lo <= hi).then_some((lo, hi)), bad)
+    }
+
     /// One sample (inside the lattice).
     pub fn get(&self, x: usize, y: usize, z: usize) -> f32 {
         let mut v = [0.0];

@@ -30,6 +30,7 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 from typing import Any
 
 import numpy as np
@@ -126,16 +127,18 @@ def lattice_of(array) -> dict:
 def to_zarr(array, path, lattice=None, compute=True, gzip_level=1, **kwargs):
     """Writes ``array`` (from ``sample``, or any 3-D float32 dask array with ``lattice``
     given: a dict like ``lattice_of``'s) as an isokit Zarr store at ``path``. The store is made at ``PATH.partial`` and
-    renamed over ``path`` when complete; an existing directory that is not a Zarr store is
-    refused. With ``compute=False`` a ``dask.delayed`` is returned that writes and renames
-    when computed. Extra keyword arguments go to ``dask.array.to_zarr``."""
+    renamed over ``path`` when complete (an existing store is moved aside, replaced, then
+    removed); an existing directory that is not a Zarr store is refused. A failed write
+    removes the partial store. With ``compute=False`` a ``dask.delayed`` is returned that
+    writes and renames when computed. Extra keyword arguments go to ``dask.array.store``.
+    The path is made absolute here, since the workers write it."""
     import dask
     import dask.array as da
     import zarr
     from zarr.codecs import BytesCodec, GzipCodec
 
     meta = dict(lattice) if lattice is not None else lattice_of(array)
-    path = os.fspath(path)
+    path = os.path.abspath(os.fspath(path)).rstrip(os.sep) or os.sep
     if os.path.exists(path) and not (
         os.path.isfile(os.path.join(path, "zarr.json"))
         or os.path.isfile(os.path.join(path, ".zarray"))
@@ -177,12 +180,23 @@ def to_zarr(array, path, lattice=None, compute=True, gzip_level=1, **kwargs):
         zarr.open_group(partial, mode="r+").attrs["isokit"] = {"complete": True}
         old = None
         if os.path.exists(path):
-            old = f"{path}.old-{os.getpid()}"
+            old = f"{path}.old-{os.getpid()}-{time.time_ns()}"
             os.rename(path, old)
-        os.rename(partial, path)
+        try:
+            os.rename(partial, path)
+        except OSError:
+            if old:
+                os.rename(old, path)
+            raise
         if old:
             shutil.rmtree(old, ignore_errors=True)
         return path
 
     done = dask.delayed(finish)(stored)
-    return done.compute() if compute else done
+    if not compute:
+        return done
+    try:
+        return done.compute()
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
