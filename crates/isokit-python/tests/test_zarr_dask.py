@@ -152,3 +152,24 @@ def test_a_worker_killed_mid_run_does_not_lose_the_store(cluster, tmp_path):
     assert np.array_equal(values, shape.sample(res=256).values)
     # The process that was killed is gone: the run finished without it.
     assert victim not in cluster.run(os.getpid).values()
+
+
+@pytest.mark.skipif(
+    not os.environ.get("ISOKIT_SLOW"),
+    reason="about 50 s on 2 cores: ISOKIT_SLOW=1 python -m pytest -k 1024 "
+    "crates/isokit-python/tests/test_zarr_dask.py",
+)
+def test_a_1024_band_keeps_each_worker_under_1_5_gib(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None,
+                                  env={"RAYON_NUM_THREADS": "1"}) as lc, \
+            distributed.Client(lc) as client:
+        arr = idk.sample(isokit.load_scene(DEMO), res=1024, chunks=64)
+        idk.to_zarr(arr, tmp_path / "big.zarr")
+        time.sleep(1.0)
+        # Each worker's own memory report: the largest resident set its monitor sampled.
+        peaks = client.run(lambda dask_worker: max(dask_worker.monitor.quantities["memory"]))
+    print({k: f"{v / 2**20:.0f} MiB" for k, v in peaks.items()})
+    assert len(peaks) == 2
+    assert all(v < 1.5 * 2**30 for v in peaks.values()), peaks
