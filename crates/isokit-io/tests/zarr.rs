@@ -42,6 +42,20 @@ fn sphere_band(dims: [usize; 3]) -> (Volume, Lattice) {
     (v, meta)
 }
 
+/// The samples of `v` that chunk `idx` of `w` holds (its block, x fastest).
+fn block_of(v: &Volume, w: &ZarrWriter, idx: [usize; 3]) -> Vec<f32> {
+    let (first, dims) = w.chunk_block(idx);
+    let [nx, ny, _] = v.dims;
+    let mut out = Vec::new();
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            let s = first[0] + nx * (first[1] + y + ny * (first[2] + z));
+            out.extend_from_slice(&v.data[s..s + dims[0]]);
+        }
+    }
+    out
+}
+
 fn opts(chunk: usize) -> ZarrOptions {
     ZarrOptions {
         chunk,
@@ -181,17 +195,7 @@ fn a_killed_writers_store_lists_its_missing_chunks_and_resume_finishes_it() {
     let t = TempDir::new("zarr-resume");
     let (v, meta) = sphere_band([50, 40, 33]);
     let path = t.path("r.zarr");
-    let block = |w: &ZarrWriter, idx| {
-        let (first, dims): ([usize; 3], [usize; 3]) = w.chunk_block(idx);
-        let mut out = Vec::new();
-        for z in 0..dims[2] {
-            for y in 0..dims[1] {
-                let s = first[0] + 50 * (first[1] + y + 40 * (first[2] + z));
-                out.extend_from_slice(&v.data[s..s + dims[0]]);
-            }
-        }
-        out
-    };
+    let block = |w: &ZarrWriter, idx| block_of(&v, w, idx);
     // A writer that stops after 5 of its chunks, as a killed run does (no finish).
     let w = ZarrWriter::create(&path, &meta, opts(16)).unwrap();
     let all = w.pending();
@@ -372,17 +376,7 @@ fn a_progress_file_cut_short_or_garbled_never_marks_an_unwritten_chunk_done() {
     };
     let w = ZarrWriter::create(&path, &meta, o).unwrap();
     let all = w.pending();
-    let block = |w: &ZarrWriter, idx| {
-        let (first, dims): ([usize; 3], [usize; 3]) = w.chunk_block(idx);
-        let mut out = Vec::new();
-        for z in 0..dims[2] {
-            for y in 0..dims[1] {
-                let s = first[0] + 40 * (first[1] + y + 36 * (first[2] + z));
-                out.extend_from_slice(&v.data[s..s + dims[0]]);
-            }
-        }
-        out
-    };
+    let block = |w: &ZarrWriter, idx| block_of(&v, w, idx);
     for &idx in &all[..3] {
         w.write_chunk(idx, &block(&w, idx)).unwrap();
     }
