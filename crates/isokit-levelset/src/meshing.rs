@@ -146,6 +146,19 @@ pub enum MeshingError {
     /// The meshing's [`Job`] was cancelled.
     #[error(transparent)]
     Cancelled(#[from] isokit_field::Cancelled),
+    /// A block of a lattice ([`mesh_lattice_block`]) that is empty, reaches beyond the
+    /// lattice, or whose samples do not match it.
+    #[error(
+        "block of {owned:?} samples from {first:?}: not a block of the lattice of {dims:?} samples with its samples and the layer after"
+    )]
+    BadBlock {
+        /// First sample of the block.
+        first: [usize; 3],
+        /// Samples the block owns.
+        owned: [usize; 3],
+        /// The lattice's dimensions.
+        dims: [usize; 3],
+    },
 }
 
 /// Bytes one piece holds while meshing and welding: a key and a position per vertex (twice,
@@ -245,6 +258,114 @@ pub fn mesh_brick_grid_job(
     job: &Job,
 ) -> Result<TriMesh, MeshingError> {
     mesh_brick_grid_impl(grid, opts, true, job).map(|(mesh, _)| mesh)
+}
+
+/// One piece of the mesh of a lattice ([`mesh_lattice_block`]): its vertices keyed by what
+/// they lie on in the whole lattice (an edge, a boundary sample, a cell's centroid), their
+/// positions, and triangles in the piece's own indices. Pieces welded by key give the mesh
+/// of the whole lattice ([`weld_pieces`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshPiece {
+    /// Per vertex, its key in the whole lattice (equal keys are one vertex).
+    pub keys: Vec<u64>,
+    /// Per vertex, its position (computed from the whole lattice's origin and spacing).
+    pub positions: Vec<Vec3>,
+    /// Triangles, indices into this piece's vertices.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Meshes the cells that belong to one block of a lattice of `dims` samples (sample
+/// `(i, j, k)` at `origin + spacing · (i, j, k)`): the block owns the samples `first ..
+/// first + owned` per axis and the cells whose lower corner is one of them (plus, with
+/// [`MeshOptions::close_boundary`], the padding cells before the lattice's first sample and
+/// at its last one, where the block touches them). `values` holds the samples `first ..
+/// min(first + owned + 1, dims)` per axis, x fastest: the owned ones and the layer after.
+///
+/// Blocks that tile the lattice give pieces that [`weld_pieces`] joins into [`mesh_grid`]'s
+/// mesh of the whole lattice: the same vertices in the same order and the same triangles
+/// (per block, in another order), because each cell is meshed from its own corners and
+/// every vertex's key and position come from the whole lattice. This is how a lattice
+/// sampled in blocks on several machines is meshed without ever being held whole.
+pub fn mesh_lattice_block(
+    dims: [usize; 3],
+    origin: Vec3,
+    spacing: f32,
+    first: [usize; 3],
+    owned: [usize; 3],
+    values: &[f32],
+    opts: &MeshOptions,
+) -> Result<MeshPiece, MeshingError> {
+    let geo = Geometry::new(dims, origin, spacing, opts, true)?;
+    let end: [usize; 3] = std::array::from_fn(|a| first[a].saturating_add(owned[a]));
+    if (0..3).any(|a| owned[a] == 0 || end[a] > dims[a]) {
+        return Err(MeshingError::BadBlock { first, owned, dims });
+    }
+    let vdims: [usize; 3] = std::array::from_fn(|a| (end[a] + 1).min(dims[a]) - first[a]);
+    if values.len() != vdims.iter().product::<usize>() {
+        return Err(MeshingError::BadBlock { first, owned, dims });
+    }
+    // Cells by lower corner: the owned samples', less the last sample's (no cell) unless
+    // closing, plus the padding cell before the first sample when closing.
+    let mut lo = [0i64; 3];
+    let mut count = [0usize; 3];
+    for a in 0..3 {
+        let (clo, chi) = geo.cell_range(a);
+        let l = (first[a] as i64).max(clo);
+        let h = (end[a] as i64 - 1).min(chi);
+        let l = if first[a] == 0 { clo } else { l };
+        lo[a] = l;
+        count[a] = (h - l + 1).max(0) as usize;
+    }
+    if count.contains(&0) {
+        return Ok(MeshPiece::default());
+    }
+    let [sx, sy, sz] = count.map(|n| n + 1);
+    let mut gathered = Vec::with_capacity(sx * sy * sz);
+    let (mut any_in, mut any_out) = (false, false);
+    for z in 0..sz {
+        for y in 0..sy {
+            for x in 0..sx {
+                let g = [lo[0] + x as i64, lo[1] + y as i64, lo[2] + z as i64];
+                let v = if geo.in_grid(g) {
+                    let l = [0, 1, 2].map(|a| g[a] as usize - first[a]);
+                    values[l[0] + vdims[0] * (l[1] + vdims[1] * l[2])]
+                } else {
+                    f32::INFINITY
+                };
+                if v < geo.iso {
+                    any_in = true;
+                } else {
+                    any_out = true;
+                }
+                gathered.push(v);
+            }
+        }
+    }
+    if !(any_in && any_out) {
+        return Ok(MeshPiece::default());
+    }
+    let b = geo.mesh_block(lo, count, &gathered);
+    Ok(MeshPiece {
+        keys: b.keys,
+        positions: b.positions,
+        triangles: b.triangles,
+    })
+}
+
+/// Welds pieces of one lattice's mesh ([`mesh_lattice_block`]) by key: vertices sorted by
+/// key (as [`mesh_grid`] orders them), triangles concatenated in the pieces' order.
+pub fn weld_pieces(pieces: Vec<MeshPiece>) -> Result<TriMesh, MeshingError> {
+    assemble(
+        pieces
+            .into_iter()
+            .map(|p| BlockMesh {
+                keys: p.keys,
+                positions: p.positions,
+                triangles: p.triangles,
+                centroid_loops: 0,
+            })
+            .collect(),
+    )
 }
 
 /// Signed volume enclosed by a mesh, by the divergence theorem (sum of the signed volumes

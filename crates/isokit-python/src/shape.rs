@@ -803,6 +803,67 @@ impl Shape {
         Ok(numpy::PyArray3::from_owned_array(py, arr))
     }
 
+    /// The mesh piece of one block of the lattice `sample` uses with these arguments
+    /// (`isokit.dask.mesh`): the block owns the `owned` (nx, ny, nz) samples from `first`;
+    /// its samples and the layer after are sampled (clamped to `±band`, as `sample` gives
+    /// them) and its cells meshed by marching cubes (closed at the lattice's faces).
+    /// Returns `(keys, positions, triangles)`: uint64 `(n,)` keys of the vertices in the
+    /// whole lattice, float32 `(n, 3)` positions, uint32 `(m, 3)` triangles into them; the
+    /// pieces of blocks tiling the lattice, welded by key, are `sample(...).mesh(iso)`.
+    #[pyo3(signature = (first, owned, res = None, band = None, bounds = None, brick = None, iso = 0.0))]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one argument per Python keyword argument"
+    )]
+    fn _mesh_block<'py>(
+        &self,
+        py: Python<'py>,
+        first: [usize; 3],
+        owned: [usize; 3],
+        res: Option<usize>,
+        band: Option<f32>,
+        bounds: Option<&Bound<'py, PyAny>>,
+        brick: Option<usize>,
+        iso: f32,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        self.solid("mesh")?;
+        let mut opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
+        let piece = run(py, None, "mesh", |job| {
+            let scene = self.scene()?;
+            let plan = scene.plan(&opts).map_err(scene_err)?;
+            let dims: [usize; 3] = std::array::from_fn(|a| {
+                (first[a].saturating_add(owned[a]).saturating_add(1))
+                    .min(plan.dims[a])
+                    .saturating_sub(first[a])
+                    .max(1)
+            });
+            opts.block = Some(isokit_scene::Block { first, dims });
+            let (g, _) = scene.sample_grid_job(&opts, job).map_err(scene_err)?;
+            let mo = isokit_levelset::meshing::MeshOptions {
+                iso,
+                close_boundary: true,
+            };
+            isokit_levelset::meshing::mesh_lattice_block(
+                plan.dims,
+                plan.origin,
+                plan.spacing,
+                first,
+                owned,
+                g.data(),
+                &mo,
+            )
+            .map_err(value_err)
+        })?;
+        let n = piece.positions.len();
+        let keys = numpy::PyArray1::from_vec(py, piece.keys);
+        let pos: Vec<f32> = piece.positions.iter().flat_map(|p| p.to_array()).collect();
+        let pos = numpy::PyArray1::from_vec(py, pos).reshape([n, 3])?;
+        let m = piece.triangles.len();
+        let tri: Vec<u32> = piece.triangles.into_iter().flatten().collect();
+        let tri = numpy::PyArray1::from_vec(py, tri).reshape([m, 3])?;
+        PyTuple::new(py, [keys.into_any(), pos.into_any(), tri.into_any()])
+    }
+
     /// Pickling (Dask and multiprocessing send shapes to other processes): the shape travels
     /// as its scene file (`to_json`), so shapes holding arrays in memory are refused, naming
     /// the node; save them first (`to_json(save_sources_to=DIR)`, then `isokit.load_scene`).

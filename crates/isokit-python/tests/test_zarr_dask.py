@@ -1,7 +1,7 @@
 """Zarr stores and Dask: the command's stores read by zarr-python and xarray, blocks sampled
 on Dask equal to the single-process sampling bit for bit (threads, and a LocalCluster of 2
-worker processes, one of them killed mid-run), and `isokit.dask.to_zarr` stores read by the
-command."""
+worker processes, one of them killed mid-run), meshes made block by block equal to the
+single-process mesh, and `isokit.dask.to_zarr` stores read by the command."""
 
 import json
 import os
@@ -68,6 +68,31 @@ def test_dask_blocks_equal_the_whole_sampling_bit_for_bit():
     assert np.array_equal(back(p), part(p))
 
 
+def same_mesh(a, b):
+    """The same vertices in the same order and the same set of oriented triangles."""
+    (va, fa), (vb, fb) = a, b
+    assert np.array_equal(va, vb), (va.shape, vb.shape)
+    assert len(fa) == len(fb)
+    assert {tuple(t) for t in fa.tolist()} == {tuple(t) for t in fb.tolist()}
+
+
+def test_a_mesh_made_block_by_block_is_the_single_process_mesh():
+    import trimesh
+
+    part = isokit.rounded_box(half=(0.9, 0.5, 0.4), radius=0.1) - isokit.sphere(radius=0.45)
+    ref = part.sample(res=80).mesh()
+    for chunks in (32, (20, 17, 40), 200):
+        m = idk.mesh(part, res=80, chunks=chunks)
+        same_mesh(m, ref)
+        assert m.stats["piece_vertices"] >= len(m.vertices)
+    tm = trimesh.Trimesh(*m, process=False)
+    assert tm.is_watertight and tm.is_winding_consistent
+    # An isovalue inside the band; an empty surface gives an empty mesh.
+    same_mesh(idk.mesh(part, res=80, chunks=24, iso=0.02), part.sample(res=80).mesh(iso=0.02))
+    V, F = idk.mesh(part, res=40, iso=-5.0)
+    assert V.shape == (0, 3) and F.shape == (0, 3)
+
+
 def test_shapes_with_arrays_in_memory_are_saved_for_the_workers(tmp_path):
     from conftest import icosphere
 
@@ -132,6 +157,16 @@ def test_a_mesh_scene_at_384_on_two_workers_equals_the_command(cluster, isokit_b
     print(f"384-lattice {a.shape} on 2 workers: {seconds:.2f} s")
     assert a.shape == b.shape
     assert np.array_equal(a, b)
+
+
+def test_a_mesh_scene_meshed_on_two_workers_is_one_watertight_mesh(cluster):
+    import trimesh
+
+    shape = isokit.load_scene(DEMO)
+    m = idk.mesh(shape, res=160, chunks=48)
+    same_mesh(m, shape.sample(res=160).mesh())
+    tm = trimesh.Trimesh(*m, process=False)
+    assert tm.is_watertight and tm.is_winding_consistent
 
 
 def test_a_worker_killed_mid_run_does_not_lose_the_store(cluster, tmp_path):
