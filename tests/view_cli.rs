@@ -376,6 +376,22 @@ fn a_volume_and_a_molecule_open_too() {
         &reference,
         "the volume's first frame against isokit render",
     );
+    // The same field as a Zarr store, read on demand: the frame of the NPY volume.
+    let store = d.join("t.zarr");
+    isokit_ok(&["convert", &vol.to_string_lossy(), &store.to_string_lossy()]);
+    std::fs::remove_file(&events).unwrap();
+    let npy_shot = d.join("npy.png");
+    std::fs::rename(&shot, &npy_shot).unwrap();
+    finish(spawn_view(
+        &store,
+        &events,
+        &shot,
+        &["--exit-after-frames", "1"],
+    ));
+    assert!(
+        mean_diff(&shot, &npy_shot) == 0.0,
+        "the store's first frame differs from the NPY volume's"
+    );
     // A molecule (PDB, gzipped): a frame with some atoms on it.
     let mol = Path::new(&common::data("molecules")).join("1a8o.pdb.gz");
     std::fs::remove_file(&events).unwrap();

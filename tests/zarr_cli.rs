@@ -84,6 +84,18 @@ fn the_other_sampling_commands_write_stores() {
         }
         same_samples(&nrrd, &zarr);
     }
+    // convert: into a store and back, the lattice and band kept.
+    let (npy, back) = (d.join("c.npy"), d.join("back.npy"));
+    isokit_ok(&["sdf", &sphere, "--res", "30", "-o", npy.to_str().unwrap()]);
+    let store = d.join("c.zarr");
+    isokit_ok(&["convert", npy.to_str().unwrap(), store.to_str().unwrap()]);
+    isokit_ok(&["convert", store.to_str().unwrap(), back.to_str().unwrap()]);
+    same_samples(&npy, &back);
+    let (a, b) = (
+        std::fs::read_to_string(d.join("c.npy.json")).unwrap(),
+        std::fs::read_to_string(d.join("back.npy.json")).unwrap(),
+    );
+    assert_eq!(a, b, "the sidecars differ");
     let zarr = d.join("sample.zarr");
     isokit_ok(&[
         "sample",

@@ -12,8 +12,8 @@ pub struct Args {
     /// the header.
     pub input: PathBuf,
     /// Output file of the same kind: mesh .obj .ply .stl .off .glb .gltf (PLY and glTF with
-    /// vertex normals); cloud .ply .xyz; volume .nrrd .npy (with its lattice sidecar). Written
-    /// to a temporary file and renamed.
+    /// vertex normals); cloud .ply .xyz; volume .nrrd .npy (with its lattice sidecar) .zarr
+    /// (a Zarr store). Written to a temporary file (store) and renamed.
     pub output: PathBuf,
     #[command(flatten)]
     pub volume: super::volume_args::VolumeIn,
@@ -29,7 +29,7 @@ fn output_kind(path: &Path, input: FileKind) -> Option<FileKind> {
         "xyz" => Some(FileKind::PointCloud),
         // PLY holds either; follow the input.
         "ply" if matches!(input, FileKind::Mesh | FileKind::PointCloud) => Some(input),
-        "nrrd" | "npy" => Some(FileKind::Volume),
+        "nrrd" | "npy" | "zarr" => Some(FileKind::Volume),
         _ => None,
     }
 }
@@ -39,11 +39,12 @@ pub fn run(a: Args) -> Result<()> {
     let kind = detect_kind(&a.input)?;
     let Some(out_kind) = output_kind(&a.output, kind) else {
         bail!(
-            "{}: unknown output format (meshes: .obj .ply .stl .off .glb .gltf; clouds: .ply .xyz; volumes: .nrrd .npy)",
+            "{}: unknown output format (meshes: .obj .ply .stl .off .glb .gltf; clouds: .ply .xyz; volumes: .nrrd .npy .zarr)",
             a.output.display()
         );
     };
     super::check_output(&a.output, &[])?;
+    a.out.check(&a.output)?;
     match (kind, out_kind) {
         (FileKind::Mesh, FileKind::Mesh) => {
             let m = read_mesh(&a.input)?;
@@ -76,9 +77,12 @@ pub fn run(a: Args) -> Result<()> {
         }
         (FileKind::Volume, FileKind::Volume) => {
             let v = a.volume.read(&a.input)?;
-            // An NPY input's band, inside and sign travel with it.
+            // An NPY input's (or a store's) band, inside and sign travel with it.
             let meta = match read_sidecar(&a.input) {
                 Ok(Some(m)) => m,
+                _ if super::volume_out::is_zarr(&a.input) => {
+                    isokit_io::zarr::zarr_info(&a.input)?.lattice
+                }
                 _ => Lattice::of(&v),
             };
             a.out.write_meta(&a.output, &v, &meta)?;

@@ -561,9 +561,9 @@ impl<F: Fn(Reply)> Worker<F> {
         Some(self.newest(req.then(next)))
     }
 
-    fn volume(&mut self, req: Request) -> Option<Request> {
-        let name = self.input.display().to_string();
-        let read = isokit_io::read_volume(&self.input)
+    /// A volume file read whole, as a uniform grid (anisotropic ones resampled).
+    fn dense_volume(&self) -> Result<Volume, String> {
+        isokit_io::read_volume(&self.input)
             .map_err(|e| e.to_string())
             .and_then(|v| {
                 if v.is_uniform() {
@@ -573,7 +573,27 @@ impl<F: Fn(Reply)> Worker<F> {
                     v.resample_uniform(h).map_err(|e| e.to_string())
                 }
             })
-            .and_then(|g| Volume::from_grid(g, Layout::default()).map_err(|e| e.to_string()));
+            .and_then(|g| Volume::from_grid(g, Layout::default()).map_err(|e| e.to_string()))
+    }
+
+    fn volume(&mut self, req: Request) -> Option<Request> {
+        let name = self.input.display().to_string();
+        let zarr = self
+            .input
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("zarr"));
+        // A Zarr store is read on demand (fields larger than memory), through a cache of
+        // 256 MiB of decoded chunks.
+        let read = if zarr {
+            isokit_io::zarr::ZarrSource::open(&self.input, 256 << 20)
+                .map_err(|e| e.to_string())
+                .and_then(|s| {
+                    Volume::from_store(std::sync::Arc::new(s), Layout::default())
+                        .map_err(|e| e.to_string())
+                })
+        } else {
+            self.dense_volume()
+        };
         let volume = match read {
             Ok(v) => v,
             Err(m) => {
