@@ -96,6 +96,26 @@ fn the_other_sampling_commands_write_stores() {
         std::fs::read_to_string(d.join("back.npy.json")).unwrap(),
     );
     assert_eq!(a, b, "the sidecars differ");
+    // A sharded store from the scene sampled shard by shard: the same samples.
+    let (plain, sharded) = (d.join("plain.nrrd"), d.join("sharded.zarr"));
+    let demo = demo();
+    isokit_ok(&["scene", &demo, "--res", "70", "-o", plain.to_str().unwrap()]);
+    isokit_ok(&[
+        "scene",
+        &demo,
+        "--res",
+        "70",
+        "--chunk",
+        "8",
+        "--shard",
+        "3",
+        "-o",
+        sharded.to_str().unwrap(),
+    ]);
+    same_samples(&plain, &sharded);
+    let info = json(&isokit_ok(&["info", "--json", sharded.to_str().unwrap()]));
+    assert_eq!(info["chunk_shape"], serde_json::json!([24, 24, 24]));
+    assert_eq!(info["subchunk_shape"], serde_json::json!([8, 8, 8]));
     let zarr = d.join("sample.zarr");
     isokit_ok(&[
         "sample",

@@ -42,6 +42,7 @@ pub fn write(
     let zopts = ZarrOptions {
         chunk: out.chunk,
         gzip: out.compression.gzip_level(),
+        shard: out.shard,
         fingerprint: Some(std::hash::Hasher::finish(&h)),
     };
     let partial = isokit_io::zarr::partial_path(path);

@@ -43,6 +43,7 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
         "array": info.array,
         "data_type": info.data_type,
         "chunk_shape": info.chunk_shape,
+        "subchunk_shape": info.subchunk_shape,
         "chunks": info.chunks,
         "chunks_present": info.present,
         "fill_value": info.fill,
@@ -51,7 +52,7 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
         "missing": shown,
     });
     let mut t = format!(
-        "{}: Zarr store\n  samples: {} x {} x {}\n  origin: {:?}\n  spacing: {:?}{}\n  band: {}, inside {}, sign {}\n  array {}: {}, chunks of {:?} (z, y, x): {} of {} present (absent ones hold the fill value {})",
+        "{}: Zarr store\n  samples: {} x {} x {}\n  origin: {:?}\n  spacing: {:?}{}\n  band: {}, inside {}, sign {}\n  array {}: {}, chunks of {} (z, y, x): {} of {} present (absent ones hold the fill value {})",
         at.display(),
         l.dims[0],
         l.dims[1],
@@ -68,7 +69,10 @@ pub fn describe(path: &Path) -> Result<(String, Value)> {
         l.sign.as_deref().unwrap_or("none"),
         info.array,
         info.data_type,
-        info.chunk_shape,
+        match info.subchunk_shape {
+            Some(s) => format!("{:?}, sharded in chunks of {s:?}", info.chunk_shape),
+            None => format!("{:?}", info.chunk_shape),
+        },
         info.present,
         info.chunks,
         info.fill.map_or("(not a number)".into(), |f| f.to_string()),

@@ -44,6 +44,10 @@ pub struct VolumeOut {
     /// chunk).
     #[arg(long, default_value_t = zarr::DEFAULT_CHUNK, value_name = "N")]
     pub chunk: usize,
+    /// .zarr output: group N³ chunks into one file (a shard; Zarr's sharding codec), for
+    /// stores of very many chunks; 1 writes a file per chunk.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub shard: usize,
 }
 
 impl Default for VolumeOut {
@@ -51,6 +55,7 @@ impl Default for VolumeOut {
         Self {
             compression: Compression::Fast,
             chunk: zarr::DEFAULT_CHUNK,
+            shard: 1,
         }
     }
 }
@@ -64,6 +69,14 @@ impl VolumeOut {
         }
         if !(1..=zarr::MAX_CHUNK).contains(&self.chunk) {
             bail!("--chunk {} must be 1 to {}", self.chunk, zarr::MAX_CHUNK);
+        }
+        if self.shard == 0 || self.chunk.saturating_mul(self.shard) > zarr::MAX_CHUNK {
+            bail!(
+                "--shard {} with --chunk {}: a shard is 1 or more chunks and at most {} samples a side",
+                self.shard,
+                self.chunk,
+                zarr::MAX_CHUNK
+            );
         }
         if path.exists() && !zarr::is_store(path) {
             bail!(
@@ -99,6 +112,7 @@ impl VolumeOut {
             let opts = ZarrOptions {
                 chunk: self.chunk,
                 gzip: self.compression.gzip_level(),
+                shard: self.shard,
                 fingerprint: None,
             };
             zarr::write_zarr(path, volume, meta, opts)?;

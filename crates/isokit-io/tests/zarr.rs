@@ -60,6 +60,7 @@ fn opts(chunk: usize) -> ZarrOptions {
     ZarrOptions {
         chunk,
         gzip: Some(1),
+        shard: 1,
         fingerprint: None,
     }
 }
@@ -73,6 +74,7 @@ fn a_band_field_reads_back_bit_for_bit_and_chunks_beyond_the_band_are_not_writte
         let o = ZarrOptions {
             chunk,
             gzip,
+            shard: 1,
             fingerprint: None,
         };
         let w = write_zarr(&path, &v, &meta, o).unwrap();
@@ -183,6 +185,7 @@ fn a_store_is_replaced_whole_and_other_directories_are_not_replaced() {
         let o = ZarrOptions {
             chunk,
             gzip,
+            shard: 1,
             fingerprint: None,
         };
         assert!(write_zarr(&p, &v, &meta, o).is_err());
@@ -409,4 +412,49 @@ fn a_progress_file_cut_short_or_garbled_never_marks_an_unwritten_chunk_done() {
     w.finish().unwrap();
     assert_eq!(read_zarr(&path).unwrap().0.data, v.data);
     assert!(!path.join(".isokit-progress").exists());
+}
+
+#[test]
+fn a_sharded_store_reads_back_bit_for_bit_in_fewer_files() {
+    let t = TempDir::new("zarr-shard");
+    let (v, meta) = sphere_band([70, 61, 56]);
+    let (plain, sharded) = (t.path("p.zarr"), t.path("s.zarr"));
+    write_zarr(&plain, &v, &meta, opts(8)).unwrap();
+    let o = ZarrOptions {
+        shard: 4,
+        ..opts(8)
+    };
+    let w = write_zarr(&sharded, &v, &meta, o).unwrap();
+    let (back, _, _) = read_zarr(&sharded).unwrap();
+    assert!(
+        back.data
+            .iter()
+            .zip(&v.data)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    );
+    let (pi, si) = (zarr_info(&plain).unwrap(), zarr_info(&sharded).unwrap());
+    assert_eq!(si.chunk_shape, [32, 32, 32]);
+    assert_eq!(si.subchunk_shape, Some([8, 8, 8]));
+    assert_eq!(pi.subchunk_shape, None);
+    assert_eq!(si.present as usize, w.written);
+    println!(
+        "{} chunk files against {} shard files",
+        pi.present, si.present
+    );
+    assert!(
+        si.present * 4 < pi.present,
+        "{} shards, {} chunks",
+        si.present,
+        pi.present
+    );
+    // Read on demand, chunk by chunk inside the shards: the same samples.
+    let src = isokit_io::zarr::ZarrSource::open(&sharded, 1 << 20).unwrap();
+    for (i, j, k) in [(0, 0, 0), (69, 60, 55), (35, 30, 28), (33, 1, 50)] {
+        assert_eq!(src.get(i, j, k), v.data[i + 70 * (j + 61 * k)]);
+    }
+    // A shard wider than the largest chunk, or of no chunk, is refused.
+    for shard in [0, 64] {
+        let o = ZarrOptions { shard, ..opts(8) };
+        assert!(write_zarr(&t.path("bad.zarr"), &v, &meta, o).is_err());
+    }
 }

@@ -49,6 +49,12 @@ def test_a_store_of_the_command_reads_in_zarr_python_and_xarray(isokit_bin, tmp_
     centre = ds["field"].sel(x=0.0, y=0.0, z=0.0, method="nearest").values
     i = [int(np.argmin(np.abs(ds[a].values))) for a in "zyx"]
     assert centre == values[i[0], i[1], i[2]]
+    # Sharded (4³ chunks of 16³ a file): zarr-python reads the same samples.
+    sharded = tmp_path / "sharded.zarr"
+    isokit_bin("scene", DEMO, "--res", 96, "--chunk", 16, "--shard", 4, "-o", sharded)
+    g, again = read_store(sharded)
+    assert g["field"].shards == (64, 64, 64) and g["field"].chunks == (16, 16, 16)
+    assert np.array_equal(again, values)
 
 
 def test_dask_blocks_equal_the_whole_sampling_bit_for_bit():

@@ -13,6 +13,14 @@ use common::twin::twins;
 use common::*;
 
 fn store(dir: &std::path::Path, name: &str) -> (std::path::PathBuf, isokit_field::Grid) {
+    store_sharded(dir, name, 1)
+}
+
+fn store_sharded(
+    dir: &std::path::Path,
+    name: &str,
+    shard: usize,
+) -> (std::path::PathBuf, isokit_field::Grid) {
     let g = two_spheres();
     let v = isokit_io::Volume::from_grid(&g);
     let meta = Lattice {
@@ -27,6 +35,7 @@ fn store(dir: &std::path::Path, name: &str) -> (std::path::PathBuf, isokit_field
         ZarrOptions {
             chunk: 16,
             gzip: Some(1),
+            shard,
             fingerprint: None,
         },
     )
@@ -69,6 +78,18 @@ fn a_store_read_on_demand_renders_the_frame_of_the_samples_in_memory() {
     // Every chunk was decoded, and some again after eviction: the cache stayed small.
     assert!(source.loads() > 64, "{} chunk loads", source.loads());
     assert!(source.error().is_none());
+    // A sharded store (2³ chunks a file), read by the chunks inside the shards: the same.
+    let (path2, _) = store_sharded(&dir, "sh.zarr", 2);
+    let sharded = Arc::new(ZarrSource::open(&path2, 2 * 16 * 16 * 16 * 4).unwrap());
+    let v2 = Volume::from_store(sharded.clone(), Layout::default()).unwrap();
+    let mut cpu = twins("a_sharded_store").next().unwrap();
+    let a = cpu.render(&v2, &cam, &opts).unwrap();
+    let b = cpu.render(&dense, &cam, &opts).unwrap();
+    assert!(
+        a.gbuffer.pixels() == b.gbuffer.pixels(),
+        "the sharded store's frame differs"
+    );
+    assert!(sharded.error().is_none());
     // The CPU renderer's own entry point with a brick cache of the store.
     let mut cache = BrickCache::for_volume(&streamed);
     let f = isokit_render::render(&streamed, &mut cache, &cam, &opts).unwrap();

@@ -66,6 +66,11 @@ const PROGRESS: &str = ".isokit-progress";
 pub struct ZarrOptions {
     /// Chunk side in samples (1 to [`MAX_CHUNK`]).
     pub chunk: usize,
+    /// Chunks per shard side: 1 writes every chunk as a file; `n > 1` groups `n³` chunks
+    /// into one file (Zarr's sharding codec, an index of the chunks at its end), for stores
+    /// of millions of chunks. A shard (`chunk · n` samples a side, at most [`MAX_CHUNK`]) is
+    /// then the unit the writer samples and writes.
+    pub shard: usize,
     /// Gzip level 0–9 (1, the fast level, by default; `None`: no compression).
     pub gzip: Option<u32>,
     /// What the samples were computed from (a hash of the scene and the sampling
@@ -79,6 +84,7 @@ impl Default for ZarrOptions {
         Self {
             chunk: DEFAULT_CHUNK,
             gzip: Some(1),
+            shard: 1,
             fingerprint: None,
         }
     }
@@ -103,6 +109,9 @@ pub struct ZarrInfo {
     pub has_lattice: bool,
     /// The path of the samples' array in the store (`/field` for isokit's stores).
     pub array: String,
+    /// Without sharding `None`; with it, the shape `(z, y, x)` of the chunks inside each
+    /// shard (`chunk_shape` is then the shards').
+    pub subchunk_shape: Option<[u64; 3]>,
     /// The array's data type, as Zarr names it.
     pub data_type: String,
     /// Chunk shape `(z, y, x)`.
@@ -260,7 +269,8 @@ impl ZarrWriter {
             .array
             .chunk_shape(&[0, 0, 0])
             .map_err(|e| zerr(&partial, e))?;
-        let same_chunk = chunk.iter().all(|c| c.get() == opts.chunk as u64);
+        let same_chunk = chunk.iter().all(|c| c.get() == outer(opts) as u64)
+            && subchunks(&o.array) == (opts.shard > 1).then_some([opts.chunk as u64; 3]);
         let print = o
             .attrs
             .get("isokit")
@@ -280,7 +290,7 @@ impl ZarrWriter {
         let group = Group::open(o.array.storage(), "/").map_err(|e| zerr(&partial, e))?;
         let progress = partial.join(PROGRESS);
         let [nx, ny, nz] = meta.dims;
-        let c = opts.chunk;
+        let c = outer(opts);
         let grid = [nz.div_ceil(c), ny.div_ceil(c), nx.div_ceil(c)];
         let text = fs::read(&progress).unwrap_or_default();
         let done = read_progress(&text, grid.map(|g| g as u64))
@@ -340,7 +350,7 @@ impl ZarrWriter {
             a.store_metadata().map_err(|e| zerr(partial, e))?;
             a.store_chunk(&[0], coords).map_err(|e| zerr(partial, e))?;
         }
-        let c = opts.chunk;
+        let c = outer(opts);
         let fill = meta.band.unwrap_or(0.0);
         let mut builder = ArrayBuilder::new(
             vec![nz as u64, ny as u64, nx as u64],
@@ -349,6 +359,9 @@ impl ZarrWriter {
             fill,
         );
         builder.dimension_names(["z", "y", "x"].into());
+        if opts.shard > 1 {
+            builder.subchunk_shape(vec![opts.chunk as u64; 3]);
+        }
         if let Some(level) = opts.gzip {
             let codec = GzipCodec::new(level)
                 .map_err(|e| IoError::invalid_input(partial, e.to_string()))?;
@@ -481,6 +494,26 @@ impl ZarrWriter {
     }
 }
 
+/// The side of the unit a writer writes: a shard, or a chunk without sharding.
+fn outer(opts: ZarrOptions) -> usize {
+    opts.chunk.saturating_mul(opts.shard.max(1))
+}
+
+/// The shape `(z, y, x)` of the chunks inside a sharded array's shards (`None` without
+/// sharding).
+pub(crate) fn subchunks(array: &Array<FilesystemStore>) -> Option<[u64; 3]> {
+    let meta = serde_json::to_value(array.metadata()).ok()?;
+    let codec = meta.get("codecs")?.as_array()?.first()?;
+    if codec.get("name")? != "sharding_indexed" {
+        return None;
+    }
+    let s = codec.get("configuration")?.get("chunk_shape")?.as_array()?;
+    match s[..] {
+        [ref z, ref y, ref x] => Some([z.as_u64()?, y.as_u64()?, x.as_u64()?]),
+        _ => None,
+    }
+}
+
 /// Refuses a store that cannot be written: bad band, chunk side or gzip level, or a target
 /// that exists and is not a Zarr store.
 fn check_target(path: &Path, meta: &Lattice, opts: ZarrOptions) -> Result<(), IoError> {
@@ -492,17 +525,26 @@ fn check_target(path: &Path, meta: &Lattice, opts: ZarrOptions) -> Result<(), Io
             format!("chunk side {} must be 1 to {MAX_CHUNK}", opts.chunk),
         ));
     }
+    if opts.shard == 0 || opts.chunk.saturating_mul(opts.shard) > MAX_CHUNK {
+        return Err(IoError::invalid_input(
+            path,
+            format!(
+                "shards of {} chunks of {} samples a side: a shard is at most {MAX_CHUNK} samples a side",
+                opts.shard, opts.chunk
+            ),
+        ));
+    }
     let chunks = meta
         .dims
         .iter()
-        .map(|&d| d.div_ceil(opts.chunk) as u64)
+        .map(|&d| d.div_ceil(outer(opts)) as u64)
         .product::<u64>();
     if chunks > MAX_CHUNKS {
         return Err(IoError::invalid_input(
             path,
             format!(
-                "{chunks} chunks of {}³ samples: at most {MAX_CHUNKS}; use larger chunks",
-                opts.chunk
+                "{chunks} chunks (or shards) of {}³ samples: at most {MAX_CHUNKS}; use larger chunks or shards",
+                outer(opts)
             ),
         ));
     }
@@ -722,7 +764,9 @@ fn chunk_layout(o: &Opened, path: &Path) -> Result<([u64; 3], [u64; 3]), IoError
     isokit_field::checked_len(dims).map_err(|_| too_big())?;
     let shape = o.array.chunk_shape(&[0, 0, 0]).map_err(|e| zerr(path, e))?;
     let c: Vec<u64> = shape.iter().map(|v| v.get()).collect();
-    let per = c.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
+    // What is decoded at once: the chunks inside a shard, or the chunks.
+    let unit = subchunks(&o.array).map_or_else(|| c.clone(), |s| s.to_vec());
+    let per = unit.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
     let limit = (MAX_CHUNK as u64).pow(3);
     if c.len() != 3 || per.is_none_or(|p| p > limit) {
         return Err(IoError::unsupported(
@@ -793,6 +837,7 @@ pub fn zarr_info(path: &Path) -> Result<ZarrInfo, IoError> {
         lattice,
         has_lattice,
         array: o.at.clone(),
+        subchunk_shape: subchunks(array),
         data_type,
         chunk_shape,
         chunks,

@@ -8,10 +8,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
-use zarrs::array::Array;
+use zarrs::array::{Array, ArraySubset};
 use zarrs::filesystem::FilesystemStore;
 
-use super::{open_readable, zerr};
+use super::{open_readable, subchunks, zerr};
 use crate::IoError;
 use crate::lattice::Lattice;
 
@@ -36,8 +36,10 @@ pub struct ZarrSource {
     lattice: Lattice,
     f64s: bool,
     fill: f32,
-    /// Chunk shape along x, y, z.
+    /// The shape along x, y, z of what is decoded at once: a chunk, or a chunk inside a
+    /// shard.
     chunk: [usize; 3],
+    sharded: bool,
     capacity: usize,
     chunks: Mutex<Chunks>,
     loads: AtomicU64,
@@ -66,7 +68,12 @@ impl ZarrSource {
             .array
             .chunk_shape(&[0, 0, 0])
             .map_err(|e| zerr(path, e))?;
-        let c: Vec<usize> = shape.iter().map(|v| v.get() as usize).collect();
+        // A sharded store is read by the chunks inside its shards (decoded alone).
+        let sharded = subchunks(&r.opened.array);
+        let c: Vec<usize> = match sharded {
+            Some(s) => s.iter().map(|&v| v as usize).collect(),
+            None => shape.iter().map(|v| v.get() as usize).collect(),
+        };
         let chunk = [c[2], c[1], c[0]];
         let per = chunk.iter().product::<usize>() * 4;
         Ok(Self {
@@ -76,6 +83,7 @@ impl ZarrSource {
             f64s: r.f64s,
             fill: r.fill,
             chunk,
+            sharded: sharded.is_some(),
             capacity: (cache_bytes / per.max(1)).max(1),
             chunks: Mutex::new(Chunks::default()),
             loads: AtomicU64::new(0),
@@ -121,6 +129,9 @@ impl ZarrSource {
 
     fn decode(&self, key: [u64; 3]) -> Decoded {
         self.loads.fetch_add(1, Ordering::Relaxed);
+        if self.sharded {
+            return self.decode_subchunk(key);
+        }
         let got = if self.f64s {
             self.array
                 .retrieve_chunk_if_exists::<Vec<f64>>(&key)
@@ -136,6 +147,54 @@ impl ZarrSource {
                 Some(Arc::new(vec![f32::NAN; self.chunk.iter().product()]))
             }
         }
+    }
+
+    /// A chunk inside a shard, as the samples of its region (the sharding codec decodes only
+    /// that chunk), padded to the chunk's shape with the fill value.
+    fn decode_subchunk(&self, key: [u64; 3]) -> Decoded {
+        let [cx, cy, cz] = self.chunk;
+        let [nx, ny, nz] = self.lattice.dims;
+        let lo = [
+            key[0] as usize * cz,
+            key[1] as usize * cy,
+            key[2] as usize * cx,
+        ];
+        let hi = [
+            (lo[0] + cz).min(nz),
+            (lo[1] + cy).min(ny),
+            (lo[2] + cx).min(nx),
+        ];
+        let subset = ArraySubset::new_with_ranges(&[
+            lo[0] as u64..hi[0] as u64,
+            lo[1] as u64..hi[1] as u64,
+            lo[2] as u64..hi[2] as u64,
+        ]);
+        let got = if self.f64s {
+            self.array
+                .retrieve_array_subset::<Vec<f64>>(&subset)
+                .map(|v| v.into_iter().map(|x| x as f32).collect::<Vec<f32>>())
+        } else {
+            self.array.retrieve_array_subset::<Vec<f32>>(&subset)
+        };
+        let mut out = vec![self.fill; cx * cy * cz];
+        match got {
+            Ok(v) => {
+                let w = [hi[2] - lo[2], hi[1] - lo[1], hi[0] - lo[0]];
+                for z in 0..w[2] {
+                    for y in 0..w[1] {
+                        let src = w[0] * (y + w[1] * z);
+                        let dst = cx * (y + cy * z);
+                        out[dst..dst + w[0]].copy_from_slice(&v[src..src + w[0]]);
+                    }
+                }
+            }
+            Err(e) => {
+                let mut slot = self.error.lock().unwrap_or_else(|p| p.into_inner());
+                slot.get_or_insert_with(|| format!("{}: chunk {key:?}: {e}", self.path.display()));
+                out.fill(f32::NAN);
+            }
+        }
+        Some(Arc::new(out))
     }
 
     /// Chunk `key` (z, y, x), decoded or from the cache.
