@@ -2,12 +2,12 @@
 sampling, the cost per block (chunk sizes), and each worker's peak memory at a 1024³ band.
 
 The demo scene (examples/scenes/demo.json: a 1,440-triangle trefoil mesh blended with a
-sphere) is sampled by `isokit scene -o field.zarr` (one process, chunk by chunk), by
-on 1 and on 2 threads, and by `isokit.dask.sample` + `isokit.dask.to_zarr` on a
-LocalCluster (worker processes of one Dask thread each, the sampler on 1 thread per worker,
-or on all cores), all in one run. Results are compared bit for bit with the single-process
-store (`isokit scene -o field.zarr`). Worker memory is the worker's own report: the largest resident set its system
-monitor sampled during the run.
+sphere) is sampled in one process by `shape.sample` and written as the same store by
+zarr-python (the baseline, on 1 and on 2 threads), and by `isokit.dask.sample` +
+`isokit.dask.to_zarr` on a LocalCluster (worker processes of one Dask thread each, the
+sampler on 1 thread per worker, or on all cores), all in one run. Every Dask store is
+compared bit for bit with `isokit scene -o field.zarr`'s. Worker memory is the worker's own
+report: the largest resident set its system monitor sampled during the run.
 
     python tests/peers/bench_dask.py --isokit target/release/isokit [--res 768] [--mem-res 1024]
 

@@ -147,7 +147,8 @@ pub enum MeshingError {
     #[error(transparent)]
     Cancelled(#[from] isokit_field::Cancelled),
     /// A block of a lattice ([`mesh_lattice_block`]) that is empty, reaches beyond the
-    /// lattice, or whose samples do not match it.
+    /// lattice, or whose samples do not match it; or a lattice too large or with an origin
+    /// or spacing that is not finite (and positive).
     #[error(
         "block of {owned:?} samples from {first:?}: not a block of the lattice of {dims:?} samples with its samples and the layer after"
     )]
@@ -159,6 +160,9 @@ pub enum MeshingError {
         /// The lattice's dimensions.
         dims: [usize; 3],
     },
+    /// A piece handed to [`weld_pieces`] that is not consistent.
+    #[error("mesh piece: {0}")]
+    BadPiece(String),
 }
 
 /// Bytes one piece holds while meshing and welding: a key and a position per vertex (twice,
@@ -295,14 +299,18 @@ pub fn mesh_lattice_block(
     values: &[f32],
     opts: &MeshOptions,
 ) -> Result<MeshPiece, MeshingError> {
+    let bad = || MeshingError::BadBlock { first, owned, dims };
+    // The lattice itself: within the sample limit (so keys fit u64), a valid geometry.
+    isokit_field::checked_len(dims).map_err(|_| bad())?;
+    Grid::new([1, 1, 1], origin, spacing).map_err(|_| bad())?;
     let geo = Geometry::new(dims, origin, spacing, opts, true)?;
     let end: [usize; 3] = std::array::from_fn(|a| first[a].saturating_add(owned[a]));
     if (0..3).any(|a| owned[a] == 0 || end[a] > dims[a]) {
-        return Err(MeshingError::BadBlock { first, owned, dims });
+        return Err(bad());
     }
     let vdims: [usize; 3] = std::array::from_fn(|a| (end[a] + 1).min(dims[a]) - first[a]);
     if values.len() != vdims.iter().product::<usize>() {
-        return Err(MeshingError::BadBlock { first, owned, dims });
+        return Err(bad());
     }
     // Cells by lower corner: the owned samples', less the last sample's (no cell) unless
     // closing, plus the padding cell before the first sample when closing.
@@ -319,42 +327,104 @@ pub fn mesh_lattice_block(
     if count.contains(&0) {
         return Ok(MeshPiece::default());
     }
-    let [sx, sy, sz] = count.map(|n| n + 1);
-    let mut gathered = Vec::with_capacity(sx * sy * sz);
-    let (mut any_in, mut any_out) = (false, false);
-    for z in 0..sz {
-        for y in 0..sy {
-            for x in 0..sx {
-                let g = [lo[0] + x as i64, lo[1] + y as i64, lo[2] + z as i64];
-                let v = if geo.in_grid(g) {
-                    let l = [0, 1, 2].map(|a| g[a] as usize - first[a]);
-                    values[l[0] + vdims[0] * (l[1] + vdims[1] * l[2])]
-                } else {
-                    f32::INFINITY
-                };
-                if v < geo.iso {
-                    any_in = true;
-                } else {
-                    any_out = true;
-                }
-                gathered.push(v);
-            }
+    // In sub-blocks of 16³ cells (as `mesh_grid`), in parallel, counted against the memory
+    // budget as they are made.
+    let s = DENSE_BLOCK;
+    let nb = count.map(|c| c.div_ceil(s));
+    let subs: Vec<[usize; 3]> = (0..nb.iter().product::<usize>())
+        .map(|n| [n % nb[0], (n / nb[0]) % nb[1], n / (nb[0] * nb[1])])
+        .collect();
+    let budget = isokit_field::memory::budget();
+    let held = std::sync::atomic::AtomicU64::new(0);
+    let sample = |g: [i64; 3]| {
+        if geo.in_grid(g) {
+            let l = [0, 1, 2].map(|a| g[a] as usize - first[a]);
+            values[l[0] + vdims[0] * (l[1] + vdims[1] * l[2])]
+        } else {
+            f32::INFINITY
         }
+    };
+    let pieces: Vec<BlockMesh> = subs
+        .par_iter()
+        .filter_map(|&b| {
+            if held.load(std::sync::atomic::Ordering::Relaxed) > budget {
+                return None;
+            }
+            let slo: [i64; 3] = std::array::from_fn(|a| lo[a] + (b[a] * s) as i64);
+            let sc: [usize; 3] = std::array::from_fn(|a| s.min(count[a] - b[a] * s));
+            let [sx, sy, sz] = sc.map(|n| n + 1);
+            let mut gathered = Vec::with_capacity(sx * sy * sz);
+            let (mut any_in, mut any_out) = (false, false);
+            for z in 0..sz {
+                for y in 0..sy {
+                    for x in 0..sx {
+                        let v = sample([slo[0] + x as i64, slo[1] + y as i64, slo[2] + z as i64]);
+                        if v < geo.iso {
+                            any_in = true;
+                        } else {
+                            any_out = true;
+                        }
+                        gathered.push(v);
+                    }
+                }
+            }
+            let p = (any_in && any_out).then(|| geo.mesh_block(slo, sc, &gathered))?;
+            held.fetch_add(
+                piece_bytes(p.positions.len(), p.triangles.len()),
+                std::sync::atomic::Ordering::Relaxed,
+            );
+            Some(p)
+        })
+        .collect();
+    let held = held.into_inner();
+    if held > budget {
+        isokit_field::memory::check_within(
+            budget,
+            &format!("the mesh of a block of {owned:?} samples"),
+            held as u128,
+            "use smaller blocks, or raise the budget",
+        )?;
     }
-    if !(any_in && any_out) {
-        return Ok(MeshPiece::default());
+    // One piece: the sub-blocks' vertices (shared ones repeated, welded later by key).
+    let vertices: usize = pieces.iter().map(|p| p.keys.len()).sum();
+    let triangles: usize = pieces.iter().map(|p| p.triangles.len()).sum();
+    if vertices > u32::MAX as usize || triangles > u32::MAX as usize {
+        return Err(MeshingError::TooLarge {
+            vertices,
+            triangles,
+            limit: u32::MAX as usize,
+        });
     }
-    let b = geo.mesh_block(lo, count, &gathered);
-    Ok(MeshPiece {
-        keys: b.keys,
-        positions: b.positions,
-        triangles: b.triangles,
-    })
+    let mut out = MeshPiece::default();
+    for p in pieces {
+        let base = out.keys.len() as u32;
+        out.keys.extend(p.keys);
+        out.positions.extend(p.positions);
+        out.triangles
+            .extend(p.triangles.into_iter().map(|t| t.map(|i| i + base)));
+    }
+    Ok(out)
 }
 
 /// Welds pieces of one lattice's mesh ([`mesh_lattice_block`]) by key: vertices sorted by
-/// key (as [`mesh_grid`] orders them), triangles concatenated in the pieces' order.
+/// key (as [`mesh_grid`] orders them), triangles concatenated in the pieces' order. A piece
+/// whose keys and positions differ in number, or whose triangles index past its vertices,
+/// is refused.
 pub fn weld_pieces(pieces: Vec<MeshPiece>) -> Result<TriMesh, MeshingError> {
+    for (n, p) in pieces.iter().enumerate() {
+        let v = p.keys.len();
+        if p.positions.len() != v || p.triangles.iter().flatten().any(|&i| i as usize >= v) {
+            return Err(MeshingError::BadPiece(format!(
+                "piece {n}: {v} keys, {} positions, triangles indexing up to {}",
+                p.positions.len(),
+                p.triangles
+                    .iter()
+                    .flatten()
+                    .max()
+                    .map_or(0, |&i| i as usize + 1)
+            )));
+        }
+    }
     assemble(
         pieces
             .into_iter()

@@ -114,3 +114,36 @@ fn a_block_outside_the_lattice_or_with_the_wrong_samples_is_refused() {
         );
     }
 }
+
+#[test]
+fn a_bad_lattice_or_piece_is_refused() {
+    let opts = MeshOptions::default();
+    let v = vec![0.0; 8];
+    for (dims, o, h) in [
+        ([usize::MAX, 2, 2], Vec3::ZERO, 0.1),
+        ([1 << 20, 1 << 20, 1 << 20], Vec3::ZERO, 0.1),
+        ([4, 4, 4], Vec3::NAN, 0.1),
+        ([4, 4, 4], Vec3::ZERO, 0.0),
+    ] {
+        let e = mesh_lattice_block(dims, o, h, [0, 0, 0], [1, 1, 1], &v, &opts);
+        assert!(matches!(e, Err(MeshingError::BadBlock { .. })), "{dims:?}");
+    }
+    let bad = MeshPiece {
+        keys: vec![1, 2],
+        positions: vec![Vec3::ZERO; 2],
+        triangles: vec![[0, 1, 2]],
+    };
+    assert!(matches!(
+        weld_pieces(vec![bad]),
+        Err(MeshingError::BadPiece(_))
+    ));
+    let bad = MeshPiece {
+        keys: vec![1, 2, 3],
+        positions: vec![Vec3::ZERO; 2],
+        triangles: vec![],
+    };
+    assert!(matches!(
+        weld_pieces(vec![bad]),
+        Err(MeshingError::BadPiece(_))
+    ));
+}

@@ -831,6 +831,17 @@ impl Shape {
         let piece = run(py, None, "mesh", |job| {
             let scene = self.scene()?;
             let plan = scene.plan(&opts).map_err(scene_err)?;
+            if (0..3).any(|a| {
+                owned[a] == 0
+                    || first[a]
+                        .checked_add(owned[a])
+                        .is_none_or(|end| end > plan.dims[a])
+            }) {
+                return Err(PyValueError::new_err(format!(
+                    "the block of {owned:?} samples from {first:?} is not inside the lattice of {:?} samples",
+                    plan.dims
+                )));
+            }
             let dims: [usize; 3] = std::array::from_fn(|a| {
                 (first[a].saturating_add(owned[a]).saturating_add(1))
                     .min(plan.dims[a])

@@ -624,6 +624,13 @@ impl<F: Fn(Reply)> Worker<F> {
         if !self.render(&mut p, &req, true, None) {
             return None;
         }
+        // A store read on demand whose chunk could not be decoded shows it as holes (NaN):
+        // say why.
+        if let isokit_render::VolumeData::Store(s) = volume.data()
+            && let Some(e) = s.error()
+        {
+            self.error(&SceneError::new(&name, "", e), req.reason);
+        }
         self.serve(&mut p)
     }
 

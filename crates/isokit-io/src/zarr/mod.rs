@@ -281,7 +281,7 @@ impl ZarrWriter {
             return Err(IoError::invalid_input(
                 path,
                 format!(
-                    "cannot resume {}: it was started with another lattice, chunk side or input (its lattice {}); run again without --resume",
+                    "cannot resume {}: it was started with another lattice, chunk or shard side, or input (its lattice {}); run again without --resume",
                     partial.display(),
                     theirs.to_json()
                 ),
@@ -525,11 +525,14 @@ fn check_target(path: &Path, meta: &Lattice, opts: ZarrOptions) -> Result<(), Io
             format!("chunk side {} must be 1 to {MAX_CHUNK}", opts.chunk),
         ));
     }
-    if opts.shard == 0 || opts.chunk.saturating_mul(opts.shard) > MAX_CHUNK {
+    if opts.shard == 0
+        || opts.chunk.saturating_mul(opts.shard) > MAX_CHUNK
+        || (opts.shard > 1 && opts.chunk < 4)
+    {
         return Err(IoError::invalid_input(
             path,
             format!(
-                "shards of {} chunks of {} samples a side: a shard is at most {MAX_CHUNK} samples a side",
+                "shards of {} chunks of {} samples a side: a shard is at most {MAX_CHUNK} samples a side, its chunks at least 4",
                 opts.shard, opts.chunk
             ),
         ));
@@ -764,14 +767,24 @@ fn chunk_layout(o: &Opened, path: &Path) -> Result<([u64; 3], [u64; 3]), IoError
     isokit_field::checked_len(dims).map_err(|_| too_big())?;
     let shape = o.array.chunk_shape(&[0, 0, 0]).map_err(|e| zerr(path, e))?;
     let c: Vec<u64> = shape.iter().map(|v| v.get()).collect();
-    // What is decoded at once: the chunks inside a shard, or the chunks.
-    let unit = subchunks(&o.array).map_or_else(|| c.clone(), |s| s.to_vec());
-    let per = unit.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
+    // A chunk (a shard, when sharded) of at most MAX_CHUNK³ samples; the chunks inside a
+    // shard at least 4 samples a side, dividing it.
+    let volume = |s: &[u64]| s.iter().try_fold(1u64, |a, &v| a.checked_mul(v));
     let limit = (MAX_CHUNK as u64).pow(3);
-    if c.len() != 3 || per.is_none_or(|p| p > limit) {
+    if c.len() != 3 || volume(&c).is_none_or(|p| p > limit) {
         return Err(IoError::unsupported(
             path,
             format!("chunks of {c:?} samples: at most {limit} samples a chunk are read"),
+        ));
+    }
+    if let Some(s) = subchunks(&o.array)
+        && (0..3).any(|a| s[a] < 4.min(c[a]) || s[a] == 0 || !c[a].is_multiple_of(s[a]))
+    {
+        return Err(IoError::unsupported(
+            path,
+            format!(
+                "shards of {c:?} samples in chunks of {s:?}: the chunks must divide the shard and be 4 or more samples a side"
+            ),
         ));
     }
     let g = o.array.chunk_grid_shape();

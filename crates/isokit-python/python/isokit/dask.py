@@ -148,7 +148,8 @@ def mesh(shape, res=None, band=None, bounds=None, chunks=64, brick=None, iso=0.0
     pieces = dask.compute(*jobs)
     keys = np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, np.uint64)
     if len(keys) == 0:
-        return Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), {"blocks": len(jobs)})
+        return Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64),
+                    {"blocks": len(jobs), "vertices": 0, "triangles": 0, "piece_vertices": 0})
     positions = np.concatenate([p[1] for p in pieces])
     offsets = np.cumsum([0] + [len(p[0]) for p in pieces[:-1]])
     triangles = np.concatenate([p[2].astype(np.int64) + o for p, o in zip(pieces, offsets)])
