@@ -129,6 +129,5 @@ impl VolumeOut {
 
 /// True when `path` names a Zarr store (`.zarr`, any case).
 pub fn is_zarr(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("zarr"))
+    zarr::is_zarr_name(path)
 }

@@ -217,6 +217,23 @@ impl Shape {
         Shape::derived(f(v), Some(self), &[other], last)
     }
 
+    /// The block of `dims` samples from `first` of the lattice `opts` gives, clamped to
+    /// `±band` (`_sample_block`, `_mesh_block`).
+    fn block_grid(
+        &self,
+        mut opts: SampleOptions,
+        first: [usize; 3],
+        dims: [usize; 3],
+        job: &Job,
+    ) -> PyResult<Grid> {
+        opts.block = Some(isokit_scene::Block { first, dims });
+        let (g, _) = self
+            .scene()?
+            .sample_grid_job(&opts, job)
+            .map_err(scene_err)?;
+        Ok(g)
+    }
+
     /// The options of a sampling from Python's arguments, over the scene's `sampling` table
     /// (a shape from `load_scene`), over the defaults (128 samples, a band of 4 samples,
     /// bricks of 4).
@@ -790,12 +807,9 @@ impl Shape {
         brick: Option<usize>,
     ) -> PyResult<Bound<'py, numpy::PyArray3<f32>>> {
         self.solid("sample")?;
-        let mut opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
-        opts.block = Some(isokit_scene::Block { first, dims });
+        let opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
         let grid = run(py, None, "sample", |job| {
-            let scene = self.scene()?;
-            let (g, _) = scene.sample_grid_job(&opts, job).map_err(scene_err)?;
-            Ok(g)
+            self.block_grid(opts, first, dims, job)
         })?;
         let [nx, ny, nz] = grid.dims();
         let arr = numpy::ndarray::Array3::from_shape_vec((nz, ny, nx), grid.into_data())
@@ -827,7 +841,7 @@ impl Shape {
         iso: f32,
     ) -> PyResult<Bound<'py, PyTuple>> {
         self.solid("mesh")?;
-        let mut opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
+        let opts = self.sample_options(res, band, bounds_arg(bounds)?, brick);
         let piece = run(py, None, "mesh", |job| {
             let scene = self.scene()?;
             let plan = scene.plan(&opts).map_err(scene_err)?;
@@ -848,8 +862,7 @@ impl Shape {
                     .saturating_sub(first[a])
                     .max(1)
             });
-            opts.block = Some(isokit_scene::Block { first, dims });
-            let (g, _) = scene.sample_grid_job(&opts, job).map_err(scene_err)?;
+            let g = self.block_grid(opts, first, dims, job)?;
             let mo = isokit_levelset::meshing::MeshOptions {
                 iso,
                 close_boundary: true,

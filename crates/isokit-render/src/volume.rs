@@ -585,6 +585,15 @@ impl Volume {
         Self::new(VolumeData::Store(source), layout)
     }
 
+    /// For a volume over a Zarr store read on demand ([`VolumeData::Store`]): why a chunk
+    /// could not be read, if one could not (its samples read as NaN). `None` otherwise.
+    pub fn store_error(&self) -> Option<String> {
+        match &self.data {
+            VolumeData::Store(s) => s.error(),
+            _ => None,
+        }
+    }
+
     /// A volume over either kind of samples; computes the block min/max (one pass over the
     /// samples, in parallel).
     pub fn new(data: VolumeData, layout: Layout) -> Result<Self, RenderError> {

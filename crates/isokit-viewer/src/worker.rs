@@ -578,10 +578,7 @@ impl<F: Fn(Reply)> Worker<F> {
 
     fn volume(&mut self, req: Request) -> Option<Request> {
         let name = self.input.display().to_string();
-        let zarr = self
-            .input
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("zarr"));
+        let zarr = isokit_io::zarr::is_zarr_name(&self.input);
         // A Zarr store is read on demand (fields larger than memory), through a cache of
         // 256 MiB of decoded chunks.
         let read = if zarr {
@@ -626,9 +623,7 @@ impl<F: Fn(Reply)> Worker<F> {
         }
         // A store read on demand whose chunk could not be decoded shows it as holes (NaN):
         // say why.
-        if let isokit_render::VolumeData::Store(s) = volume.data()
-            && let Some(e) = s.error()
-        {
+        if let Some(e) = volume.store_error() {
             self.error(&SceneError::new(&name, "", e), req.reason);
         }
         self.serve(&mut p)

@@ -6,7 +6,6 @@ use super::Args;
 use anyhow::{Context, Result, bail};
 use isokit_field::Grid;
 use isokit_io::zarr::ZarrSource;
-use isokit_render::VolumeData;
 use isokit_render::clip::colour_caps;
 use isokit_render::{Combine, Inside, Layout, Shading, Volume};
 use isokit_scene::{Frame, RenderSettings};
@@ -18,10 +17,7 @@ const STORE_CACHE_BYTES: usize = 256 << 20;
 
 /// Fails when a store read on demand could not read a chunk (its samples read as NaN).
 pub(super) fn check_store(volume: &Volume) -> Result<()> {
-    match volume.data() {
-        VolumeData::Store(s) => s.error().map_or(Ok(()), |e| bail!("{e}")),
-        _ => Ok(()),
-    }
+    volume.store_error().map_or(Ok(()), |e| bail!("{e}"))
 }
 
 /// Refuses what `--clip` does not go with in the isosurface mode.

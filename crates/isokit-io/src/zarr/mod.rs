@@ -150,6 +150,13 @@ fn sibling(path: &Path, suffix: &str) -> PathBuf {
     }
 }
 
+/// True when `path` names a Zarr store by its extension (`.zarr`, any case; a trailing
+/// separator ignored), whether or not it exists.
+pub fn is_zarr_name(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("zarr"))
+}
+
 /// True when `path` is a directory holding a Zarr v3 array or group (`zarr.json`) or a
 /// Zarr v2 array (`.zarray`).
 pub fn is_store(path: &Path) -> bool {
