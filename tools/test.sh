@@ -36,11 +36,15 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/reference/requirements.txt
 ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q tests/reference
-# The Python package: the wheel built from the checkout by the README's one command (a
-# release build in this target directory: incremental after the first) and installed into
-# .venv, then its tests and the Python modeling script.
+# The Python package: the wheel built from the checkout by the README's one command and
+# installed into .venv, then its tests and the Python modeling script. Built in the dev
+# profile (MATURIN_PEP517_ARGS; the same settings as the test profile, so the workspace's
+# crates `cargo test` compiled above are reused and only the extension is compiled: a
+# release build would compile every crate again, about 5 minutes on 2 cores). Users' `pip
+# install` builds release.
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r crates/isokit-python/tests/requirements.txt
-.venv/bin/python -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./crates/isokit-python
+MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" \
+  .venv/bin/python -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./crates/isokit-python
 ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q crates/isokit-python/tests
 .venv/bin/python examples/python/part.py "$examples_out/python"
 .venv/bin/python examples/python/flange.py "$examples_out/python"

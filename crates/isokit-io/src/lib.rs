@@ -69,6 +69,7 @@ mod stl;
 mod tets;
 mod util;
 mod volume;
+#[cfg(feature = "zarr")]
 pub mod zarr;
 
 /// Building blocks for readers of formats that live in other crates (molecules in

@@ -242,7 +242,10 @@ impl VolumeFormat {
 pub fn read_volume(path: &Path) -> Result<Volume, IoError> {
     let format = VolumeFormat::from_path(path)?;
     if format == VolumeFormat::Zarr {
+        #[cfg(feature = "zarr")]
         return Ok(crate::zarr::read_zarr(path)?.0);
+        #[cfg(not(feature = "zarr"))]
+        return Err(no_zarr(path));
     }
     let bytes = read_file(path)?;
     let mut volume = read_volume_from(&bytes, format, path)?;
@@ -312,12 +315,24 @@ pub fn write_volume_with(
     match extension(path).as_deref() {
         Some("nrrd") => nrrd::write_nrrd(path, volume, encoding, Some(meta)),
         Some("npy") => lattice::write_npy_volume(path, volume, meta),
+        #[cfg(feature = "zarr")]
         Some("zarr") => {
             crate::zarr::write_zarr(path, volume, meta, crate::zarr::ZarrOptions::default())
                 .map(|_| ())
         }
+        #[cfg(not(feature = "zarr"))]
+        Some("zarr") => Err(no_zarr(path)),
         _ => Err(unknown_output(path)),
     }
+}
+
+/// The refusal of a `.zarr` path in a build without the `zarr` feature.
+#[cfg(not(feature = "zarr"))]
+fn no_zarr(path: &Path) -> IoError {
+    IoError::unsupported(
+        path,
+        "this build of isokit-io reads and writes no Zarr stores (the `zarr` feature is off)",
+    )
 }
 
 fn unknown_output(path: &Path) -> IoError {

@@ -145,7 +145,8 @@ pub enum VolumeData {
     /// everywhere).
     Band(BrickGrid),
     /// Samples read on demand from a Zarr store through a bounded cache of decoded chunks
-    /// (a field larger than memory; see [`Volume::from_store`]).
+    /// (a field larger than memory; see [`Volume::from_store`]). With the `zarr` feature.
+    #[cfg(feature = "zarr")]
     Store(std::sync::Arc<isokit_io::zarr::ZarrSource>),
 }
 
@@ -155,6 +156,7 @@ impl VolumeData {
         match self {
             Self::Dense(g) => g.dims(),
             Self::Band(b) => b.dims(),
+            #[cfg(feature = "zarr")]
             Self::Store(s) => s.dims(),
         }
     }
@@ -164,6 +166,7 @@ impl VolumeData {
         match self {
             Self::Dense(g) => g.origin(),
             Self::Band(b) => b.origin(),
+            #[cfg(feature = "zarr")]
             Self::Store(s) => s.origin(),
         }
     }
@@ -175,6 +178,7 @@ impl VolumeData {
             Self::Band(b) => b.spacing(),
             // Uniform (checked by `Volume::from_store`); the mean, as a volume file's
             // spacing becomes a grid's (`isokit_io::Volume::into_grid`).
+            #[cfg(feature = "zarr")]
             Self::Store(s) => {
                 let h = s.spacing();
                 (h.x + h.y + h.z) / 3.0
@@ -196,6 +200,7 @@ impl VolumeData {
                     b.background(),
                 )
             }
+            #[cfg(feature = "zarr")]
             Self::Store(s) => {
                 let d = s.dims();
                 let at = |v: i32, n: usize| v.clamp(0, n as i32 - 1) as usize;
@@ -269,6 +274,7 @@ impl VolumeData {
                     x = end;
                 }
             }
+            #[cfg(feature = "zarr")]
             Self::Store(st) => {
                 if a < b {
                     st.read_row(
@@ -570,7 +576,8 @@ impl Volume {
 
     /// A volume over a Zarr store read on demand ([`VolumeData::Store`]): only the chunks
     /// the block scan and the brick cache ask for are decoded, and at most the source's
-    /// cache of them is held. The store's spacing must be uniform.
+    /// cache of them is held. The store's spacing must be uniform. With the `zarr` feature.
+    #[cfg(feature = "zarr")]
     pub fn from_store(
         source: std::sync::Arc<isokit_io::zarr::ZarrSource>,
         layout: Layout,
@@ -589,6 +596,7 @@ impl Volume {
     /// could not be read, if one could not (its samples read as NaN). `None` otherwise.
     pub fn store_error(&self) -> Option<String> {
         match &self.data {
+            #[cfg(feature = "zarr")]
             VolumeData::Store(s) => s.error(),
             _ => None,
         }
