@@ -274,3 +274,55 @@ fn mesher_dual_meshes_the_shipped_scenes() {
     let r = isokit::io::read_mesh(&out).unwrap().validate();
     assert!(r.watertight && r.consistently_oriented, "{r}");
 }
+
+/// `--mesher dual --error E`: the shipped part meshed adaptively has the genus of the uniform
+/// mesh, far fewer triangles, no self-intersection, and every vertex within E of its exact
+/// surface where cells merged; `--error` without `--mesher dual`, or not positive, is refused.
+#[test]
+fn mesher_dual_error_merges_cells() {
+    let d = scratch("mesher_dual_error");
+    let uniform = d.join("part.obj");
+    let adaptive = d.join("part_adaptive.obj");
+    let scene = example("part.json");
+    let run = |out: &std::path::Path, extra: &[&str]| {
+        let mut a = vec!["scene", &scene, "-o", out.to_str().unwrap(), "--res", "96"];
+        a.extend_from_slice(&["--mesher", "dual", "--stats"]);
+        a.extend_from_slice(extra);
+        json(&isokit_ok(&a))
+    };
+    let ju = run(&uniform, &[]);
+    assert!(ju.get("merged_cells").is_none());
+    let spacing = ju["spacing"].as_f64().unwrap();
+    let e = format!("{}", 0.1 * spacing);
+    let ja = run(&adaptive, &["--error", &e]);
+    assert!(ja["merged_cells"].as_u64().unwrap() > 0);
+    let (mu, ma) = (
+        isokit::io::read_mesh(&uniform).unwrap(),
+        isokit::io::read_mesh(&adaptive).unwrap(),
+    );
+    let r = ma.validate();
+    assert!(r.watertight && r.consistently_oriented, "{r}");
+    assert_eq!(r.non_manifold_edges, 0, "{r}");
+    assert_eq!(r.genus(), mu.validate().genus());
+    assert!(
+        ma.triangles.len() * 3 < mu.triangles.len(),
+        "{} against {} triangles",
+        ma.triangles.len(),
+        mu.triangles.len()
+    );
+    assert_eq!(ja["triangles"].as_u64(), Some(ma.triangles.len() as u64));
+    let x = isokit_levelset::intersect::self_intersections(&ma);
+    assert!(x.pairs.is_empty(), "{} pairs", x.pairs.len());
+    for bad in [
+        vec!["--error", "0.01"],
+        vec!["--mesher", "dual", "--error", "0"],
+        vec!["--mesher", "dual", "--error", "nan"],
+    ] {
+        let mut a = vec!["scene", &scene, "-o", adaptive.to_str().unwrap()];
+        a.extend_from_slice(&bad);
+        let o = isokit(&a);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}");
+        let msg = String::from_utf8_lossy(&o.stderr);
+        assert!(msg.contains("--error"), "{bad:?}: {msg}");
+    }
+}

@@ -18,7 +18,11 @@ fn refuse(a: &Args, what: &str, extra: &[(bool, &str)]) -> Result<()> {
         (a.iso != 0.0, "--iso"),
         (a.inside != Inside::Below, "--inside"),
         (a.open, "--open"),
-        (a.mesher != super::mesher_args::MesherArg::Mc, "--mesher"),
+        (
+            a.mesher.mesher != super::mesher_args::MesherArg::Mc,
+            "--mesher",
+        ),
+        (a.mesher.error.is_some(), "--error"),
         (a.array.is_some(), "--array"),
     ];
     for &(given, flag) in common.iter().chain(extra) {

@@ -1,4 +1,4 @@
-//! `isokit mesh FIELD -o out.obj [--mesher mc|dual]`: the isosurface of a volume as a
+//! `isokit mesh FIELD -o out.obj [--mesher mc|dual [--error E]]`: the isosurface of a volume as a
 //! triangle mesh; of a tetrahedral grid (`.vtk`, `.vtu`) by marching tetrahedra; with
 //! `--labels`, the surface between the regions of a label volume (`labels.rs`).
 
@@ -42,11 +42,8 @@ pub struct Args {
     /// so the mesh stays watertight).
     #[arg(long)]
     pub open: bool,
-    /// `mc` (marching cubes: watertight and 2-manifold by construction) or `dual` (dual
-    /// contouring with normals from the samples' central differences: sharper edges;
-    /// 2-manifold except in a rare ambiguous configuration).
-    #[arg(long, value_enum, default_value_t = super::mesher_args::MesherArg::Mc)]
-    pub mesher: super::mesher_args::MesherArg,
+    #[command(flatten)]
+    pub mesher: super::mesher_args::MesherOpts,
     /// The volume holds labels (a whole number per sample, 0 outside): mesh the surface
     /// between its regions, non-manifold where three or more meet, into a PLY whose faces
     /// carry `region_a` and `region_b` (int32, a < b).
@@ -103,9 +100,12 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if super::tets::is_tets(&a.field) {
-        if a.open || a.mesher != super::mesher_args::MesherArg::Mc {
+        if a.open
+            || a.mesher.mesher != super::mesher_args::MesherArg::Mc
+            || a.mesher.error.is_some()
+        {
             bail!(
-                "--open and --mesher apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
+                "--open, --mesher and --error apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
             );
         }
         let t = Instant::now();
@@ -131,16 +131,19 @@ pub fn run(a: Args) -> Result<()> {
         iso,
         close_boundary: !a.open,
     };
-    let mesh = match a.mesher {
+    let error = a.mesher.error()?;
+    let mesh = match a.mesher.mesher {
         super::mesher_args::MesherArg::Mc => mesh_grid_job(&grid, &opts, &super::progress::job())?,
         super::mesher_args::MesherArg::Dual => {
             let dual = DualOptions {
                 iso,
                 close_boundary: !a.open,
+                error,
                 ..DualOptions::default()
             };
             let (mesh, st) = mesh_dual_grid_job(&grid, None, &dual, &super::progress::job())?;
-            super::mesher_args::print_dual_stats(st.clamped, st.multi_component_cells);
+            let merged = error.map(|_| st.merged_cells);
+            super::mesher_args::print_dual_stats(st.clamped, st.multi_component_cells, merged);
             mesh
         }
     };

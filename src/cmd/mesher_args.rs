@@ -1,7 +1,7 @@
-//! `--mesher mc|dual` (`isokit mesh`, `isokit scene`), what the meshers report, and what
-//! `isokit info` says about a mesh.
+//! `--mesher mc|dual [--error E]` (`isokit mesh`, `isokit scene`), what the meshers report,
+//! and what `isokit info` says about a mesh.
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 use isokit_scene::Mesher;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -24,10 +24,48 @@ impl From<MesherArg> for Mesher {
     }
 }
 
-/// Prints what dual contouring reports about its vertices.
-pub fn print_dual_stats(clamped: usize, several: usize) {
+/// `--mesher` and `--error` of `isokit mesh` and `isokit scene`.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct MesherOpts {
+    /// `mc` (marching cubes: watertight and 2-manifold by construction, sharp edges chamfered
+    /// by about a voxel) or `dual` (dual contouring with Hermite data: sharp edges and
+    /// corners; normals from a scene's exact field, or from a volume's central differences;
+    /// 2-manifold except in a rare ambiguous configuration, which `isokit info` reports as
+    /// non-manifold edges).
+    #[arg(long, value_enum, default_value_t = MesherArg::Mc)]
+    pub mesher: MesherArg,
+    /// --mesher dual: adaptive meshing. Cells are merged into octree nodes (up to 256 cells
+    /// a side) where one vertex lies within E, in world units, of every crossing's tangent
+    /// plane (and of a scene's exact surface), and the merge keeps the surface's topology:
+    /// few large triangles where the surface is flat, the cells' own vertices at edges and
+    /// corners [default: one vertex per cell].
+    #[arg(long, value_name = "E")]
+    pub error: Option<f64>,
+}
+
+impl MesherOpts {
+    /// `--error`, checked: only with `--mesher dual`, finite and positive.
+    pub fn error(&self) -> Result<Option<f64>> {
+        match self.error {
+            None => Ok(None),
+            Some(_) if self.mesher != MesherArg::Dual => {
+                bail!("--error applies to --mesher dual (adaptive dual contouring)")
+            }
+            Some(e) if !(e.is_finite() && e > 0.0) => {
+                bail!("--error {e} must be a finite positive distance in world units")
+            }
+            Some(e) => Ok(Some(e)),
+        }
+    }
+}
+
+/// Prints what dual contouring reports about its vertices (and, adaptive, its merges).
+pub fn print_dual_stats(clamped: usize, several: usize, merged: Option<usize>) {
+    let merged = merged.map_or(String::new(), |m| {
+        format!(", {m} cells merged into larger octree nodes")
+    });
     eprintln!(
-        "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece"
+        "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece{merged}"
     );
 }
 

@@ -1,5 +1,5 @@
 //! `isokit scene SCENE -o out.nrrd|npy|zarr|obj|ply|stl|off [--res N] [--band W]
-//! [--mesher mc|dual] [--stats]`: a scene file evaluated lazily to a band field or a mesh.
+//! [--mesher mc|dual [--error E]] [--stats]`: a scene file evaluated lazily to a band field or a mesh.
 
 use super::check_output;
 use super::mesher_args::MesherArg;
@@ -36,12 +36,9 @@ pub struct Args {
     /// measured against).
     #[arg(long)]
     pub dense: bool,
-    /// Mesher for mesh outputs: `mc` (marching cubes: watertight and 2-manifold by
-    /// construction, sharp edges chamfered by about a voxel) or `dual` (dual contouring on
-    /// the scene's exact field: sharp edges and corners; 2-manifold except in a rare
-    /// ambiguous configuration, which `isokit info` reports as non-manifold edges).
-    #[arg(long, value_enum, default_value_t = MesherArg::Mc)]
-    pub mesher: MesherArg,
+    /// Mesh outputs: the mesher.
+    #[command(flatten)]
+    pub mesher: super::mesher_args::MesherOpts,
     /// Print what the evaluation computed as one JSON object on stdout (`dense_fraction`,
     /// `seconds`, per-source query counts, …).
     #[arg(long)]
@@ -82,7 +79,8 @@ pub fn run(a: Args) -> Result<()> {
     if a.resume && (a.dense || !to_store) {
         bail!("--resume continues a lazily sampled .zarr output");
     }
-    if !to_mesh && a.mesher != MesherArg::Mc {
+    let error = a.mesher.error()?;
+    if !to_mesh && a.mesher.mesher != MesherArg::Mc {
         bail!(
             "--mesher applies to mesh outputs ({}) only",
             MESHES.join(" ")
@@ -117,7 +115,8 @@ pub fn run(a: Args) -> Result<()> {
         let mo = MeshOptions {
             sampling: opts,
             dense: a.dense,
-            mesher: a.mesher.into(),
+            mesher: a.mesher.mesher.into(),
+            error,
         };
         let (mesh, st) = mesh_scene(&scene, &mo, &job)?;
         match vertex_colors(&scene, &mesh, st.sampling.spacing) {
@@ -125,7 +124,7 @@ pub fn run(a: Args) -> Result<()> {
             None => write_mesh(&a.output, &mesh)?,
         }
         if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
-            super::mesher_args::print_dual_stats(clamped, several);
+            super::mesher_args::print_dual_stats(clamped, several, st.merged_cells);
         }
         let out = (st.sampling.clone(), Some(st.triangles));
         mesh_stats = Some(st);
@@ -184,10 +183,11 @@ pub fn run(a: Args) -> Result<()> {
         if let Some(st) = &mesh_stats {
             j["triangles"] = st.triangles.into();
             j["mesher"] = serde_json::to_value(st.mesher)?;
-            if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells)
-            {
-                j["clamped_vertices"] = clamped.into();
-                j["multi_component_cells"] = several.into();
+            let dual_counts = serde_json::to_value(st)?;
+            for k in ["clamped_vertices", "multi_component_cells", "merged_cells"] {
+                if let Some(v) = dual_counts.get(k) {
+                    j[k] = v.clone();
+                }
             }
         }
         // The sampled lattice's extent (the shape's box padded by the band).

@@ -2,7 +2,9 @@
 
 Two CSG parts with sharp edges, each meshed by
 
-- `isokit scene PART -o out.obj --mesher mc|dual --res N` (whole command, wall time);
+- `isokit scene PART -o out.obj --mesher mc|dual --res N` (whole command, wall time), and
+  adaptive dual contouring `--mesher dual --error E` with E a fraction of the voxel
+  (`--errors`, default 0.02 and 0.1);
 - manifold3d's `level_set` on the same signed distance (a Python callable of numpy, the
   body-centred-cubic marching tetrahedra of manifold3d, edge length = isokit's voxel) — for
   the analytic part only;
@@ -76,7 +78,18 @@ def row(tool, res, seconds, mesh, ref, v_ref, voxel=None):
     return r
 
 
-def part_analytic(exe, tmp, resolutions):
+def adaptive_rows(exe, scene, tmp, res, voxel, errors, ref, v_ref):
+    """`--mesher dual --error E` for each E (a fraction of the voxel)."""
+    rows = []
+    for e in errors:
+        st, wall = run_isokit(exe, scene, tmp / "o.obj", "--res", res, "--mesher", "dual",
+                              "--error", e * voxel)
+        rows.append(row(f"isokit dual --error {e} voxel", res, wall, read_obj(tmp / "o.obj"),
+                        ref, v_ref, voxel))
+    return rows
+
+
+def part_analytic(exe, tmp, resolutions, errors):
     ref = box_minus_cylinder_exact()
     v_ref = volume(*ref)
     scene = tmp / "box_cyl.json"
@@ -91,6 +104,7 @@ def part_analytic(exe, tmp, resolutions):
             voxel = st["spacing"]
             rows.append(row(f"isokit {mesher}", res, wall, read_obj(tmp / "o.obj"), ref, v_ref,
                             voxel))
+        rows += adaptive_rows(exe, scene, tmp, res, voxel, errors, ref, v_ref)
         t = time.perf_counter()
         m = mf.Manifold.level_set(box_minus_cylinder_sdf, [*lo, *hi], voxel)
         secs = time.perf_counter() - t
@@ -102,7 +116,7 @@ def part_analytic(exe, tmp, resolutions):
     return rows
 
 
-def part_mesh(exe, tmp, segments, resolutions):
+def part_mesh(exe, tmp, segments, resolutions, errors):
     ref = mf_mesh(torus(1024) - cylinder(1024))
     v_ref = volume(*ref)
     rows = []
@@ -116,6 +130,7 @@ def part_mesh(exe, tmp, segments, resolutions):
             st, wall = run_isokit(exe, scene, tmp / "o.obj", "--res", res, "--mesher", mesher)
             rows.append(row(f"isokit {mesher}", res, wall, read_obj(tmp / "o.obj"), ref, v_ref,
                             st["spacing"]))
+        rows += adaptive_rows(exe, scene, tmp, res, st["spacing"], errors, ref, v_ref)
     return rows
 
 
@@ -136,15 +151,17 @@ def main():
     ap.add_argument("--res", type=int, nargs="+", default=[32, 64, 128])
     ap.add_argument("--mesh-res", type=int, nargs="+", default=[64, 128, 256])
     ap.add_argument("--segments", type=int, default=64)
+    ap.add_argument("--errors", type=float, nargs="*", default=[0.02, 0.1],
+                    help="adaptive dual contouring's --error, in voxels")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = pathlib.Path(d)
-        a = part_analytic(args.isokit, tmp, args.res)
-        b = part_mesh(args.isokit, tmp, args.segments, args.mesh_res)
+        a = part_analytic(args.isokit, tmp, args.res, args.errors)
+        b = part_mesh(args.isokit, tmp, args.segments, args.mesh_res, args.errors)
     text = "\n\n".join([
         "# Sharp meshing against manifold3d",
         f"Machine: {platform.machine()}, {platform.system()}, {os.cpu_count()} CPUs; manifold3d "
-        f"{importlib.metadata.version('manifold3d')}. Command: .",
+        f"{importlib.metadata.version('manifold3d')}. Command: `python {' '.join(sys.argv)}`.",
         "## A. Box minus cylinder (analytic; reference: manifold3d's exact boolean, 1024-gon)",
         table(a),
         f"## B. Torus mesh minus cylinder mesh ({args.segments} segments, the same triangles for "

@@ -293,3 +293,217 @@ fn noise_non_manifold_frequency() {
         assert!(st.multi_component_cells > 0);
     }
 }
+
+// Adaptive dual contouring: cells merged into octree nodes where one vertex serves them
+// within the error bound (Ju et al. 2002, Sec. 3).
+
+/// `DualOptions` with the adaptive bound `e` (world units).
+fn adaptive(e: f64) -> DualOptions {
+    DualOptions {
+        error: Some(e),
+        ..DualOptions::default()
+    }
+}
+
+/// The largest `|f|` at the mesh's vertices.
+fn worst_vertex(f: &dyn Field, m: &TriMesh) -> f32 {
+    m.positions
+        .iter()
+        .map(|p| f.value(*p).abs())
+        .fold(0.0, f32::max)
+}
+
+/// Watertight, 2-manifold, consistently oriented, no degenerate triangle, no repeated
+/// polygon.
+fn check_adaptive(m: &TriMesh, st: &isokit_levelset::dual::DualStats, what: &str) {
+    let r = m.validate();
+    assert!(
+        r.watertight && r.consistently_oriented && r.non_manifold_edges == 0,
+        "{what}: {r}"
+    );
+    assert_eq!(r.degenerate_triangles, 0, "{what}: {r}");
+    assert_eq!(r.duplicate_triangles, 0, "{what}: {r}");
+    assert_eq!(st.repeated_polygons, 0, "{what}");
+}
+
+#[test]
+fn adaptive_box_keeps_its_corners_with_few_triangles() {
+    let c = Vec3::new(0.017, -0.031, 0.023);
+    let half = Vec3::new(0.55, 0.43, 0.61);
+    let cube = Cuboid::new(c, half).unwrap();
+    let g = grid_of(&cube, 65, -1.0, 1.0);
+    let h = g.spacing() as f64;
+    let (fine, _) = mesh_dual_grid(&g, Some(&cube), &DualOptions::default()).unwrap();
+    let (m, st) = mesh_dual_grid(&g, Some(&cube), &adaptive(0.01 * h)).unwrap();
+    eprintln!(
+        "box at 65^3: uniform {} triangles, adaptive (E = 0.01 voxel) {} triangles, {} of {} cells merged",
+        fine.triangles.len(),
+        m.triangles.len(),
+        st.merged_cells,
+        st.cells
+    );
+    check_adaptive(&m, &st, "box");
+    assert_eq!(m.validate().genus(), Some(0));
+    assert!(m.triangles.len() * 10 < fine.triangles.len());
+    for n in 0..8 {
+        let s = Vec3::new(
+            if n & 1 == 1 { 1.0 } else { -1.0 },
+            if n & 2 == 2 { 1.0 } else { -1.0 },
+            if n & 4 == 4 { 1.0 } else { -1.0 },
+        );
+        let corner = c + s * half;
+        let near = m
+            .positions
+            .iter()
+            .map(|p| p.distance(corner))
+            .fold(f32::INFINITY, f32::min);
+        assert!(near < 1e-3 * h as f32, "corner {corner}: {near}");
+    }
+    assert!(worst_vertex(&cube, &m) as f64 <= 0.01 * h);
+    let exact = 8.0 * (half.x * half.y * half.z) as f64;
+    assert!((mesh_volume(&m) - exact).abs() < 1e-4 * exact);
+    let x = isokit_levelset::intersect::self_intersections(&m);
+    assert!(x.pairs.is_empty(), "{} pairs", x.pairs.len());
+}
+
+#[test]
+fn adaptive_sphere_trades_triangles_for_error() {
+    let s = Sphere::new(Vec3::new(0.03, -0.02, 0.01), 0.7).unwrap();
+    let g = grid_of(&s, 64, -1.0, 1.0);
+    let h = g.spacing() as f64;
+    let mut last = usize::MAX;
+    for e in [0.02, 0.1, 0.3] {
+        let (m, st) = mesh_dual_grid(&g, Some(&s), &adaptive(e * h)).unwrap();
+        check_adaptive(&m, &st, &format!("sphere E {e}"));
+        assert_eq!(m.validate().genus(), Some(0));
+        let worst = worst_vertex(&s, &m) as f64 / h;
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.7f64.powi(3);
+        let dv = (mesh_volume(&m) - exact) / exact;
+        eprintln!(
+            "sphere at 64^3, E = {e} voxel: {} triangles, {} of {} cells merged, worst vertex {worst:.4} voxel, volume {dv:+.5}",
+            m.triangles.len(),
+            st.merged_cells,
+            st.cells
+        );
+        assert!(worst <= e + 1e-4, "E {e}: worst vertex {worst} voxel");
+        assert!(m.triangles.len() < last, "E {e}");
+        last = m.triangles.len();
+    }
+}
+
+/// Two spheres less than a cell apart and a torus: merged nodes never join or split
+/// surfaces, even with a loose bound.
+#[test]
+fn adaptive_merging_keeps_the_topology() {
+    struct Two(Sphere, Sphere);
+    impl Field for Two {
+        fn value(&self, p: Vec3) -> f32 {
+            self.0.value(p).min(self.1.value(p))
+        }
+        fn bounds(&self) -> Aabb {
+            Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0))
+        }
+    }
+    let g0 = grid_of(&Sphere::new(Vec3::ZERO, 0.5).unwrap(), 64, -1.0, 1.0);
+    let h = g0.spacing();
+    // A gap of 1.6 cells between them: one row of outside samples, inside any merged node.
+    let r = 0.45;
+    let two = Two(
+        Sphere::new(Vec3::new(-r - 0.8 * h, 0.011, 0.007), r).unwrap(),
+        Sphere::new(Vec3::new(r + 0.8 * h, -0.013, 0.005), r).unwrap(),
+    );
+    let torus =
+        isokit_field::primitives::Torus::new(Vec3::new(0.01, 0.02, -0.01), 0.55, 0.2).unwrap();
+    let cases: [(&str, &dyn Field, usize, i64); 2] =
+        [("two spheres", &two, 2, 0), ("torus", &torus, 1, 1)];
+    for (name, f, components, genus) in cases {
+        let g = grid_of(f, 64, -1.0, 1.0);
+        let (uniform, _) = mesh_dual_grid(&g, Some(f), &DualOptions::default()).unwrap();
+        assert_eq!(uniform.validate().components, components, "{name}");
+        for e in [0.1, 1.0] {
+            let (m, st) = mesh_dual_grid(&g, Some(f), &adaptive(e * h as f64)).unwrap();
+            check_adaptive(&m, &st, &format!("{name} E {e}"));
+            let r = m.validate();
+            eprintln!(
+                "{name}, E = {e} voxel: {} triangles (uniform {}), {} components, Euler {}",
+                r.triangles,
+                uniform.triangles.len(),
+                r.components,
+                r.euler_characteristic
+            );
+            assert_eq!(r.components, components, "{name} E {e}");
+            assert_eq!(
+                r.euler_characteristic,
+                components as i64 * (2 - 2 * genus),
+                "{name} E {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn adaptive_brick_grid_gives_the_same_mesh() {
+    let s = Sphere::new(Vec3::ZERO, 0.6).unwrap();
+    let g = grid_of(&s, 48, -1.0, 1.0);
+    let h = g.spacing();
+    let bricks = BrickGrid::from_grid(&g, 8, 1, 2.0 * h, 2.0 * h).unwrap();
+    let opts = adaptive(0.1 * h as f64);
+    let (dense, a) = mesh_dual_grid(&bricks.to_grid().unwrap(), Some(&s), &opts).unwrap();
+    let (sparse, b) = mesh_dual_brick_grid(&bricks, Some(&s), &opts).unwrap();
+    assert_eq!(dense, sparse);
+    assert_eq!(a, b);
+    assert!(a.merged_cells > 0);
+}
+
+/// Random CSG trees of spheres and boxes: adaptive meshes are watertight, 2-manifold and
+/// oriented wherever the uniform mesh is, the topology kept, every vertex within the bound
+/// of the surface, and no self-intersection beyond the uniform mesh's.
+#[test]
+fn adaptive_random_csg_trees() {
+    let (mut meshes, mut fewer, mut intersecting) = (0, 0.0, 0);
+    for seed in 0..12 {
+        let f = random_csg(seed);
+        let g = grid_of(&f, 48, -1.0, 1.0);
+        let h = g.spacing() as f64;
+        let (uniform, ust) = mesh_dual_grid(&g, Some(&f), &DualOptions::default()).unwrap();
+        if uniform.is_empty() || uniform.validate().non_manifold_edges > 0 {
+            continue;
+        }
+        let (m, st) = mesh_dual_grid(&g, Some(&f), &adaptive(0.05 * h)).unwrap();
+        check_adaptive(&m, &st, &format!("seed {seed}"));
+        let (r, ur) = (m.validate(), uniform.validate());
+        assert_eq!(
+            (r.components, r.euler_characteristic),
+            (ur.components, ur.euler_characteristic),
+            "seed {seed}"
+        );
+        let worst = worst_vertex(&f, &m) as f64 / h;
+        // Unmerged vertices are the uniform mesher's (vertex error bounded there by the
+        // features the lattice resolves).
+        let uworst = worst_vertex(&f, &uniform) as f64 / h;
+        assert!(
+            worst <= uworst.max(0.05) + 1e-4,
+            "seed {seed}: {worst} voxel"
+        );
+        // Merging adds no self-intersection to the uniform mesh's.
+        let (x, ux) = (
+            isokit_levelset::intersect::self_intersections(&m),
+            isokit_levelset::intersect::self_intersections(&uniform),
+        );
+        assert!(
+            x.count <= ux.count,
+            "seed {seed}: {} pairs, uniform {}",
+            x.count,
+            ux.count
+        );
+        meshes += 1;
+        fewer += m.triangles.len() as f64 / uniform.triangles.len() as f64;
+        intersecting += x.count;
+        let _ = ust;
+    }
+    eprintln!(
+        "adaptive (E = 0.05 voxel) on {meshes} random CSG trees at 48^3: {:.2} of the uniform triangle count on average, {intersecting} intersecting pairs",
+        fewer / meshes as f64
+    );
+    assert!(meshes >= 8);
+}

@@ -9,7 +9,9 @@
 //! - a box with a square pocket in its top (exact polyhedron: sharp convex and concave
 //!   edges);
 //! - a thin plate, two sheets 2 grid spacings apart;
-//! - a sharp box.
+//! - a sharp box;
+//! - a CSG part: a box with a through hole and a square pocket, meshed by dual contouring
+//!   on its exact field (sharp convex and concave edges, a curved wall).
 //!
 //! Clean clouds: no wrong sign beyond 3 grid spacings with [`SignRule::Winding`] (the
 //! nearest-sample rule's counts are printed beside). With Gaussian noise of 0.5% and 2% of
@@ -158,6 +160,45 @@ fn blob() -> TriMesh {
     mesh
 }
 
+/// A machined part: a box with a through hole (a cylinder) and a square pocket cut from its
+/// top, meshed by dual contouring on its exact field at 128 samples a side, so its convex
+/// and concave edges stay sharp.
+fn csg_part() -> TriMesh {
+    use isokit_field::Field;
+    use isokit_field::primitives::{CappedCylinder, Cuboid};
+    struct Part(Cuboid, CappedCylinder, Cuboid);
+    impl Field for Part {
+        fn value(&self, p: Vec3) -> f32 {
+            self.0.value(p).max(-self.1.value(p)).max(-self.2.value(p))
+        }
+        fn bounds(&self) -> Aabb {
+            self.0.bounds()
+        }
+    }
+    let part = Part(
+        Cuboid::new(Vec3::new(0.01, -0.02, 0.0), Vec3::new(0.9, 0.6, 0.35)).unwrap(),
+        CappedCylinder::new(
+            Vec3::new(-0.4, 0.05, -1.0),
+            Vec3::new(-0.4, 0.05, 1.0),
+            0.22,
+        )
+        .unwrap(),
+        Cuboid::new(Vec3::new(0.45, 0.0, 0.35), Vec3::new(0.25, 0.3, 0.2)).unwrap(),
+    );
+    let bounds = Aabb::new(Vec3::new(-1.0, -0.7, -0.45), Vec3::new(1.0, 0.7, 0.45));
+    let mut g = Grid::covering(bounds, 128, 0.05).unwrap();
+    isokit_field::sample_into(&part, &mut g);
+    let (mesh, _) = isokit_levelset::dual::mesh_dual_grid(
+        &g,
+        Some(&part),
+        &isokit_levelset::dual::DualOptions::default(),
+    )
+    .unwrap();
+    let r = mesh.validate();
+    assert!(r.watertight && r.consistently_oriented, "{r:?}");
+    mesh
+}
+
 struct Case {
     name: &'static str,
     mesh: TriMesh,
@@ -260,6 +301,10 @@ fn cases(grid_spacing_plate: f32) -> Vec<Case> {
         Case {
             name: "sharp box",
             mesh: cuboid(Vec3::new(-0.7, -0.5, -0.4), Vec3::new(0.7, 0.5, 0.4)),
+        },
+        Case {
+            name: "CSG part (box, hole, pocket)",
+            mesh: csg_part(),
         },
     ]
 }

@@ -572,10 +572,11 @@ impl Field {
     /// The isosurface `f = iso` as a triangle mesh `(V, F)` (an `isokit.Mesh`), closed where
     /// it leaves the lattice unless `close_boundary=False`. `mesher`: `"mc"` (marching cubes
     /// with the asymptotic decider: watertight and 2-manifold) or `"dual"` (dual contouring,
-    /// Hermite data from the samples' central differences: sharper edges and corners).
+    /// Hermite data from the samples' central differences: sharper edges and corners);
+    /// `error` (`"dual"` only) merges cells adaptively as `Shape.mesh` does.
     /// `progress` as for the other long calls (stage `meshing`; dual contouring:
     /// `meshing (crossed edges)`, then `meshing (vertices)`).
-    #[pyo3(signature = (iso = 0.0, close_boundary = true, mesher = "mc", progress = None))]
+    #[pyo3(signature = (iso = 0.0, close_boundary = true, mesher = "mc", progress = None, error = None))]
     fn mesh<'py>(
         &self,
         py: Python<'py>,
@@ -583,8 +584,10 @@ impl Field {
         close_boundary: bool,
         mesher: &str,
         progress: Option<&Bound<'_, PyAny>>,
+        error: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let mesher = crate::shape::parse_mesher(mesher)?;
+        let error = crate::shape::parse_error(mesher, error)?;
         let mut grid = self.grid(py)?;
         let mut iso = iso;
         if self.inside == Inside::Above {
@@ -604,6 +607,7 @@ impl Field {
                 let dual = isokit_levelset::dual::DualOptions {
                     iso,
                     close_boundary,
+                    error,
                     ..Default::default()
                 };
                 isokit_levelset::dual::mesh_dual_grid_job(&grid, None, &dual, job)

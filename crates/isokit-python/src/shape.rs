@@ -342,6 +342,23 @@ pub(crate) fn parse_mesher(s: &str) -> PyResult<isokit_scene::Mesher> {
     parse_enum(s, "mesher", "\"mc\", \"dual\"")
 }
 
+/// `error=` of the mesh methods: adaptive dual contouring's bound, world units.
+pub(crate) fn parse_error(
+    mesher: isokit_scene::Mesher,
+    error: Option<f64>,
+) -> PyResult<Option<f64>> {
+    match error {
+        None => Ok(None),
+        Some(_) if mesher != isokit_scene::Mesher::Dual => Err(PyValueError::new_err(
+            "error= applies to mesher=\"dual\" (adaptive dual contouring)",
+        )),
+        Some(e) if !(e.is_finite() && e > 0.0) => Err(PyValueError::new_err(format!(
+            "error = {e} must be a finite positive distance in world units"
+        ))),
+        Some(e) => Ok(Some(e)),
+    }
+}
+
 fn parse_enum<T: serde::de::DeserializeOwned>(s: &str, name: &str, choices: &str) -> PyResult<T> {
     serde_json::from_value(serde_json::Value::String(s.to_owned()))
         .map_err(|_| PyValueError::new_err(format!("{name} = {s:?} is not one of {choices}")))
@@ -904,8 +921,11 @@ impl Shape {
     /// whole lattice (the baseline; the same mesh). `mesher`: `"mc"` (marching cubes, the
     /// default) or `"dual"` (dual contouring with Hermite data from the shape's exact field:
     /// sharp edges and corners; closed and oriented, 2-manifold except in a rare ambiguous
-    /// configuration).
-    #[pyo3(signature = (res = None, band = None, bounds = None, dense = false, mesher = "mc", progress = None))]
+    /// configuration). `error` (`"dual"` only, world units): adaptive meshing, cells merged
+    /// into octree nodes where one vertex lies within `error` of every crossing's tangent
+    /// plane and of the exact surface, keeping the surface's topology (few large triangles
+    /// where it is flat); `stats["merged_cells"]` counts the cells merged.
+    #[pyo3(signature = (res = None, band = None, bounds = None, dense = false, mesher = "mc", progress = None, error = None))]
     #[expect(
         clippy::too_many_arguments,
         reason = "one argument per Python keyword argument"
@@ -919,12 +939,15 @@ impl Shape {
         dense: bool,
         mesher: &str,
         progress: Option<&Bound<'py, PyAny>>,
+        error: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         self.solid("mesh")?;
+        let mesher = parse_mesher(mesher)?;
         let opts = MeshOptions {
             sampling: self.sample_options(res, band, bounds_arg(bounds)?, None),
             dense,
-            mesher: parse_mesher(mesher)?,
+            mesher,
+            error: parse_error(mesher, error)?,
         };
         let (mesh, stats) = run(py, progress, "mesh", |job| {
             let scene = self.scene()?;

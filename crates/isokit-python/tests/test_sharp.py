@@ -78,3 +78,28 @@ def test_cloud_sign_rules_far_from_a_sharp_box(rng):
     assert wrong["nearest"] > 0
     with pytest.raises(ValueError, match="sign"):
         isokit.points((P, N), sign="majority")
+
+
+def test_adaptive_dual_contouring_merges_the_flat_faces():
+    # error= merges cells into octree nodes where one vertex serves them: a box keeps its
+    # corners exactly with a handful of triangles instead of thousands.
+    box = isokit.box(half=tuple(HALF), center=(0.013, -0.007, 0.011))
+    shift = np.array([0.013, -0.007, 0.011])
+    uniform = box.mesh(res=48, mesher="dual")
+    spacing = uniform.stats["sampling"]["spacing"]
+    adaptive = box.mesh(res=48, mesher="dual", error=0.01 * spacing)
+    assert adaptive.stats["merged_cells"] > 0 and "merged_cells" not in uniform.stats
+    print(f"box at 48: {len(uniform.faces)} triangles uniform, {len(adaptive.faces)} adaptive")
+    assert 10 * len(adaptive.faces) < len(uniform.faces)
+    assert corner_gap(adaptive.vertices - shift) < 1e-3 * spacing
+    assert np.abs(box_sdf(adaptive.vertices - shift)).max() <= 0.01 * spacing + 1e-7
+    tm = adaptive.to_trimesh()
+    assert tm.is_watertight and tm.is_winding_consistent
+    assert abs(tm.volume - np.prod(2 * HALF)) < 1e-4
+    # A sampled Field takes the same knob.
+    V, F = box.sample(res=48).mesh(mesher="dual", error=0.05 * spacing)
+    assert 0 < len(F) < len(uniform.faces)
+    with pytest.raises(ValueError, match="error"):
+        box.mesh(res=16, error=0.01)
+    with pytest.raises(ValueError, match="error"):
+        box.mesh(res=16, mesher="dual", error=-1.0)

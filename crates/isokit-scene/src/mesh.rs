@@ -40,6 +40,10 @@ pub struct MeshOptions {
     pub dense: bool,
     /// The mesher (default marching cubes).
     pub mesher: Mesher,
+    /// Dual contouring only: adaptive meshing, cells merged where one vertex lies within
+    /// this distance (world units) of every crossing's tangent plane and of the surface
+    /// (`isokit_levelset::dual::DualOptions::error`). `None`: one vertex per cell.
+    pub error: Option<f64>,
 }
 
 /// What [`mesh_scene`] did.
@@ -60,6 +64,10 @@ pub struct MeshStats {
     /// vertex per piece).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub multi_component_cells: Option<usize>,
+    /// Adaptive dual contouring only: crossed cells whose vertex a merged octree node's
+    /// replaced.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub merged_cells: Option<usize>,
 }
 
 /// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
@@ -91,7 +99,10 @@ pub fn mesh_scene(
         .map_err(|e| SceneError::new(scene.name(), "", e.to_string()))?;
     let t1 = Instant::now();
     let mc = isokit_levelset::meshing::MeshOptions::default();
-    let dual = DualOptions::default();
+    let dual = DualOptions {
+        error: opts.error,
+        ..DualOptions::default()
+    };
     // Dual contouring takes its Hermite data from the exact field.
     let field = Some(scene.field());
     let (mesh, dual) = match (opts.mesher, &sampled) {
@@ -116,6 +127,9 @@ pub fn mesh_scene(
             mesher: opts.mesher,
             clamped_vertices: dual.map(|d| d.clamped),
             multi_component_cells: dual.map(|d| d.multi_component_cells),
+            merged_cells: dual
+                .filter(|_| opts.error.is_some())
+                .map(|d| d.merged_cells),
         },
     ))
 }

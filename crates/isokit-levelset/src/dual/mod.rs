@@ -2,7 +2,10 @@
 //! Contouring of Hermite Data"): sharp edges and corners that marching cubes chamfers.
 //!
 //! [`mesh_dual_grid`] meshes a dense [`Grid`], [`mesh_dual_brick_grid`] a sparse
-//! [`BrickGrid`]; both take an optional exact [`Field`] for the Hermite data. The result is
+//! [`BrickGrid`]; both take an optional exact [`Field`] for the Hermite data. With
+//! [`DualOptions::error`] the meshing is adaptive (Ju et al. 2002, Sec. 3): cells are merged
+//! into octree nodes where one vertex serves them within the bound and the topology stays
+//! (`merge.rs`), so flat parts get few large triangles. The result is
 //! an [`isokit_field::TriMesh`] in world units, triangles counter-clockwise seen from
 //! outside, with the same classification as [`crate::meshing`]: a sample is inside when
 //! `value < iso` (NaN and `iso` itself are outside), and with
@@ -64,12 +67,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::meshing::MeshingError;
 
+mod merge;
+
 /// Options of [`mesh_dual_grid`] and [`mesh_dual_brick_grid`].
 ///
 /// ```
 /// use isokit_levelset::dual::DualOptions;
 /// let o = DualOptions::default();
-/// assert_eq!((o.iso, o.truncation, o.refine_steps), (0.0, 0.1, 12));
+/// assert_eq!((o.iso, o.truncation, o.refine_steps, o.error), (0.0, 0.1, 12, None));
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DualOptions {
@@ -84,6 +89,12 @@ pub struct DualOptions {
     /// False-position steps that refine a crossing on the exact field, when one is given.
     /// Default 12.
     pub refine_steps: usize,
+    /// Adaptive meshing: cells are merged into octree nodes of up to 256 cells a side where
+    /// one vertex lies within this distance (world units) of the tangent plane of every
+    /// crossing it replaces (and, with an exact field, of the surface), and the node's
+    /// samples pass the topology test of Ju et al. 2002, Sec. 3.2 ([`merge`]'s docs in the
+    /// source). `None` (the default): one vertex per cell.
+    pub error: Option<f64>,
 }
 
 impl Default for DualOptions {
@@ -93,6 +104,7 @@ impl Default for DualOptions {
             close_boundary: true,
             truncation: 0.1,
             refine_steps: 12,
+            error: None,
         }
     }
 }
@@ -115,6 +127,17 @@ pub struct DualStats {
     /// Crossings where the exact field did not bracket the samples' crossing (kept on the
     /// samples' crossing).
     pub unrefined: usize,
+    /// Adaptive meshing ([`DualOptions::error`]): crossed cells whose vertex was replaced by
+    /// that of a merged octree node.
+    pub merged_cells: usize,
+    /// Adaptive meshing: polygons that remained more than once after the fine quads' copies
+    /// were counted with their orientation (0 when the result is 2-manifold there).
+    pub repeated_polygons: usize,
+    /// Adaptive meshing: triangles that still face against their crossing's normal, or
+    /// intersect another triangle, after the merges of their nodes were taken back (at
+    /// most 16 rounds; intersections of the unmerged cells' own triangles stay, as the
+    /// uniform mesher makes them).
+    pub folded_triangles: usize,
 }
 
 /// Dual contouring of a dense grid (see the [module](self) docs). With `field`, the Hermite
@@ -277,6 +300,16 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         let p = g.map(|v| (v + 1) as u64);
         let [nx, ny, _] = self.padded();
         p[0] + nx * (p[1] + ny * p[2])
+    }
+
+    /// The node of a key made by [`Lattice::node_key`].
+    fn decode_node(&self, key: u64) -> [i64; 3] {
+        let [px, py, _] = self.padded();
+        [
+            (key % px) as i64 - 1,
+            ((key / px) % py) as i64 - 1,
+            (key / (px * py)) as i64 - 1,
+        ]
     }
 
     fn world(&self, g: DVec3) -> DVec3 {
@@ -797,15 +830,7 @@ fn contour(
     // The cells around each crossed edge (those inside the cell range).
     let cell_lo = [0, 1, 2].map(|a| r[a].0);
     let cell_hi = [0, 1, 2].map(|a| r[a].1 - 1);
-    let [px, py, _] = lat.padded();
-    let decode = |key: u64| -> [i64; 3] {
-        let n = key;
-        [
-            (n % px) as i64 - 1,
-            ((n / px) % py) as i64 - 1,
-            (n / (px * py)) as i64 - 1,
-        ]
-    };
+    let decode = |key: u64| lat.decode_node(key);
     let around = |h: &Hermite| -> [Option<[i64; 3]>; 4] {
         let g = decode(h.key / 3);
         let a = (h.key % 3) as usize;
@@ -876,39 +901,44 @@ fn contour(
         let q = 4 * a + (g[b] - c[b]) as usize + 2 * (g[cc] - c[cc]) as usize;
         Some(first[i] + per_cell[i].of_edge[q] as u32)
     };
-    // Pass 3: a quad per crossed edge with all four cells.
-    let triangles: Vec<[u32; 3]> = edges
+    // Pass 3: a quad per crossed edge with all four cells, oriented so that the edge's
+    // inside sample is behind it.
+    let (quads, sources): (Vec<[u32; 4]>, Vec<u32>) = edges
         .par_iter()
-        .flat_map_iter(|h| {
+        .enumerate()
+        .filter_map(|(e, h)| {
             let g = decode(h.key / 3);
             let a = (h.key % 3) as usize;
-            let around = around(h);
             let mut quad = [0u32; 4];
-            let mut ok = true;
-            for (i, c) in around.iter().enumerate() {
-                match c.and_then(|c| vertex(c, g, a)) {
-                    Some(v) => quad[i] = v,
-                    None => ok = false,
-                }
+            for (i, c) in around(h).iter().enumerate() {
+                quad[i] = c.and_then(|c| vertex(c, g, a))?;
             }
-            let mut out = Vec::with_capacity(2);
-            if ok {
-                if !h.lower_inside {
-                    quad.reverse();
-                }
-                let p = quad.map(|v| positions[v as usize]);
-                let [a, b, c, d] = quad;
-                if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
-                    out.push([a, b, c]);
-                    out.push([a, c, d]);
-                } else {
-                    out.push([a, b, d]);
-                    out.push([b, c, d]);
-                }
+            if !h.lower_inside {
+                quad.reverse();
             }
-            out
+            Some((quad, e as u32))
         })
-        .collect();
+        .unzip();
+    let (positions, triangles, merged_cells, repeated_polygons, folded_triangles) = match opts.error
+    {
+        Some(error) if error > 0.0 => {
+            let m = merge::merge(
+                &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
+            )?;
+            let normals: Vec<Vec3> = sources
+                .iter()
+                .map(|&e| edges[e as usize].normal.as_vec3())
+                .collect();
+            merge::adaptive_polygons(m, &quads, &normals)
+        }
+        _ => {
+            let triangles = quads
+                .par_iter()
+                .flat_map_iter(|&q| split_quad(q, &positions))
+                .collect();
+            (positions, triangles, 0, 0, 0)
+        }
+    };
     let stats = DualStats {
         edges: edges.len(),
         cells: cells.len(),
@@ -920,8 +950,44 @@ fn contour(
             .count(),
         multi_component_cells: per_cell.iter().filter(|c| c.several).count(),
         unrefined,
+        merged_cells,
+        repeated_polygons,
+        folded_triangles,
     };
     Ok((TriMesh::new(positions, triangles), stats))
+}
+
+/// The two triangles of a quad, split along its shorter diagonal.
+fn split_quad(quad: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
+    let p = quad.map(|v| positions[v as usize]);
+    let [a, b, c, d] = quad;
+    if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
+        [[a, b, c], [a, c, d]]
+    } else {
+        [[a, b, d], [b, c, d]]
+    }
+}
+
+/// The vertices the triangles use, renumbered in their order in `positions`.
+fn compact(positions: &[Vec3], triangles: Vec<[u32; 3]>) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut new = vec![u32::MAX; positions.len()];
+    for t in &triangles {
+        for &v in t {
+            new[v as usize] = 0;
+        }
+    }
+    let mut out = Vec::new();
+    for (i, n) in new.iter_mut().enumerate() {
+        if *n == 0 {
+            *n = out.len() as u32;
+            out.push(positions[i]);
+        }
+    }
+    let triangles = triangles
+        .into_iter()
+        .map(|t| t.map(|v| new[v as usize]))
+        .collect();
+    (out, triangles)
 }
 
 #[cfg(test)]
