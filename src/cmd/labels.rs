@@ -22,7 +22,6 @@ fn refuse(a: &Args, what: &str, extra: &[(bool, &str)]) -> Result<()> {
             a.mesher.mesher != super::mesher_args::MesherArg::Mc,
             "--mesher",
         ),
-        (a.mesher.error.is_some(), "--error"),
         (a.array.is_some(), "--array"),
     ];
     for &(given, flag) in common.iter().chain(extra) {

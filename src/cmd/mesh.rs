@@ -77,6 +77,8 @@ pub fn run(a: Args) -> Result<()> {
     if !a.iso.is_finite() {
         bail!("--iso {} must be finite", a.iso);
     }
+    // Checked before anything is read.
+    let error = a.mesher.error()?;
     if a.labels {
         return super::labels::run(&a);
     }
@@ -100,12 +102,10 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     if super::tets::is_tets(&a.field) {
-        if a.open
-            || a.mesher.mesher != super::mesher_args::MesherArg::Mc
-            || a.mesher.error.is_some()
-        {
+        // `--error` needs `--mesher dual` (checked above), refused here with it.
+        if a.open || a.mesher.mesher != super::mesher_args::MesherArg::Mc {
             bail!(
-                "--open, --mesher and --error apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
+                "--open and --mesher apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
             );
         }
         let t = Instant::now();
@@ -131,7 +131,6 @@ pub fn run(a: Args) -> Result<()> {
         iso,
         close_boundary: !a.open,
     };
-    let error = a.mesher.error()?;
     let mesh = match a.mesher.mesher {
         super::mesher_args::MesherArg::Mc => mesh_grid_job(&grid, &opts, &super::progress::job())?,
         super::mesher_args::MesherArg::Dual => {
@@ -142,8 +141,8 @@ pub fn run(a: Args) -> Result<()> {
                 ..DualOptions::default()
             };
             let (mesh, st) = mesh_dual_grid_job(&grid, None, &dual, &super::progress::job())?;
-            let merged = error.map(|_| st.merged_cells);
-            super::mesher_args::print_dual_stats(st.clamped, st.multi_component_cells, merged);
+            let adaptive = error.map(|_| (st.merged_cells, st.folded_triangles));
+            super::mesher_args::print_dual_stats(st.clamped, st.multi_component_cells, adaptive);
             mesh
         }
     };

@@ -59,14 +59,39 @@ impl MesherOpts {
     }
 }
 
-/// Prints what dual contouring reports about its vertices (and, adaptive, its merges).
-pub fn print_dual_stats(clamped: usize, several: usize, merged: Option<usize>) {
-    let merged = merged.map_or(String::new(), |m| {
-        format!(", {m} cells merged into larger octree nodes")
+/// Prints what dual contouring reports about its vertices (and, adaptive, its merges and
+/// the triangles still folded or intersecting: `(merged, folded)`).
+pub fn print_dual_stats(clamped: usize, several: usize, adaptive: Option<(usize, usize)>) {
+    let merged = adaptive.map_or(String::new(), |(m, f)| {
+        let folded = if f > 0 {
+            format!(
+                " ({f} triangles still folded or intersecting, the uniform mesher's own included)"
+            )
+        } else {
+            String::new()
+        };
+        format!(", {m} cells merged into larger octree nodes{folded}")
     });
     eprintln!(
         "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece{merged}"
     );
+}
+
+/// Adds dual contouring's counts of `st` to `isokit scene --stats`'s JSON, where the mesher
+/// gave them.
+pub fn add_dual_counts(j: &mut Value, st: &isokit_scene::MeshStats) -> Result<()> {
+    let counts = serde_json::to_value(st)?;
+    for k in [
+        "clamped_vertices",
+        "multi_component_cells",
+        "merged_cells",
+        "folded_triangles",
+    ] {
+        if let Some(v) = counts.get(k) {
+            j[k] = v.clone();
+        }
+    }
+    Ok(())
 }
 
 /// What `isokit info` says about a mesh file: the validation report (text and JSON), with

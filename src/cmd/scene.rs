@@ -124,7 +124,8 @@ pub fn run(a: Args) -> Result<()> {
             None => write_mesh(&a.output, &mesh)?,
         }
         if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
-            super::mesher_args::print_dual_stats(clamped, several, st.merged_cells);
+            let adaptive = st.merged_cells.zip(st.folded_triangles);
+            super::mesher_args::print_dual_stats(clamped, several, adaptive);
         }
         let out = (st.sampling.clone(), Some(st.triangles));
         mesh_stats = Some(st);
@@ -183,12 +184,7 @@ pub fn run(a: Args) -> Result<()> {
         if let Some(st) = &mesh_stats {
             j["triangles"] = st.triangles.into();
             j["mesher"] = serde_json::to_value(st.mesher)?;
-            let dual_counts = serde_json::to_value(st)?;
-            for k in ["clamped_vertices", "multi_component_cells", "merged_cells"] {
-                if let Some(v) = dual_counts.get(k) {
-                    j[k] = v.clone();
-                }
-            }
+            super::mesher_args::add_dual_counts(&mut j, st)?;
         }
         // The sampled lattice's extent (the shape's box padded by the band).
         let hi = Vec3::from(stats.origin)

@@ -177,7 +177,7 @@ pub enum VolumeFormat {
     NiftiGz,
     /// INRIMAGE-4 (`.inr`, or gzipped `.inr.gz`), the format of CGAL's sample images.
     Inr,
-    /// A Zarr v3 store (a directory `.zarr`; [`crate::zarr`]).
+    /// A Zarr v3 store (a directory `.zarr`; the `zarr` module, with the `zarr` feature).
     Zarr,
 }
 
@@ -229,8 +229,8 @@ impl VolumeFormat {
 ///   all 1.
 /// - `.inr` / `.inr.gz`: INRIMAGE-4 (the [`crate::inr`] module says what is read): float and
 ///   fixed-point samples, either byte order, spacing `VX VY VZ`, origin `TX TY TZ`.
-/// - `.zarr`: a Zarr v3 store, a directory ([`crate::zarr::read_zarr`]): a float32 or float64
-///   array of shape `(nz, ny, nx)` at its root, the lattice from its attributes (else origin
+/// - `.zarr`: a Zarr v3 store, a directory (`zarr::read_zarr`, with the `zarr` feature;
+///   refused without it): a float32 or float64 array of shape `(nz, ny, nx)` at its root, the lattice from its attributes (else origin
 ///   0, spacing 1); an incomplete store (a killed writer's) is refused.
 ///
 /// Compressed data (NRRD `gzip`, `.nii.gz`, `.inr.gz`) is inflated only up to the size the header

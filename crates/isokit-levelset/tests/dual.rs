@@ -414,13 +414,23 @@ fn adaptive_merging_keeps_the_topology() {
     );
     let torus =
         isokit_field::primitives::Torus::new(Vec3::new(0.01, 0.02, -0.01), 0.55, 0.2).unwrap();
-    let cases: [(&str, &dyn Field, usize, i64); 2] =
-        [("two spheres", &two, 2, 0), ("torus", &torus, 1, 1)];
+    // The same gap along a face diagonal: the node between them has an ambiguous face
+    // (two diagonal corners inside, two outside), which the topology test refuses.
+    let d = (r + 0.8 * h) / 2f32.sqrt();
+    let diagonal = Two(
+        Sphere::new(Vec3::new(-d, -d, 0.007), r).unwrap(),
+        Sphere::new(Vec3::new(d, d, 0.005), r).unwrap(),
+    );
+    let cases: [(&str, &dyn Field, usize, i64); 3] = [
+        ("two spheres", &two, 2, 0),
+        ("two spheres on a diagonal", &diagonal, 2, 0),
+        ("torus", &torus, 1, 1),
+    ];
     for (name, f, components, genus) in cases {
         let g = grid_of(f, 64, -1.0, 1.0);
         let (uniform, _) = mesh_dual_grid(&g, Some(f), &DualOptions::default()).unwrap();
         assert_eq!(uniform.validate().components, components, "{name}");
-        for e in [0.1, 1.0] {
+        for e in [0.1, 1.0, 4.0] {
             let (m, st) = mesh_dual_grid(&g, Some(f), &adaptive(e * h as f64)).unwrap();
             check_adaptive(&m, &st, &format!("{name} E {e}"));
             let r = m.validate();
@@ -506,4 +516,54 @@ fn adaptive_random_csg_trees() {
         fewer / meshes as f64
     );
     assert!(meshes >= 8);
+}
+
+/// Edge cases of the adaptive path: an empty surface, the smallest grid, NaN samples, an
+/// open boundary and a huge bound without an exact field give meshes, not panics.
+#[test]
+fn adaptive_edge_cases_mesh_or_refuse_cleanly() {
+    let s = Sphere::new(Vec3::ZERO, 0.5).unwrap();
+    let e = adaptive(1.0);
+    // No surface in the grid.
+    let far = grid_of(&Sphere::new(Vec3::splat(5.0), 0.1).unwrap(), 12, -1.0, 1.0);
+    let (m, st) = mesh_dual_grid(&far, Some(&s), &e).unwrap();
+    assert!(m.is_empty() && st.merged_cells == 0);
+    // 2 × 2 × 2 samples, one inside.
+    let mut tiny = Grid::new([2, 2, 2], Vec3::ZERO, 1.0).unwrap();
+    tiny.data_mut()
+        .copy_from_slice(&[-0.5, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+    let (m, st) = mesh_dual_grid(&tiny, None, &e).unwrap();
+    check_adaptive(&m, &st, "2x2x2");
+    // NaN samples (outside, as for the uniform mesher) in a sphere's grid.
+    let mut g = grid_of(&s, 24, -1.0, 1.0);
+    for (i, v) in g.data_mut().iter_mut().enumerate() {
+        if i % 97 == 0 {
+            *v = f32::NAN;
+        }
+    }
+    let (m, _) = mesh_dual_grid(&g, None, &e).unwrap();
+    assert_eq!(m.validate().boundary_edges, 0);
+    // An open boundary: the sphere cut by the grid's faces, open there, merged inside.
+    let g = grid_of(&Sphere::new(Vec3::ZERO, 1.2).unwrap(), 32, -1.0, 1.0);
+    let open = DualOptions {
+        close_boundary: false,
+        ..adaptive(0.1 * g.spacing() as f64)
+    };
+    let (m, st) = mesh_dual_grid(&g, None, &open).unwrap();
+    let (u, _) = mesh_dual_grid(
+        &g,
+        None,
+        &DualOptions {
+            close_boundary: false,
+            ..DualOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(st.merged_cells > 0 && m.triangles.len() < u.triangles.len());
+    assert_eq!(m.validate().non_manifold_edges, 0);
+    // A bound far above the lattice, from samples only: the topology test still holds.
+    let g = grid_of(&s, 32, -1.0, 1.0);
+    let (m, st) = mesh_dual_grid(&g, None, &adaptive(100.0)).unwrap();
+    check_adaptive(&m, &st, "huge bound");
+    assert_eq!(m.validate().genus(), Some(0));
 }

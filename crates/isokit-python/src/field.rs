@@ -575,7 +575,8 @@ impl Field {
     /// Hermite data from the samples' central differences: sharper edges and corners);
     /// `error` (`"dual"` only) merges cells adaptively as `Shape.mesh` does.
     /// `progress` as for the other long calls (stage `meshing`; dual contouring:
-    /// `meshing (crossed edges)`, then `meshing (vertices)`).
+    /// `meshing (crossed edges)`, then `meshing (vertices)`; with `error`, then
+    /// `meshing (merging cells)` and `meshing (checking merged polygons)`).
     #[pyo3(signature = (iso = 0.0, close_boundary = true, mesher = "mc", progress = None, error = None))]
     fn mesh<'py>(
         &self,

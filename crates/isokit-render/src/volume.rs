@@ -592,7 +592,7 @@ impl Volume {
         Self::new(VolumeData::Store(source), layout)
     }
 
-    /// For a volume over a Zarr store read on demand ([`VolumeData::Store`]): why a chunk
+    /// For a volume over a Zarr store read on demand (`VolumeData::Store`): why a chunk
     /// could not be read, if one could not (its samples read as NaN). `None` otherwise.
     pub fn store_error(&self) -> Option<String> {
         match &self.data {

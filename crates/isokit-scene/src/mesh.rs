@@ -68,6 +68,10 @@ pub struct MeshStats {
     /// replaced.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub merged_cells: Option<usize>,
+    /// Adaptive dual contouring only: triangles still folded, degenerate or intersecting
+    /// another after the merges were taken back (`isokit_levelset::dual::DualStats`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub folded_triangles: Option<usize>,
 }
 
 /// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
@@ -130,6 +134,9 @@ pub fn mesh_scene(
             merged_cells: dual
                 .filter(|_| opts.error.is_some())
                 .map(|d| d.merged_cells),
+            folded_triangles: dual
+                .filter(|_| opts.error.is_some())
+                .map(|d| d.folded_triangles),
         },
     ))
 }

@@ -1,18 +1,20 @@
 //! Adaptive dual contouring: cells merged bottom-up where one vertex serves them all (Ju,
-//! Losasso, Schaefer and Warren 2002, "Dual Contouring of Hermite Data", Sec. 3), so flat
-//! and gently curved parts of the surface get few, large polygons while edges and corners
-//! keep the fine cells' vertices.
+//! Losasso, Schaefer and Warren 2002, "Dual Contouring of Hermite Data", its octree
+//! simplification), so flat and gently curved parts of the surface get few, large polygons
+//! while edges and corners keep the fine cells' vertices.
 //!
 //! The lattice's cells are the leaves of an implicit octree: a node of level `L` covers
 //! `2^L` cells along each axis. A node *collapses* (one vertex for all its cells) when
 //! 1. each of its eight children collapsed, or holds no crossed cell (then all its samples
 //!    lie on one side); a cell crossed in more than one piece never collapses;
 //! 2. its box lies within the lattice (padding included when the boundary is closed);
-//! 3. the sign test of Ju et al. 2002, Sec. 3.2, holds: where both ends of one of the node's
-//!    edges lie on one side, so does the edge's midpoint; where all four corners of a face
-//!    do, so does the face's centre; where all eight corners do, so does the centre — so the
-//!    node's surface has the topology its corners give it, and that is one disc (one
-//!    marching-cubes loop with the asymptotic decider of [`crate::meshing`]);
+//! 3. the topology test of Ju et al. 2002 holds: where both ends of one of the node's edges
+//!    lie on one side, so does the edge's midpoint; where all four corners of a face do, so
+//!    does the face's centre; where all eight corners do, so does the centre — so the node's
+//!    surface has the topology its corners give it — and its corners' signs are manifold:
+//!    no face is ambiguous (two diagonal corners inside, the other two outside, which the
+//!    paper's test rejects: the fine cells across such a face may join what the node's
+//!    corners separate, or the reverse), and they give one marching-cubes loop;
 //! 4. the minimiser of the quadratic error function of all the crossings inside it, kept in
 //!    the node's box, lies within the error bound `E` of every crossing's tangent plane
 //!    (`|nᵢ · (x − pᵢ)| ≤ E`) and, with an exact field, `|f(x) − iso| ≤ E`.
@@ -20,14 +22,16 @@
 //! The polygons are the fine quads of [`super`] with every cell's vertex replaced by that of
 //! its highest collapsed ancestor: the quads inside a collapsed node vanish (fewer than three
 //! distinct vertices), those on a face between two nodes too, and the others become the
-//! octree's polygons (Ju et al. 2002, Sec. 3.1: a triangle where one node holds two of the
-//! four cells). Along an edge of the octree that the surface crosses several times at the
-//! fine level, the fine quads repeat one polygon with alternating orientation: they are
-//! counted with their orientation and what remains is emitted once.
+//! polygons of the simplified octree (as Ju et al. 2002 contour it: a triangle where one
+//! node holds two of the four cells). Copies of one polygon are counted with their
+//! orientation and what remains is emitted once; under the topology test an octree edge is
+//! crossed at most once at the fine level, so no copy is expected (`repeated_polygons`
+//! reports any that remain).
 //!
-//! The sign test keeps the topology; it does not keep polygons from folding where a merged
-//! vertex moves far within its node next to small neighbours, so self-intersections are
-//! possible as with the uniform mesher (measured in `isokit-scene`'s `tests/dual.rs`).
+//! The topology test does not keep polygons from folding where a merged vertex moves far
+//! within its node next to small neighbours: a triangle that faces against its crossing's
+//! normal, is degenerate or intersects another sends its nodes' merges back
+//! ([`adaptive_polygons`]).
 
 use super::{CellVerts, Hermite, Lattice, cell_edge, solve_in_cell};
 use glam::{DVec3, Vec3};
@@ -121,6 +125,23 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                     .collect();
                 let first = corner_signs[0];
                 if corner_signs.iter().all(|&s| s == first) && at(centre) != first {
+                    return false;
+                }
+            }
+        }
+        // Manifold corner signs: no ambiguous face (diagonal corners alike, the others not).
+        let corner = |c: [usize; 3]| at([2 * c[0], 2 * c[1], 2 * c[2]]);
+        for a in 0..3 {
+            let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+            for side in 0..2 {
+                let mut q = [[0usize; 3]; 4];
+                for (n, (u, v)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                    q[n][a] = side;
+                    q[n][b] = u;
+                    q[n][c] = v;
+                }
+                let s = q.map(corner);
+                if s[0] == s[2] && s[1] == s[3] && s[0] != s[1] {
                     return false;
                 }
             }
@@ -277,6 +298,7 @@ pub(super) fn merge<S: Fn(usize, usize, usize) -> f32 + Sync>(
         collapsed.push(here);
         nodes = next;
         if !any {
+            counter.advance(MAX_LEVEL as u64 - level as u64);
             break;
         }
     }
@@ -340,24 +362,40 @@ impl Merged {
     }
 }
 
+/// What [`adaptive_polygons`] gives: the mesh and its counts (as `DualStats` names them).
+pub(super) struct AdaptiveMesh {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub merged_cells: usize,
+    pub repeated_polygons: usize,
+    pub folded_triangles: usize,
+}
+
 /// How many times folded polygons send their merged nodes back to their children.
 const SPLIT_ROUNDS: usize = 16;
 
-/// The adaptive mesh: the fine quads (each with the crossed edge it came from) with their
-/// cells' vertices replaced by the merged nodes', as [`polygons`] makes them. A triangle
-/// that faces against its crossing's normal (a fold where a large node meets small cells
-/// across a feature), or, once none does, that intersects another triangle (exactly,
-/// [`crate::intersect`]), takes back the merges of its vertices' nodes, and the polygons
-/// are made again (at most `SPLIT_ROUNDS` times): merging adds no self-intersection to
-/// what the uniform mesher gives unless the rounds run out. Returns the vertices,
-/// triangles, merged cells, repeated polygons and triangles still folded or intersecting.
+/// The adaptive mesh: the fine quads (each with the normal of the crossed edge it came
+/// from) with their cells' vertices replaced by the merged nodes', as [`polygons`] makes
+/// them. Every round, a triangle that faces against its crossing's normal or is degenerate
+/// (a fold where a large node meets small cells across a feature), or that intersects
+/// another triangle (exactly, [`crate::intersect`]), takes back the merges of its polygon's
+/// nodes, and the polygons are made again (at most `SPLIT_ROUNDS` times): merging adds no
+/// self-intersection to what the uniform mesher gives unless the rounds run out. The
+/// triangles still folded, degenerate or intersecting at the end include those of the
+/// unmerged cells' own polygons, as the uniform mesher makes them.
 pub(super) fn adaptive_polygons(
     mut merged: Merged,
     quads: &[[u32; 4]],
     normals: &[Vec3],
-) -> (Vec<Vec3>, Vec<[u32; 3]>, usize, usize, usize) {
+    job: &Job,
+) -> Result<AdaptiveMesh, MeshingError> {
+    let counter = job.counter(
+        "meshing (checking merged polygons)",
+        SPLIT_ROUNDS as u64 + 1,
+    );
     let mut round = 0;
     loop {
+        job.check()?;
         let (remap, merged_cells) = merged.remap();
         let mapped: Vec<[u32; 4]> = quads.iter().map(|q| q.map(|v| remap[v as usize])).collect();
         let (tris, repeated) = polygons(&mapped, normals, &merged.positions);
@@ -386,7 +424,10 @@ pub(super) fn adaptive_polygons(
         );
         let x = crate::intersect::self_intersections(&mesh);
         flagged.extend(x.pairs.iter().flatten().map(|&t| t as usize));
-        let unresolved = flagged.len();
+        flagged.sort_unstable();
+        flagged.dedup();
+        // Past the listed pairs more triangles intersect than `flagged` holds.
+        let unresolved = flagged.len().max(x.count);
         let mut split = false;
         if round < SPLIT_ROUNDS {
             for &i in &flagged {
@@ -399,9 +440,17 @@ pub(super) fn adaptive_polygons(
             }
         }
         round += 1;
+        counter.advance(1);
         if !split {
+            counter.advance(SPLIT_ROUNDS as u64 + 1 - round as u64);
             let (positions, tris) = super::compact(&merged.positions, mesh.triangles);
-            return (positions, tris, merged_cells, repeated, unresolved);
+            return Ok(AdaptiveMesh {
+                positions,
+                triangles: tris,
+                merged_cells,
+                repeated_polygons: repeated,
+                folded_triangles: unresolved,
+            });
         }
     }
 }

@@ -3,7 +3,7 @@
 //!
 //! [`mesh_dual_grid`] meshes a dense [`Grid`], [`mesh_dual_brick_grid`] a sparse
 //! [`BrickGrid`]; both take an optional exact [`Field`] for the Hermite data. With
-//! [`DualOptions::error`] the meshing is adaptive (Ju et al. 2002, Sec. 3): cells are merged
+//! [`DualOptions::error`] the meshing is adaptive (Ju et al. 2002's octree simplification): cells are merged
 //! into octree nodes where one vertex serves them within the bound and the topology stays
 //! (`merge.rs`), so flat parts get few large triangles. The result is
 //! an [`isokit_field::TriMesh`] in world units, triangles counter-clockwise seen from
@@ -92,8 +92,8 @@ pub struct DualOptions {
     /// Adaptive meshing: cells are merged into octree nodes of up to 256 cells a side where
     /// one vertex lies within this distance (world units) of the tangent plane of every
     /// crossing it replaces (and, with an exact field, of the surface), and the node's
-    /// samples pass the topology test of Ju et al. 2002, Sec. 3.2 ([`merge`]'s docs in the
-    /// source). `None` (the default): one vertex per cell.
+    /// samples pass the topology test of Ju et al. 2002 (the docs of `dual/merge.rs`).
+    /// `None` (the default), zero, negative or NaN: one vertex per cell.
     pub error: Option<f64>,
 }
 
@@ -116,7 +116,8 @@ pub struct DualStats {
     pub edges: usize,
     /// Crossed cells.
     pub cells: usize,
-    /// Vertices: one per surface component of each crossed cell.
+    /// Vertices: one per surface component of each crossed cell (adaptive: those the merged
+    /// mesh uses).
     pub vertices: usize,
     /// Cells whose free QEF minimiser lay outside the cell (solved again on the cell's faces
     /// and clamped into it).
@@ -133,10 +134,10 @@ pub struct DualStats {
     /// Adaptive meshing: polygons that remained more than once after the fine quads' copies
     /// were counted with their orientation (0 when the result is 2-manifold there).
     pub repeated_polygons: usize,
-    /// Adaptive meshing: triangles that still face against their crossing's normal, or
-    /// intersect another triangle, after the merges of their nodes were taken back (at
-    /// most 16 rounds; intersections of the unmerged cells' own triangles stay, as the
-    /// uniform mesher makes them).
+    /// Adaptive meshing: triangles that still face against their crossing's normal, are
+    /// degenerate or intersect another triangle after the merges of their nodes were taken
+    /// back (at most 16 rounds). Includes the unmerged cells' own folds, which the uniform
+    /// mesher makes too (the rounds cannot undo them).
     pub folded_triangles: usize,
 }
 
@@ -169,8 +170,9 @@ pub fn mesh_dual_grid(
 }
 
 /// [`mesh_dual_grid`] reporting its progress to `job` (stages `meshing (crossed edges)`, in
-/// slabs of the lattice, and `meshing (vertices)`, in crossed cells) and stopping with
-/// [`MeshingError::Cancelled`] once the job is cancelled.
+/// slabs of the lattice, and `meshing (vertices)`, in crossed cells; adaptive, also
+/// `meshing (merging cells)`, in octree levels, and `meshing (checking merged polygons)`, in
+/// rounds) and stopping with [`MeshingError::Cancelled`] once the job is cancelled.
 ///
 /// ```
 /// use glam::Vec3;
@@ -929,7 +931,14 @@ fn contour(
                 .iter()
                 .map(|&e| edges[e as usize].normal.as_vec3())
                 .collect();
-            merge::adaptive_polygons(m, &quads, &normals)
+            let a = merge::adaptive_polygons(m, &quads, &normals, job)?;
+            (
+                a.positions,
+                a.triangles,
+                a.merged_cells,
+                a.repeated_polygons,
+                a.folded_triangles,
+            )
         }
         _ => {
             let triangles = quads
