@@ -70,6 +70,26 @@ fn sphere_from_samples_is_closed_and_accurate() {
     assert!(worst_exact < 0.05, "{worst_exact}");
 }
 
+/// Each corner of the box `c ± half` with its distance to the nearest mesh vertex.
+fn corner_gaps(m: &TriMesh, c: Vec3, half: Vec3) -> Vec<(Vec3, f32)> {
+    (0..8)
+        .map(|n| {
+            let s = Vec3::new(
+                if n & 1 == 1 { 1.0 } else { -1.0 },
+                if n & 2 == 2 { 1.0 } else { -1.0 },
+                if n & 4 == 4 { 1.0 } else { -1.0 },
+            );
+            let corner = c + s * half;
+            let near = m
+                .positions
+                .iter()
+                .map(|p| p.distance(corner))
+                .fold(f32::INFINITY, f32::min);
+            (corner, near)
+        })
+        .collect()
+}
+
 #[test]
 fn cube_corners_are_exact_with_the_field() {
     let c = Vec3::new(0.017, -0.031, 0.023);
@@ -82,18 +102,7 @@ fn cube_corners_are_exact_with_the_field() {
     assert!(r.watertight && r.consistently_oriented, "{r}");
     assert_eq!(r.genus(), Some(0));
     assert_eq!(st.unrefined, 0);
-    for n in 0..8 {
-        let s = Vec3::new(
-            if n & 1 == 1 { 1.0 } else { -1.0 },
-            if n & 2 == 2 { 1.0 } else { -1.0 },
-            if n & 4 == 4 { 1.0 } else { -1.0 },
-        );
-        let corner = c + s * half;
-        let near = m
-            .positions
-            .iter()
-            .map(|p| p.distance(corner))
-            .fold(f32::INFINITY, f32::min);
+    for (corner, near) in corner_gaps(&m, c, half) {
         assert!(near < 1e-3 * h, "corner {corner}: {near}");
     }
     let worst = m
@@ -345,18 +354,7 @@ fn adaptive_box_keeps_its_corners_with_few_triangles() {
     check_adaptive(&m, &st, "box");
     assert_eq!(m.validate().genus(), Some(0));
     assert!(m.triangles.len() * 10 < fine.triangles.len());
-    for n in 0..8 {
-        let s = Vec3::new(
-            if n & 1 == 1 { 1.0 } else { -1.0 },
-            if n & 2 == 2 { 1.0 } else { -1.0 },
-            if n & 4 == 4 { 1.0 } else { -1.0 },
-        );
-        let corner = c + s * half;
-        let near = m
-            .positions
-            .iter()
-            .map(|p| p.distance(corner))
-            .fold(f32::INFINITY, f32::min);
+    for (corner, near) in corner_gaps(&m, c, half) {
         assert!(near < 1e-3 * h as f32, "corner {corner}: {near}");
     }
     assert!(worst_vertex(&cube, &m) as f64 <= 0.01 * h);
