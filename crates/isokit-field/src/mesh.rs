@@ -327,7 +327,9 @@ impl TriMesh {
     }
 }
 
-fn zero_area(a: DVec3, b: DVec3, c: DVec3) -> bool {
+/// Whether the triangle `a b c` has zero area within [`DEGENERATE_REL_TOL`] of its longest
+/// edge squared: what [`TriMesh::validate`] counts as degenerate.
+pub fn zero_area(a: DVec3, b: DVec3, c: DVec3) -> bool {
     let cross = (b - a).cross(c - a).length();
     let longest = (b - a)
         .length_squared()

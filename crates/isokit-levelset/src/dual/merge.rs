@@ -393,35 +393,29 @@ pub(super) fn adaptive_polygons(
         "meshing (checking merged polygons)",
         SPLIT_ROUNDS as u64 + 1,
     );
+    // The vertices do not change between rounds (only which ones the polygons use).
+    let mut mesh = TriMesh::new(std::mem::take(&mut merged.positions), Vec::new());
     let mut round = 0;
     loop {
         job.check()?;
         let (remap, merged_cells) = merged.remap();
         let mapped: Vec<[u32; 4]> = quads.iter().map(|q| q.map(|v| remap[v as usize])).collect();
-        let (tris, repeated) = polygons(&mapped, normals, &merged.positions);
-        // Triangles facing against their crossing's normal or degenerate, and triangles crossing others
-        // without facing the wrong way (a large node's triangle reaching over a concave rim
-        // of small cells; exact tests).
+        let (tris, repeated) = polygons(&mapped, normals, &mesh.positions);
+        // Triangles facing against their crossing's normal or degenerate, and triangles
+        // crossing others without facing the wrong way (a large node's triangle reaching over
+        // a concave rim of small cells; exact tests).
         let mut flagged: Vec<usize> = tris
             .iter()
             .enumerate()
             .filter(|(_, (t, n, _))| {
-                let p = t.map(|v| merged.positions[v as usize].as_dvec3());
-                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-                let longest = (p[1] - p[0])
-                    .length_squared()
-                    .max((p[2] - p[1]).length_squared())
-                    .max((p[0] - p[2]).length_squared());
+                let p = t.map(|v| mesh.positions[v as usize].as_dvec3());
+                let facing = (p[1] - p[0]).cross(p[2] - p[0]).dot(n.as_dvec3()) > 0.0;
                 // Degenerate as `TriMesh::validate` counts them, or facing the wrong way.
-                !(cross.dot(n.as_dvec3()) > 0.0
-                    && cross.length() > isokit_field::DEGENERATE_REL_TOL * longest)
+                !facing || isokit_field::mesh::zero_area(p[0], p[1], p[2])
             })
             .map(|(i, _)| i)
             .collect();
-        let mesh = TriMesh::new(
-            merged.positions.clone(),
-            tris.iter().map(|(t, _, _)| *t).collect(),
-        );
+        mesh.triangles = tris.iter().map(|(t, _, _)| *t).collect();
         let x = crate::intersect::self_intersections(&mesh);
         flagged.extend(x.pairs.iter().flatten().map(|&t| t as usize));
         flagged.sort_unstable();
@@ -443,7 +437,7 @@ pub(super) fn adaptive_polygons(
         counter.advance(1);
         if !split {
             counter.advance(SPLIT_ROUNDS as u64 + 1 - round as u64);
-            let (positions, tris) = super::compact(&merged.positions, mesh.triangles);
+            let (positions, tris) = super::compact(&mesh.positions, mesh.triangles);
             return Ok(AdaptiveMesh {
                 positions,
                 triangles: tris,
