@@ -460,66 +460,71 @@ fn polygons(
     normals: &[Vec3],
     positions: &[Vec3],
 ) -> (Vec<([u32; 3], Vec3, [u32; 4])>, usize) {
-    // Per polygon: the orientation count and a crossing normal of each orientation.
-    let mut count: HashMap<Vec<u32>, (i64, Vec3, Vec3)> = HashMap::new();
+    // Per polygon (its vertices, zero-padded, and their count): the orientation count and a
+    // crossing normal of each orientation.
+    type Key = ([u32; 4], usize);
+    let mut count: HashMap<Key, (i64, Vec3, Vec3)> = HashMap::new();
     for (q, &normal) in quads.iter().zip(normals) {
-        let mut poly: Vec<u32> = Vec::with_capacity(4);
+        let mut poly = [0u32; 4];
+        let mut len = 0;
         for (i, &v) in q.iter().enumerate() {
             if v != q[(i + 3) % 4] {
-                poly.push(v);
+                poly[len] = v;
+                len += 1;
             }
         }
-        if poly.is_empty() {
+        // Fewer than three vertices, or one repeated non-consecutively (a, b, a, c): no area.
+        let mut sorted = poly;
+        sorted[..len].sort_unstable();
+        if len < 3 || sorted[..len].windows(2).any(|w| w[0] == w[1]) {
             continue;
         }
-        // A vertex repeated non-consecutively (a, b, a, c) spans no area.
-        let mut sorted = poly.clone();
-        sorted.sort_unstable();
-        sorted.dedup();
-        if sorted.len() < 3 || sorted.len() != poly.len() {
-            continue;
-        }
-        let (canon, sign) = canonical(&poly);
-        let e = count.entry(canon).or_insert((0, Vec3::ZERO, Vec3::ZERO));
+        let (canon, sign) = canonical(&poly[..len]);
+        let e = count
+            .entry((canon, len))
+            .or_insert((0, Vec3::ZERO, Vec3::ZERO));
         e.0 += sign;
         if sign > 0 { e.1 = normal } else { e.2 = normal }
     }
     let mut repeated = 0;
-    let mut keys: Vec<(Vec<u32>, (i64, Vec3, Vec3))> =
+    let mut keys: Vec<(Key, (i64, Vec3, Vec3))> =
         count.into_iter().filter(|(_, n)| n.0 != 0).collect();
     // A deterministic output order.
-    keys.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+    keys.sort_unstable_by_key(|k| k.0);
     let mut out = Vec::with_capacity(keys.len() * 2);
-    for (mut poly, (n, forward, backward)) in keys {
+    for ((mut poly, len), (n, forward, backward)) in keys {
         if n.unsigned_abs() > 1 {
             repeated += 1;
         }
         let normal = if n < 0 {
-            poly.reverse();
+            poly[..len].reverse();
             backward
         } else {
             forward
         };
         for _ in 0..n.unsigned_abs() {
-            if poly.len() == 3 {
+            if len == 3 {
                 let t = [poly[0], poly[1], poly[2]];
                 out.push((t, normal, [t[0], t[1], t[2], u32::MAX]));
             } else {
-                let quad = [poly[0], poly[1], poly[2], poly[3]];
-                out.extend(super::split_quad(quad, positions).map(|t| (t, normal, quad)));
+                out.extend(super::split_quad(poly, positions).map(|t| (t, normal, poly)));
             }
         }
     }
     (out, repeated)
 }
 
-/// The polygon rotated to start at its smallest vertex, in the orientation whose second
-/// vertex is smaller, and `+1` if that is the given orientation, `-1` if reversed.
-fn canonical(poly: &[u32]) -> (Vec<u32>, i64) {
+/// The polygon (3 or 4 vertices) rotated to start at its smallest vertex, in the
+/// orientation whose second vertex is smaller, zero-padded to four, and `+1` if that is the
+/// given orientation, `-1` if reversed.
+fn canonical(poly: &[u32]) -> ([u32; 4], i64) {
     let n = poly.len();
     let m = (0..n).min_by_key(|&i| poly[i]).unwrap_or(0);
-    let fwd: Vec<u32> = (0..n).map(|i| poly[(m + i) % n]).collect();
-    let rev: Vec<u32> = (0..n).map(|i| poly[(m + n - i) % n]).collect();
+    let (mut fwd, mut rev) = ([0u32; 4], [0u32; 4]);
+    for i in 0..n {
+        fwd[i] = poly[(m + i) % n];
+        rev[i] = poly[(m + n - i) % n];
+    }
     if fwd <= rev { (fwd, 1) } else { (rev, -1) }
 }
 
