@@ -23,19 +23,22 @@ if [ -z "${DISPLAY:-}" ] && command -v Xvfb >/dev/null; then
   for _ in $(seq 50); do [ -e "/tmp/.X11-unix/X$n" ] && break; sleep 0.1; done
 fi
 cargo test --workspace
-# The binary and the examples in the test profile `cargo test` has just built them in
-# (target/debug): the dev profile would compile every workspace crate a second time.
-cargo build --profile test --bin isokit
+# `cargo test --workspace` has built the binary (target/debug/isokit) and the examples
+# (target/debug/examples) with the features of the whole workspace, dev-dependencies
+# included. They are run from there: `cargo build --bin isokit` or `cargo run --example`
+# would resolve features for one package alone (other features of bytemuck, serde, num, …)
+# and compile about 70 crates a second time (4–5 minutes on 2 cores).
+bin_dir="${CARGO_TARGET_DIR:-$PWD/target}/debug"
 # The modeling scripts in examples/ run too (they check their own results).
 examples_out=$(mktemp -d)
 trap 'rm -rf "$examples_out"; [ -z "$xvfb_pid" ] || kill "$xvfb_pid" 2>/dev/null || true' EXIT
-cargo run --profile test --quiet --example model_in_code -- "$examples_out"
-cargo run --profile test --quiet --example csg_scene -- "$examples_out/part.obj"
+"$bin_dir/examples/model_in_code" "$examples_out"
+"$bin_dir/examples/csg_scene" "$examples_out/part.obj"
 if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r tests/reference/requirements.txt
-ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q tests/reference
+ISOKIT_BIN="$bin_dir/isokit" .venv/bin/python -m pytest -q tests/reference
 # The Python package: the wheel built from the checkout by the README's one command and
 # installed into .venv, then its tests and the Python modeling script. Built in the dev
 # profile (MATURIN_PEP517_ARGS; the same settings as the test profile, so the workspace's
@@ -45,6 +48,6 @@ ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m p
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r crates/isokit-python/tests/requirements.txt
 MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" \
   .venv/bin/python -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps ./crates/isokit-python
-ISOKIT_BIN="${CARGO_TARGET_DIR:-$PWD/target}/debug/isokit" .venv/bin/python -m pytest -q crates/isokit-python/tests
+ISOKIT_BIN="$bin_dir/isokit" .venv/bin/python -m pytest -q crates/isokit-python/tests
 .venv/bin/python examples/python/part.py "$examples_out/python"
 .venv/bin/python examples/python/flange.py "$examples_out/python"
