@@ -539,6 +539,28 @@ fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
         .count()
 }
 
+/// The direction of the QEF's line of minimisers where the normals span exactly two
+/// independent planes after truncation (an edge), or `None`.
+fn qef_line(normals: &[DVec3], truncation: f64) -> Option<DVec3> {
+    let mut ata = Matrix3::<f64>::zeros();
+    for nn in normals {
+        let nv = Vector3::new(nn.x, nn.y, nn.z);
+        ata += nv * nv.transpose();
+    }
+    let svd = ata.svd(false, true);
+    let vt = svd.v_t?;
+    let smax = svd.singular_values.max().max(0.0).sqrt();
+    let kept: Vec<usize> = (0..3)
+        .filter(|&i| smax > 0.0 && svd.singular_values[i].max(0.0).sqrt() > truncation * smax)
+        .collect();
+    if kept.len() != 2 {
+        return None;
+    }
+    let i = (0..3).find(|i| !kept.contains(i))?;
+    let d = DVec3::new(vt[(i, 0)], vt[(i, 1)], vt[(i, 2)]);
+    (d.is_finite() && d.length_squared() > 0.5).then(|| d.normalize())
+}
+
 /// Largest plane residual `|nᵢ · (x − pᵢ)|` of the crossings at `x`.
 fn residual(points: &[DVec3], normals: &[DVec3], x: DVec3) -> f64 {
     points
@@ -558,6 +580,26 @@ fn solve_in_cell(points: &[DVec3], normals: &[DVec3], truncation: f64) -> (DVec3
     let mut x = solve_qef_fixed(points, normals, truncation, fixed);
     if inside(x) {
         return (x, false);
+    }
+    // Two planes (an edge): every point of their line minimises the QEF, and the minimiser
+    // nearest the mass point may lie outside while the line crosses the cell near one of its
+    // corners. The point of the line inside the cell nearest that minimiser is as good a
+    // minimiser; the active-set step below would leave the line.
+    if let Some(d) = qef_line(normals, truncation) {
+        let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d[a].abs() > 1e-12 {
+                let (t0, t1) = ((0.0 - x[a]) / d[a], (1.0 - x[a]) / d[a]);
+                lo = lo.max(t0.min(t1));
+                hi = hi.min(t0.max(t1));
+            } else if !(0.0..=1.0).contains(&x[a]) {
+                hi = f64::NEG_INFINITY;
+            }
+        }
+        if lo <= hi {
+            let y = x + 0.0f64.clamp(lo, hi) * d;
+            return (y.clamp(DVec3::ZERO, DVec3::ONE), false);
+        }
     }
     for _ in 0..3 {
         let mut changed = false;
@@ -1047,6 +1089,28 @@ mod tests {
         assert_eq!(v.x, 1.0);
         assert!((v.y - 0.5).abs() < 1e-12, "{v}");
         assert!((0.0..=1.0).contains(&v.z));
+    }
+
+    #[test]
+    fn edge_through_a_corner_of_the_cell_keeps_its_vertex_on_the_edge() {
+        // The edge x − y = 0.9, z = 0.5 crosses the cell only near its corner (1, 0, ·);
+        // the crossings' mass point lies far along it, so the free minimiser violates x and
+        // y at once. Fixing both faces would put the vertex at (1, 1, 0.5), 0.64 from the
+        // first plane; the point of the edge inside the cell has no residual.
+        let n1 = DVec3::new(1.0, -1.0, 0.0).normalize();
+        let pts = [
+            DVec3::new(2.9, 2.0, 0.3),
+            DVec3::new(1.9, 1.0, 0.7),
+            DVec3::new(1.5, 1.5, 0.5),
+            DVec3::new(2.0, 0.6, 0.5),
+        ];
+        let nrm = [n1, n1, DVec3::Z, DVec3::Z];
+        let free = solve_qef(&pts, &nrm, 0.1);
+        assert!(free.x > 1.0 && free.y > 1.0, "{free}");
+        let (v, outside) = solve_in_cell(&pts, &nrm, 0.1);
+        assert!(!outside, "{v}");
+        assert!(residual(&pts, &nrm, v) < 1e-12, "{v}");
+        assert!(v.distance(DVec3::new(1.0, 0.1, 0.5)) < 1e-12, "{v}");
     }
 
     #[test]
