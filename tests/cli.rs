@@ -111,6 +111,7 @@ fn info_reports_the_shipped_meshes() {
         assert_eq!(v["kind"], "mesh", "{name}");
         assert_eq!(v["watertight"], watertight, "{name}");
         assert_eq!(v["consistently_oriented"], oriented, "{name}");
+        assert_eq!(v["non_manifold_vertices"], 0, "{name}");
         assert!(v["triangles"].as_u64().unwrap() > 0);
     }
     let v = json(&isokit(&["info", &data("open_cube.obj"), "--json"]));

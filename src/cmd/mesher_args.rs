@@ -111,6 +111,7 @@ pub fn describe_mesh(path: &Path, self_intersections: bool) -> Result<(String, V
         "non_finite_vertices": r.non_finite_vertices,
         "boundary_edges": r.boundary_edges,
         "non_manifold_edges": r.non_manifold_edges,
+        "non_manifold_vertices": r.non_manifold_vertices,
         "components": r.components,
         "euler_characteristic": r.euler_characteristic,
         "watertight": r.watertight,

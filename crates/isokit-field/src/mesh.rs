@@ -111,6 +111,10 @@ pub struct MeshReport {
     pub boundary_edges: usize,
     /// Edges used by more than two triangles.
     pub non_manifold_edges: usize,
+    /// Vertices whose proper triangles form more than one fan (sets of triangles joined
+    /// through edges at the vertex): two surfaces touching in one point, a pinch that
+    /// [`watertight`](Self::watertight) does not see. 0 for a 2-manifold mesh.
+    pub non_manifold_vertices: usize,
     /// At least one proper triangle, no boundary and no non-manifold edges.
     pub watertight: bool,
     /// At least one proper triangle; every edge shared by two triangles is used once in each
@@ -179,6 +183,7 @@ impl fmt::Display for MeshReport {
             "edges:      {} ({} boundary, {} non-manifold)",
             self.edges, self.boundary_edges, self.non_manifold_edges
         )?;
+        writeln!(f, "non-manifold vertices: {}", self.non_manifold_vertices)?;
         writeln!(f, "watertight: {}", yes(self.watertight))?;
         writeln!(
             f,
@@ -319,11 +324,77 @@ impl TriMesh {
             edges: edges.len(),
             boundary_edges: boundary,
             non_manifold_edges: non_manifold,
+            non_manifold_vertices: self.pinched_vertices(),
             watertight: faces > 0 && boundary == 0 && non_manifold == 0,
             consistently_oriented: faces > 0 && oriented,
             components,
             euler_characteristic: used_vertices - edges.len() as i64 + faces,
         }
+    }
+}
+
+impl TriMesh {
+    /// Vertices whose proper triangles (three distinct, valid indices) fall into more than one
+    /// fan: triangles around a vertex are joined when they share an edge at it.
+    fn pinched_vertices(&self) -> usize {
+        let nv = self.positions.len();
+        let proper = |t: &[u32; 3]| {
+            t.iter().all(|&i| (i as usize) < nv) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
+        };
+        // Triangles around each vertex, as offsets into one array (compressed rows).
+        let mut start = vec![0u32; nv + 1];
+        for t in self.triangles.iter().filter(|t| proper(t)) {
+            for &i in t {
+                start[i as usize + 1] += 1;
+            }
+        }
+        for v in 0..nv {
+            start[v + 1] += start[v];
+        }
+        let mut fill = start.clone();
+        let mut around = vec![0u32; start[nv] as usize];
+        for (k, t) in self.triangles.iter().enumerate().filter(|(_, t)| proper(t)) {
+            for &i in t {
+                around[fill[i as usize] as usize] = k as u32;
+                fill[i as usize] += 1;
+            }
+        }
+        let mut pinched = 0;
+        let mut parent: Vec<u32> = Vec::new();
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for v in 0..nv {
+            let tris = &around[start[v] as usize..start[v + 1] as usize];
+            if tris.len() < 2 {
+                continue;
+            }
+            // Union of the triangles (local indices) that share another vertex `w`, i.e. the
+            // edge `v w`: the (w, triangle) pairs sorted by `w` (O(d log d) for a fan of d,
+            // however many triangles a hostile file puts around one vertex).
+            parent.clear();
+            parent.extend(0..tris.len() as u32);
+            pairs.clear();
+            for (a, &k) in tris.iter().enumerate() {
+                for &w in &self.triangles[k as usize] {
+                    if w as usize != v {
+                        pairs.push((w, a as u32));
+                    }
+                }
+            }
+            pairs.sort_unstable();
+            for p in pairs.windows(2) {
+                if p[0].0 == p[1].0 {
+                    let (ra, rb) = (find(&mut parent, p[0].1), find(&mut parent, p[1].1));
+                    if ra != rb {
+                        parent[ra.max(rb) as usize] = ra.min(rb);
+                    }
+                }
+            }
+            let fans = (0..tris.len() as u32)
+                .filter(|&a| find(&mut parent, a) == a)
+                .count();
+            pinched += (fans > 1) as usize;
+        }
+        pinched
     }
 }
 

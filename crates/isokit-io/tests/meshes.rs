@@ -499,6 +499,32 @@ fn open_flipped_degenerate_duplicate_and_non_manifold() {
     );
 }
 
+/// Two closed tetrahedra touching in one vertex: every edge has two triangles (watertight by
+/// edges), but the shared vertex has two fans; one tetrahedron alone has none.
+#[test]
+fn pinched_vertex_is_counted() {
+    let tet = |o: Vec3, base: u32| {
+        let p = vec![o, o + Vec3::X, o + Vec3::Y, o + Vec3::Z];
+        let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]].map(|t| t.map(|i| i + base));
+        (p, t)
+    };
+    let (p, t) = tet(Vec3::ZERO, 0);
+    let one = TriMesh::new(p.clone(), t.to_vec());
+    let r = one.validate();
+    assert!(r.watertight && r.consistently_oriented, "{r}");
+    assert_eq!(r.non_manifold_vertices, 0, "{r}");
+    // The second tetrahedron mirrored through the origin, reusing vertex 0.
+    let mut positions = p;
+    positions.extend([-Vec3::X, -Vec3::Y, -Vec3::Z]);
+    let mut triangles = t.to_vec();
+    let map = |i: u32| if i == 0 { 0 } else { i + 3 };
+    triangles.extend([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]].map(|t| t.map(map)));
+    let r = TriMesh::new(positions, triangles).validate();
+    assert!(r.watertight && r.consistently_oriented, "{r}");
+    assert_eq!((r.non_manifold_vertices, r.components), (1, 1), "{r}");
+    assert!(r.to_string().contains("non-manifold vertices: 1"), "{r}");
+}
+
 /// Index-degenerate triangles are out of the topology, vertices included: a lone
 /// triangle plus a collapsed one elsewhere has χ = 3 − 3 + 1 = 1 and one component.
 #[test]

@@ -25,6 +25,7 @@ fn check_promise(m: &TriMesh, strict: bool, what: &str) -> usize {
     if strict {
         assert_eq!(r.degenerate_triangles, 0, "{what}: {r}");
         assert!(r.watertight && r.consistently_oriented, "{what}: {r}");
+        check_vertex_fans(m, what);
     }
     r.non_manifold_edges
 }
@@ -333,6 +334,19 @@ fn check_adaptive(m: &TriMesh, st: &isokit_levelset::dual::DualStats, what: &str
     assert_eq!(r.degenerate_triangles, 0, "{what}: {r}");
     assert_eq!(r.duplicate_triangles, 0, "{what}: {r}");
     assert_eq!(st.repeated_polygons, 0, "{what}");
+    check_vertex_fans(m, what);
+}
+
+/// Every vertex's triangles form one fan, also after coincident vertices are merged (two
+/// cells' vertices at one position would join their fans there).
+fn check_vertex_fans(m: &TriMesh, what: &str) {
+    let r = m.validate();
+    assert_eq!(r.non_manifold_vertices, 0, "{what}: {r}");
+    let merged = isokit_levelset::weld::merge_coincident(m).validate();
+    assert!(
+        merged.watertight && merged.non_manifold_vertices == 0,
+        "{what}: after merging coincident vertices: {merged}"
+    );
 }
 
 #[test]

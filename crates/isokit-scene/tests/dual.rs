@@ -111,6 +111,12 @@ fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3], tight: bool) -> Re
     );
     assert!(r.watertight && r.consistently_oriented, "{name}: {r}");
     assert_eq!(r.degenerate_triangles, 0, "{name}: {r}");
+    // 2-manifold: one fan around every vertex, also after coincident vertices are merged.
+    assert_eq!(r.non_manifold_vertices, 0, "{name}: {r}");
+    assert!(
+        merged.watertight && merged.non_manifold_vertices == 0,
+        "{name}: after merging: {merged}"
+    );
     // Self-intersections (exact triangle–triangle tests): none from marching cubes, none
     // from dual contouring where the features are resolved (`tight`).
     let x = self_intersections(&mc);
@@ -363,6 +369,13 @@ fn adaptive_meshes_of_the_sharp_scenes() {
                 "{name} E {e}: {r}"
             );
             assert_eq!(r.degenerate_triangles, 0, "{name} E {e}: {r}");
+            let merged = merge_coincident(&m).validate();
+            assert!(
+                r.non_manifold_vertices == 0
+                    && merged.watertight
+                    && merged.non_manifold_vertices == 0,
+                "{name} E {e}: {r}; after merging: {merged}"
+            );
             assert_eq!(
                 r.euler_characteristic,
                 uniform.validate().euler_characteristic
