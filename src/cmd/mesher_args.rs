@@ -30,8 +30,8 @@ pub struct MesherOpts {
     /// `mc` (marching cubes: watertight and 2-manifold by construction, sharp edges chamfered
     /// by about a voxel) or `dual` (dual contouring with Hermite data: sharp edges and
     /// corners; normals from a scene's exact field, or from a volume's central differences;
-    /// 2-manifold except in a rare ambiguous configuration, which `isokit info` reports as
-    /// non-manifold edges).
+    /// watertight, 2-manifold and oriented; where the lattice cannot resolve a feature,
+    /// triangles can fold, which `isokit info --self-intersections` reports).
     #[arg(long, value_enum, default_value_t = MesherArg::Mc)]
     pub mesher: MesherArg,
     /// --mesher dual: adaptive meshing. Cells are merged into octree nodes (up to 256 cells

@@ -590,6 +590,13 @@ fn inside_joined(inside: [f32; 2], outside: [f32; 2], iso: f32) -> bool {
 
 /// Traces the loops of a cell with corner `values` and inside mask `mask` (bit n: corner n).
 pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
+    cell_loops_flipped(values, mask, iso, 0)
+}
+
+/// [`cell_loops`] with the asymptotic decider's choice reversed on the ambiguous faces whose
+/// bit is set in `flip` (bit f: face f): the face's two segments are paired the other way.
+/// Both cells sharing a face must be given the same choice.
+pub(crate) fn cell_loops_flipped(values: &[f32; 8], mask: u8, iso: f32, flip: u8) -> Loops {
     let inside = |c: usize| mask >> c & 1 == 1;
     // next[e]: the edge that follows crossed edge e in its loop.
     let mut next = [u8::MAX; 12];
@@ -614,7 +621,8 @@ pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
                     ([1, 3], [0, 2])
                 };
                 let joined =
-                    inside_joined(inn.map(|i| values[c[i]]), out.map(|i| values[c[i]]), iso);
+                    inside_joined(inn.map(|i| values[c[i]]), out.map(|i| values[c[i]]), iso)
+                        ^ (flip >> f & 1 == 1);
                 for i in (0..4).filter(|&i| entering(i)) {
                     // Separate: the segment goes round inside corner i + 1 to the edge after
                     // it; joined: it goes round outside corner i to the edge before.
@@ -652,6 +660,30 @@ pub(crate) fn cell_loops(values: &[f32; 8], mask: u8, iso: f32) -> Loops {
         loops.count += 1;
     }
     loops
+}
+
+/// Bit f set where face f is ambiguous (its four edges crossed) and both of its segments
+/// belong to one of the cell's `loops`.
+pub(crate) fn faces_in_one_loop(loops: &Loops, mask: u8) -> u8 {
+    let mut of_edge = [u8::MAX; 12];
+    let mut at = 0;
+    for l in 0..loops.count {
+        let len = loops.len[l] as usize;
+        for &e in &loops.edges[at..at + len] {
+            of_edge[e as usize] = l as u8;
+        }
+        at += len;
+    }
+    let mut out = 0;
+    for f in 0..6 {
+        let ins = FACE_CORNERS[f].map(|c| mask >> c & 1 == 1);
+        let ambiguous = ins[0] == ins[2] && ins[1] == ins[3] && ins[0] != ins[1];
+        let l = FACE_EDGES[f].map(|e| of_edge[e]);
+        if ambiguous && l[0] != u8::MAX && l.iter().all(|&x| x == l[0]) {
+            out |= 1 << f;
+        }
+    }
+    out
 }
 
 /// Crossing parameter from the inside sample `a` (`a < iso`) towards the outside sample `b`,

@@ -920,8 +920,7 @@ impl Shape {
     /// consistently oriented. `res`, `band`, `bounds` as for `sample`; `dense` evaluates the
     /// whole lattice (the baseline; the same mesh). `mesher`: `"mc"` (marching cubes, the
     /// default) or `"dual"` (dual contouring with Hermite data from the shape's exact field:
-    /// sharp edges and corners; closed and oriented, 2-manifold except in a rare ambiguous
-    /// configuration). `error` (`"dual"` only, world units): adaptive meshing, cells merged
+    /// sharp edges and corners; watertight, 2-manifold and oriented). `error` (`"dual"` only, world units): adaptive meshing, cells merged
     /// into octree nodes where one vertex lies within `error` of every crossing's tangent
     /// plane and of the exact surface, keeping the surface's topology (few large triangles
     /// where it is flat); `stats["merged_cells"]` counts the cells merged.

@@ -18,9 +18,8 @@ pub enum Mesher {
     Mc,
     /// Dual contouring with Hermite data from the scene's exact field
     /// (`isokit_levelset::dual`): sharp edges and corners, a vertex per surface component
-    /// of each cell; closed and oriented, 2-manifold except where an ambiguous cell face's
-    /// two segments belong to one component on both sides (rare; then an edge has four
-    /// triangles).
+    /// of each cell; watertight, 2-manifold and oriented (also after coincident vertices are
+    /// merged).
     Dual,
 }
 

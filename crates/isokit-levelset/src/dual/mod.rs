@@ -44,11 +44,16 @@
 //! ## Guarantees and limits
 //! The mesh is the dual of the marching-cubes polygon mesh (a vertex per loop, a quad per
 //! marching-cubes vertex), which is closed, 2-manifold and oriented: so the dual mesh is
-//! closed and consistently oriented, and every edge borders exactly two quads, except where
-//! an ambiguous cell face carries two segments that belong to one loop in *both* cells
-//! (the rare case `crate::meshing` describes under *Triangulation*, found in random noise,
-//! not on smooth fields in the tests): the edge joining those two vertices then borders four
-//! quads. Vertices clamped into their cells can make quads fold, so triangles may intersect
+//! closed and consistently oriented, and every edge borders exactly two quads. One case
+//! needs care: an ambiguous cell face whose two segments belong to one loop in *both* cells
+//! (the case `crate::meshing` describes under *Triangulation*; in random noise about one
+//! face in a hundred) would give the edge joining the two cells' vertices four quads. Such
+//! a face's segments are paired the other way (the asymptotic decider's choice reversed, in
+//! both cells), which splits the loop in two in each cell, so each segment gets its own
+//! vertices; splitting never joins other segments, so one pass over those faces leaves
+//! none. Two loops of one cell never share a position (a second vertex that would moves to
+//! its loop's mass point of crossings), so merging coincident vertices pinches nothing: the
+//! mesh is 2-manifold at every vertex too (tests: random noise, random CSG trees). Vertices clamped into their cells can make quads fold, so triangles may intersect
 //! near features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
 //! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
 //! coincide and no quad collapses into a degenerate triangle). Measured on 14 random CSG
@@ -677,15 +682,8 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         out
     }
 
-    /// A vertex per surface component of the crossed cell (per marching-cubes loop of the
-    /// cell, with the face decisions of `crate::meshing`).
-    fn cell_vertices(
-        &self,
-        cell: [i64; 3],
-        r: &[(i64, i64); 3],
-        edges: &[Hermite],
-        truncation: f64,
-    ) -> CellVerts {
+    /// The samples at a cell's eight corners and its inside mask (bit n: corner n).
+    fn corners(&self, cell: [i64; 3]) -> ([f32; 8], u8) {
         let mut values = [0f32; 8];
         let mut mask = 0u8;
         for (n, v) in values.iter_mut().enumerate() {
@@ -699,7 +697,29 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                 mask |= 1 << n;
             }
         }
-        let loops = crate::meshing::cell_loops(&values, mask, self.iso);
+        (values, mask)
+    }
+
+    /// The ambiguous faces (bit f) whose two segments belong to one loop of the cell, with
+    /// the faces in `flip` decided the other way.
+    fn faces_in_one_loop(&self, cell: [i64; 3], flip: u8) -> u8 {
+        let (values, mask) = self.corners(cell);
+        let loops = crate::meshing::cell_loops_flipped(&values, mask, self.iso, flip);
+        crate::meshing::faces_in_one_loop(&loops, mask)
+    }
+
+    /// A vertex per surface component of the crossed cell (per marching-cubes loop of the
+    /// cell, with the face decisions of `crate::meshing`, reversed on the faces in `flip`).
+    fn cell_vertices(
+        &self,
+        cell: [i64; 3],
+        r: &[(i64, i64); 3],
+        edges: &[Hermite],
+        truncation: f64,
+        flip: u8,
+    ) -> CellVerts {
+        let (values, mask) = self.corners(cell);
+        let loops = crate::meshing::cell_loops_flipped(&values, mask, self.iso, flip);
         let lo = self.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
         // Vertices stay 1/1024 of a cell inside their cell (as marching cubes keeps its
         // vertices off the nodes): two cells' vertices never coincide, even where both are
@@ -708,6 +728,9 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         let (lo_in, hi_in) = (lo + inset, lo + DVec3::splat(self.h) - inset);
         let mut of_edge = [0u8; 12];
         let mut verts = Vec::with_capacity(loops.count);
+        // Each loop's mass point of crossings (world units), for two loops' vertices that
+        // would coincide.
+        let mut mass = [DVec3::ZERO; 4];
         let mut at = 0;
         for l in 0..loops.count.max(1) {
             let len = if loops.count == 0 {
@@ -734,6 +757,7 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                 verts.push(((lo + 0.5 * self.h * DVec3::ONE).as_vec3(), false));
                 continue;
             }
+            mass[l.min(3)] = lo + self.h * pts[..m].iter().sum::<DVec3>() / m as f64;
             let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
             // An edge whose corner lies in this cell while the third face crosses only the
             // neighbours' edges (rank 2), or, with an exact field, a vertex off the surface:
@@ -798,6 +822,16 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             // f32 rounding must not put it back onto the cell's boundary.
             let v = v.clamp(lo_in.as_vec3(), hi_in.as_vec3());
             verts.push((v, clamped));
+        }
+        // Two surface components of one cell must not share a position (both clamped into
+        // the same corner, or, without an exact field, the same minimiser): merging
+        // coincident vertices would pinch them together. The later one moves to its loop's
+        // mass point of crossings, which lies inside the cell on its own crossings' side.
+        for j in 1..verts.len() {
+            if (0..j).any(|i| verts[i].0 == verts[j].0) {
+                let v = mass[j.min(3)].clamp(lo_in, hi_in).as_vec3();
+                verts[j].0 = v.clamp(lo_in.as_vec3(), hi_in.as_vec3());
+            }
         }
         CellVerts {
             verts,
@@ -903,11 +937,47 @@ fn contour(
             limit,
         });
     }
+    // Faces decided the other way. Where an ambiguous face's two segments belong to one loop
+    // in both cells sharing it, each cell would give both segments one vertex, and the edge
+    // between the two vertices would carry the quads of all four crossed edges of the face
+    // (a non-manifold edge). Pairing the face's segments the other way splits such a loop in
+    // two in each cell (the loop a→b…c→d… becomes a→d… and c→b…), so each segment gets its
+    // own pair of vertices. A split never joins other segments into one loop, so one pass
+    // over the candidate faces, each tested again in the current state, leaves none.
+    let candidates: Vec<u8> = cells
+        .par_iter()
+        .map(|&ck| lat.faces_in_one_loop(decode(ck), 0))
+        .collect();
+    let mut flips = vec![0u8; cells.len()];
+    for (i, &ck) in cells.iter().enumerate() {
+        // Upper faces (f = 2a + 1) only: each shared face once.
+        for a in 0..3 {
+            let f = 2 * a + 1;
+            if candidates[i] >> f & 1 == 0 {
+                continue;
+            }
+            let mut nb = decode(ck);
+            nb[a] += 1;
+            let Ok(j) = cells.binary_search(&lat.node_key(nb)) else {
+                continue;
+            };
+            if candidates[j] >> (f - 1) & 1 == 0 {
+                continue;
+            }
+            if lat.faces_in_one_loop(decode(ck), flips[i]) >> f & 1 == 1
+                && lat.faces_in_one_loop(nb, flips[j]) >> (f - 1) & 1 == 1
+            {
+                flips[i] |= 1 << f;
+                flips[j] |= 1 << (f - 1);
+            }
+        }
+    }
     // Pass 2: a vertex per surface component of each crossed cell.
     let cell_counter = job.counter("meshing (vertices)", cells.len() as u64);
     let per_cell: Vec<CellVerts> = cells
         .par_iter()
-        .map(|&ck| {
+        .zip(&flips)
+        .map(|(&ck, &flip)| {
             if job.is_cancelled() {
                 return CellVerts {
                     verts: Vec::new(),
@@ -915,7 +985,7 @@ fn contour(
                     several: false,
                 };
             }
-            let c = lat.cell_vertices(decode(ck), &r, &edges, truncation);
+            let c = lat.cell_vertices(decode(ck), &r, &edges, truncation, flip);
             cell_counter.advance(1);
             c
         })
