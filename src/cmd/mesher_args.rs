@@ -59,22 +59,42 @@ impl MesherOpts {
     }
 }
 
-/// Prints what dual contouring reports about its vertices (and, adaptive, its merges and
-/// the triangles still folded or intersecting: `(merged, folded)`).
-pub fn print_dual_stats(clamped: usize, several: usize, adaptive: Option<(usize, usize)>) {
-    let merged = adaptive.map_or(String::new(), |(m, f)| {
-        let folded = if f > 0 {
-            format!(
-                " ({f} triangles still folded or intersecting, the uniform mesher's own included)"
-            )
-        } else {
-            String::new()
-        };
-        format!(", {m} cells merged into larger octree nodes{folded}")
+/// Prints what dual contouring reports about its vertices (`clamped`, `several`, `beyond`
+/// as in `DualStats`), its merges when adaptive, and the triangles still folded or
+/// intersecting.
+pub fn print_dual_stats(
+    clamped: usize,
+    several: usize,
+    beyond: usize,
+    merged: Option<usize>,
+    folded: usize,
+) {
+    let merged = merged.map_or(String::new(), |m| {
+        format!(", {m} cells merged into larger octree nodes")
     });
+    let folded = if folded > 0 {
+        format!(
+            "; {folded} triangles face against the surface or cross another (`isokit info --self-intersections` lists crossings)"
+        )
+    } else {
+        String::new()
+    };
     eprintln!(
-        "dual contouring: {clamped} vertices clamped into their cells, {several} cells crossed in more than one piece{merged}"
+        "dual contouring: {clamped} vertices clamped into their cells ({beyond} placed on an edge just beyond), {several} cells crossed in more than one piece{merged}{folded}"
     );
+}
+
+/// [`print_dual_stats`] of a scene's mesh, where dual contouring made it.
+pub fn print_scene_dual_stats(st: &isokit_scene::MeshStats) {
+    if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
+        print_dual_stats(
+            clamped,
+            several,
+            st.beyond_cell_vertices.unwrap_or(0),
+            st.merged_cells,
+            st.folded_triangles.unwrap_or(0),
+        );
+    }
 }
 
 /// Adds dual contouring's counts of `st` to `isokit scene --stats`'s JSON, where the mesher
@@ -86,6 +106,7 @@ pub fn add_dual_counts(j: &mut Value, st: &isokit_scene::MeshStats) -> Result<()
         "multi_component_cells",
         "merged_cells",
         "folded_triangles",
+        "beyond_cell_vertices",
     ] {
         if let Some(v) = counts.get(k) {
             j[k] = v.clone();

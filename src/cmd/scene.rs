@@ -123,10 +123,7 @@ pub fn run(a: Args) -> Result<()> {
             Some(colors) => write_mesh_colored(&a.output, &mesh, &colors)?,
             None => write_mesh(&a.output, &mesh)?,
         }
-        if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
-            let adaptive = st.merged_cells.zip(st.folded_triangles);
-            super::mesher_args::print_dual_stats(clamped, several, adaptive);
-        }
+        super::mesher_args::print_scene_dual_stats(&st);
         let out = (st.sampling.clone(), Some(st.triangles));
         mesh_stats = Some(st);
         out

@@ -67,10 +67,14 @@ pub struct MeshStats {
     /// replaced.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub merged_cells: Option<usize>,
-    /// Adaptive dual contouring only: triangles still folded, degenerate or intersecting
-    /// another after the merges were taken back (`isokit_levelset::dual::DualStats`).
+    /// Dual contouring only: triangles still folded, degenerate or intersecting another
+    /// after the checks undid what they could (`isokit_levelset::dual::DualStats`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub folded_triangles: Option<usize>,
+    /// Dual contouring only: vertices placed on a sharp edge just beyond their cell (where
+    /// the cell holds both of the edge's faces but not the edge).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beyond_cell_vertices: Option<usize>,
 }
 
 /// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
@@ -133,9 +137,8 @@ pub fn mesh_scene(
             merged_cells: dual
                 .filter(|_| opts.error.is_some())
                 .map(|d| d.merged_cells),
-            folded_triangles: dual
-                .filter(|_| opts.error.is_some())
-                .map(|d| d.folded_triangles),
+            folded_triangles: dual.map(|d| d.folded_triangles),
+            beyond_cell_vertices: dual.map(|d| d.beyond_cell),
         },
     ))
 }

@@ -87,6 +87,7 @@ fn vertex_error(s: &Scene, m: &TriMesh) -> f64 {
 }
 
 struct Report {
+    dual_pairs: usize,
     dual_vertex: f64,
     dual_hausdorff: f64,
     mc_hausdorff: f64,
@@ -122,6 +123,7 @@ fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3], tight: bool) -> Re
     let x = self_intersections(&mc);
     assert!(x.pairs.is_empty(), "{name}: mc: {} pairs", x.pairs.len());
     let x = self_intersections(&dual);
+    let dual_pairs = x.count;
     eprintln!("{name}: dual: {} self-intersecting pairs", x.pairs.len());
     assert!(
         !tight || x.pairs.is_empty(),
@@ -143,6 +145,7 @@ fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3], tight: bool) -> Re
     }
     let points = surface_points(s, 4000, 11);
     let rep = Report {
+        dual_pairs,
         dual_vertex: vertex_error(s, &dual) / h,
         dual_hausdorff: hausdorff_to(&points, &dual) / h,
         mc_hausdorff: hausdorff_to(&points, &mc) / h,
@@ -237,10 +240,19 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
         "{} corners on the surface",
         corners.len()
     );
-    // Not yet within 0.05 voxel everywhere (about 0.14 voxel at worst, Hausdorff about 0.3
-    // voxel, against marching cubes' 0.7): corners and closedness are checked, the bounds
-    // reported.
-    sharp("two boxes, one rotated 30°", &s, 64, &corners, false);
+    // The edges at a general angle to the lattice: vertices on an edge beyond their cell
+    // where a cell holds both faces but not the edge, and quads straddling an edge split
+    // along the diagonal that does not fold (`isokit_levelset::dual`). Hausdorff below 0.1
+    // voxel (0.30 with every vertex clamped into its cell) and no self-intersection; the
+    // worst vertex is not yet within 0.05 voxel (about 0.14: a few moved vertices that
+    // would fold are sent back into their cells), so it is reported, not asserted.
+    let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners, false);
+    assert!(
+        rep.dual_hausdorff < 0.1,
+        "Hausdorff {} voxel",
+        rep.dual_hausdorff
+    );
+    assert_eq!(rep.dual_pairs, 0, "self-intersecting pairs");
 }
 
 /// The report's case through the scene pipeline: a box face at x = 0.75 on a lattice from
@@ -321,9 +333,10 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
         meshed >= cases / 2,
         "{meshed} of {cases} trees have a surface"
     );
-    // A bound on how rare they are, not a guarantee (see `isokit_levelset::dual`).
+    // A bound on how rare they are, not a guarantee (see `isokit_levelset::dual`): 3 pairs
+    // among 50,200 triangles, 19 before the folds were checked and undone.
     assert!(
-        pairs * 500 < triangles,
+        pairs * 5000 < triangles,
         "{pairs} pairs among {triangles} triangles"
     );
 }

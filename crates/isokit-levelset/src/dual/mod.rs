@@ -35,7 +35,10 @@
 //!   onto the plane, on an edge it is on the edge nearest the mass point, at a corner it is
 //!   the corner. Where that minimiser lies outside the cell, the coordinates it violates
 //!   are fixed on the cell's faces and the others re-solved (an active-set step), and the
-//!   result is clamped to the cell: the vertex never leaves its cell.
+//!   result is clamped to the cell; on an edge (two planes) whose line crosses the cell, the
+//!   point of the line inside the cell nearest the minimiser is taken instead. With an
+//!   exact field, an edge whose line misses the cell by less than half a cell puts the
+//!   vertex on the line beyond the cell where that folds nothing ([`beyond`]).
 //! - **One quad per crossed edge**, joining the vertices (of the loops holding that edge)
 //!   of the four cells around it,
 //!   split into two triangles along its shorter diagonal and oriented so that the edge's
@@ -53,13 +56,18 @@
 //! vertices; splitting never joins other segments, so one pass over those faces leaves
 //! none. Two loops of one cell never share a position (a second vertex that would moves to
 //! its loop's mass point of crossings), so merging coincident vertices pinches nothing: the
-//! mesh is 2-manifold at every vertex too (tests: random noise, random CSG trees). Vertices clamped into their cells can make quads fold, so triangles may intersect
-//! near features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
+//! mesh is 2-manifold at every vertex too (tests: random noise, random CSG trees).
+//!
+//! Vertices clamped into their cells can make quads fold, so triangles may intersect near
+//! features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
 //! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
-//! coincide and no quad collapses into a degenerate triangle). Measured on 14 random CSG
-//! trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 2 trees gave 19 intersecting
-//! pairs among 50,200 triangles, and no degenerate triangle; the shipped scenes, a box and a
-//! box minus a cylinder gave none, two boxes (one rotated 30°) 3 pairs at resolution 64.
+//! coincide and no quad collapses into a degenerate triangle). The folds are checked and
+//! undone where they can be ([`beyond`]: moved vertices sent back, quads split along their
+//! other diagonal); what remains is counted in [`DualStats::folded_triangles`]. Measured on
+//! 14 random CSG trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 1 tree gave 3
+//! intersecting pairs among 50,200 triangles (2 trees and 19 pairs without the checks), and
+//! no degenerate triangle; the shipped scenes, a box, a box minus a cylinder and two boxes
+//! (one rotated 30°, 3 pairs without the checks) gave none.
 //! Crossings refined on the field are exact to about f32 rounding; normals are the field's
 //! gradient (analytic or finite differences). Vertices are not shared across cells, so a
 //! vertex of one component never serves another.
@@ -72,6 +80,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::meshing::MeshingError;
 
+mod beyond;
 mod merge;
 
 /// Options of [`mesh_dual_grid`] and [`mesh_dual_brick_grid`].
@@ -133,16 +142,19 @@ pub struct DualStats {
     /// Crossings where the exact field did not bracket the samples' crossing (kept on the
     /// samples' crossing).
     pub unrefined: usize,
+    /// Vertices placed on a sharp edge just beyond their cell, where their cell holds both
+    /// of the edge's faces but not the edge (with an exact field; kept where they fold
+    /// nothing).
+    pub beyond_cell: usize,
     /// Adaptive meshing ([`DualOptions::error`]): crossed cells whose vertex was replaced by
     /// that of a merged octree node.
     pub merged_cells: usize,
     /// Adaptive meshing: polygons that remained more than once after the fine quads' copies
     /// were counted with their orientation (0 when the result is 2-manifold there).
     pub repeated_polygons: usize,
-    /// Adaptive meshing: triangles that still face against their crossing's normal, are
-    /// degenerate or intersect another triangle after the merges of their nodes were taken
-    /// back (at most 16 rounds). Includes the unmerged cells' own folds, which the uniform
-    /// mesher makes too (the rounds cannot undo them).
+    /// Triangles that still face against their crossing's normal, are degenerate or
+    /// intersect another triangle after the checks undid what they could ([`beyond`]; when
+    /// adaptive, also after the merges of their nodes were taken back, at most 16 rounds).
     pub folded_triangles: usize,
 }
 
@@ -566,6 +578,19 @@ fn qef_line(normals: &[DVec3], truncation: f64) -> Option<DVec3> {
     (d.is_finite() && d.length_squared() > 0.5).then(|| d.normalize())
 }
 
+/// Crossing normals further apart than this (degrees) make a cell's vertex a sharp feature's
+/// for the fold checks ([`beyond`]); smooth surfaces turn by a few degrees per cell.
+const SHARP_DEGREES: f64 = 30.0;
+
+/// Whether two of the normals are more than [`SHARP_DEGREES`] apart.
+fn sharp(normals: &[DVec3]) -> bool {
+    let c = SHARP_DEGREES.to_radians().cos();
+    normals
+        .iter()
+        .enumerate()
+        .any(|(i, a)| normals[i + 1..].iter().any(|b| a.dot(*b) < c))
+}
+
 /// Largest plane residual `|nᵢ · (x − pᵢ)|` of the crossings at `x`.
 fn residual(points: &[DVec3], normals: &[DVec3], x: DVec3) -> f64 {
     points
@@ -625,6 +650,47 @@ fn solve_in_cell(points: &[DVec3], normals: &[DVec3], truncation: f64) -> (DVec3
     (x.clamp(DVec3::ZERO, DVec3::ONE), true)
 }
 
+/// Where the crossings span two planes (an edge) whose line misses the cell: the point of
+/// the line nearest the unit cell, and then the point of the line nearest `x` (the vertex
+/// clamped into the cell), each when it lies within `reach` (cell units) of the cell.
+fn edge_near_cell(
+    points: &[DVec3],
+    normals: &[DVec3],
+    truncation: f64,
+    reach: f64,
+    x: DVec3,
+) -> [Option<DVec3>; 2] {
+    let Some(d) = qef_line(normals, truncation) else {
+        return [None; 2];
+    };
+    let x0 = solve_qef_fixed(points, normals, truncation, [None; 3]);
+    let dist = |t: f64| {
+        let p = x0 + t * d;
+        (p - p.clamp(DVec3::ZERO, DVec3::ONE)).length()
+    };
+    // The distance to a convex box along a line is convex in t: golden-section search over
+    // the stretch of line near the cell.
+    let (mut a, mut b) = (
+        -(x0 - DVec3::splat(0.5)).length() - 2.0,
+        (x0 - DVec3::splat(0.5)).length() + 2.0,
+    );
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..80 {
+        let (c, e) = (b - g * (b - a), a + g * (b - a));
+        if dist(c) <= dist(e) {
+            b = e;
+        } else {
+            a = c;
+        }
+    }
+    let t = 0.5 * (a + b);
+    let s = d.dot(x - x0);
+    [
+        (dist(t) <= reach).then(|| x0 + t * d),
+        (dist(s) <= reach && (s - t).abs() > 0.05).then(|| x0 + s * d),
+    ]
+}
+
 /// Edge `q` of a cell (12): axis `q / 4`, offsets along the other two axes.
 fn cell_edge(cell: [i64; 3], q: usize) -> ([i64; 3], usize) {
     let a = q / 4;
@@ -648,6 +714,12 @@ struct CellVerts {
     /// Loop (local vertex) of each of the 12 cube edges.
     of_edge: [u8; 12],
     several: bool,
+    /// Per loop, points on an edge beyond the cell ([`beyond`]; a first and a second
+    /// choice), where the vertex (in `verts`, clamped into the cell) could not lie on both
+    /// planes.
+    beyond: [Option<(Vec3, Option<Vec3>)>; 4],
+    /// A vertex clamped or on a sharp feature, or several vertices: the mesh can fold here.
+    suspect: bool,
 }
 
 /// The crossed edge with this key, from the sorted crossed edges.
@@ -731,6 +803,10 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         // Each loop's mass point of crossings (world units), for two loops' vertices that
         // would coincide.
         let mut mass = [DVec3::ZERO; 4];
+        let mut beyond = [None; 4];
+        // A vertex clamped into the cell or on a sharp feature (two or three planes at more
+        // than `SHARP_DEGREES`), or several vertices: where the mesh can fold.
+        let mut suspect = loops.count > 1;
         let mut at = 0;
         for l in 0..loops.count.max(1) {
             let len = if loops.count == 0 {
@@ -776,6 +852,7 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             };
             let before = off(x);
             let rank = qef_rank(&nrm[..m], truncation);
+            suspect |= clamped || (rank >= 2 && sharp(&nrm[..m]));
             let try_neighbours = match self.field {
                 Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
                 None => rank == 2 && !clamped,
@@ -818,6 +895,18 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                     }
                 }
             }
+            // Both planes of an edge whose line misses the cell: the edge's point nearest
+            // the cell, when it is near and on the surface ([`beyond`]).
+            if self.field.is_some() && clamped && rank == 2 && off(x) > SURFACE_TOL && l < 4 {
+                let on = edge_near_cell(&pts[..m], &nrm[..m], truncation, 0.5, x)
+                    .map(|y| y.filter(|y| off(*y) <= SURFACE_TOL));
+                let w = |y: DVec3| (lo + self.h * y).as_vec3();
+                beyond[l] = match on {
+                    [Some(a), b] => Some((w(a), b.map(w))),
+                    [None, Some(b)] => Some((w(b), None)),
+                    [None, None] => None,
+                };
+            }
             let v = (lo + self.h * x).clamp(lo_in, hi_in).as_vec3();
             // f32 rounding must not put it back onto the cell's boundary.
             let v = v.clamp(lo_in.as_vec3(), hi_in.as_vec3());
@@ -837,6 +926,8 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             verts,
             of_edge,
             several: loops.count > 1,
+            beyond,
+            suspect,
         }
     }
 }
@@ -983,6 +1074,8 @@ fn contour(
                     verts: Vec::new(),
                     of_edge: [0; 12],
                     several: false,
+                    beyond: [None; 4],
+                    suspect: false,
                 };
             }
             let c = lat.cell_vertices(decode(ck), &r, &edges, truncation, flip);
@@ -1004,7 +1097,7 @@ fn contour(
             limit,
         });
     }
-    let positions: Vec<Vec3> = per_cell
+    let mut positions: Vec<Vec3> = per_cell
         .iter()
         .flat_map(|c| c.verts.iter().map(|v| v.0))
         .collect();
@@ -1033,33 +1126,87 @@ fn contour(
             Some((quad, e as u32))
         })
         .unzip();
-    let (positions, triangles, merged_cells, repeated_polygons, folded_triangles) = match opts.error
-    {
-        Some(error) if error > 0.0 => {
-            let m = merge::merge(
-                &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
-            )?;
-            let normals: Vec<Vec3> = sources
-                .iter()
-                .map(|&e| edges[e as usize].normal.as_vec3())
-                .collect();
-            let a = merge::adaptive_polygons(m, &quads, &normals, job)?;
-            (
-                a.positions,
-                a.triangles,
-                a.merged_cells,
-                a.repeated_polygons,
-                a.folded_triangles,
-            )
+    let normals: Vec<Vec3> = sources
+        .iter()
+        .map(|&e| edges[e as usize].normal.as_vec3())
+        .collect();
+    // Vertices on edges beyond their cells, kept where they fold nothing.
+    let mut moved = Vec::new();
+    for (c, &f) in per_cell.iter().zip(&first) {
+        for (l, p) in c.beyond.iter().enumerate() {
+            if let Some((p, next)) = p {
+                let vertex = f + l as u32;
+                moved.push(beyond::Moved {
+                    vertex,
+                    in_cell: positions[vertex as usize],
+                    next: *next,
+                });
+                positions[vertex as usize] = *p;
+            }
         }
-        _ => {
-            let triangles = quads
-                .par_iter()
-                .flat_map_iter(|&q| split_quad(q, &positions))
-                .collect();
-            (positions, triangles, 0, 0, 0)
+    }
+    // The quads that can cross a folded one: each quad's triangles lie in the four cells
+    // around its edge (or half a cell beyond, for a moved vertex), so two quads can cross
+    // only where their cells are within two cells of each other. Quads near a suspect cell
+    // are tested for intersections ([`beyond`]); elsewhere every vertex lies in its cell on
+    // one plane and the mesh follows the marching-cubes surface, which does not cross itself.
+    let mut near_cell = vec![false; cells.len()];
+    for (i, c) in per_cell.iter().enumerate() {
+        if !(c.suspect || c.beyond.iter().any(Option::is_some)) {
+            continue;
         }
-    };
+        let g = decode(cells[i]);
+        for dz in -2..=2 {
+            for dy in -2..=2 {
+                for dx in -2..=2 {
+                    let nb = [g[0] + dx, g[1] + dy, g[2] + dz];
+                    if (0..3).all(|a| nb[a] >= cell_lo[a] && nb[a] <= cell_hi[a]) {
+                        if let Ok(j) = cells.binary_search(&lat.node_key(nb)) {
+                            near_cell[j] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut near_vertex = vec![false; positions.len()];
+    for (i, c) in per_cell.iter().enumerate() {
+        if near_cell[i] {
+            let f = first[i] as usize;
+            near_vertex[f..f + c.verts.len()]
+                .iter_mut()
+                .for_each(|v| *v = true);
+        }
+    }
+    let near: Vec<bool> = quads
+        .iter()
+        .map(|q| q.iter().any(|&v| near_vertex[v as usize]))
+        .collect();
+    let (positions, triangles, merged_cells, repeated_polygons, folded_triangles, beyond_cell) =
+        match opts.error {
+            Some(error) if error > 0.0 => {
+                // The merged polygons are checked (and their folds undone) by the merging; the
+                // moved vertices and the unmerged quads' splits are settled first, as for the
+                // uniform mesh.
+                let u = beyond::unfold(&mut positions, moved, &quads, &normals, &near, job)?;
+                let m = merge::merge(
+                    &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
+                )?;
+                let a = merge::adaptive_polygons(m, &quads, &normals, &u.flipped, job)?;
+                (
+                    a.positions,
+                    a.triangles,
+                    a.merged_cells,
+                    a.repeated_polygons,
+                    a.folded_triangles,
+                    u.beyond,
+                )
+            }
+            _ => {
+                let u = beyond::unfold(&mut positions, moved, &quads, &normals, &near, job)?;
+                (positions, u.triangles, 0, 0, u.folded, u.beyond)
+            }
+        };
     let stats = DualStats {
         edges: edges.len(),
         cells: cells.len(),
@@ -1074,6 +1221,7 @@ fn contour(
         merged_cells,
         repeated_polygons,
         folded_triangles,
+        beyond_cell,
     };
     Ok((TriMesh::new(positions, triangles), stats))
 }

@@ -1,0 +1,192 @@
+//! Vertices on an edge beyond their cell, and folds undone.
+//!
+//! A cell can hold both faces of a sharp edge without holding the edge itself: near a convex
+//! edge at a general angle to the lattice, the samples of a cell see the two planes while
+//! their line passes just outside the cell (the two faces' crossings lie on the cell's
+//! edges, the edge in a neighbouring cell's corner region). One vertex inside the cell
+//! cannot lie on both planes; clamped into the cell it lies up to about 0.15 cell inside the
+//! solid and the edge is cut (Ju et al. 2002, Sec. 2.3: clamping the minimiser is what
+//! loses such features). With an exact field, the point of the edge's line nearest the cell
+//! is exact; it is used when it lies within half a cell of the cell and on the surface, and
+//! the point of the line nearest the clamped vertex is the second choice.
+//!
+//! A vertex outside its cell can fold the mesh, and so can a quad split along the wrong
+//! diagonal where it straddles a sharp edge (both its vertices exact, on the two faces). So
+//! the triangles are checked as the adaptive merging's are ([`super::merge`]): every round,
+//! a quad with a triangle that faces against its crossing's normal, is degenerate or crosses
+//! another triangle (exactly, [`crate::intersect`]) moves its moved vertices to their second
+//! choice or back into their cells or, with none, is split along its other diagonal (once; a
+//! quad still flagged after that goes back to its first split for good). After `ROUNDS`
+//! rounds every vertex still moved goes back and every quad takes its first split: the
+//! result is either checked or the plain in-cell mesh, so these steps add no fold.
+//!
+//! Facing and degeneracy are checked on every quad; intersections on the quads within two
+//! cells of a cell where the mesh can fold (a vertex clamped, on a sharp feature or beyond
+//! its cell, or several vertices in one cell). Each quad's triangles lie in the four cells
+//! around its lattice edge (half a cell more for a moved vertex), so only quads whose cells
+//! are that close can cross; where every vertex lies inside its cell on one smooth plane the
+//! mesh follows the marching-cubes surface, which does not cross itself. The check costs
+//! about 1.1–1.3× the uniform mesher's time on the shipped part (`isokit scene
+//! examples/scenes/part.json --mesher dual`, resolutions 128 and 256).
+
+use glam::Vec3;
+use isokit_field::{Job, TriMesh};
+use rayon::prelude::*;
+use std::collections::HashSet;
+
+use crate::meshing::MeshingError;
+
+/// Rounds of checking before every change is taken back.
+const ROUNDS: usize = 8;
+
+/// A vertex placed beyond its cell: its index, its position clamped into the cell, and a
+/// second place beyond the cell to try before that.
+pub(super) struct Moved {
+    pub(super) vertex: u32,
+    pub(super) in_cell: Vec3,
+    pub(super) next: Option<Vec3>,
+}
+
+/// What [`unfold`] gives.
+pub(super) struct Unfolded {
+    /// Two per quad, in quad order.
+    pub(super) triangles: Vec<[u32; 3]>,
+    /// Moved vertices kept beyond their cells.
+    pub(super) beyond: usize,
+    /// Triangles still facing the wrong way, degenerate or crossing another at the end (at
+    /// least the number of intersecting pairs when more are found than listed).
+    pub(super) folded: usize,
+    /// The quads split along the diagonal that is not the shorter, in canonical form
+    /// (`merge::canonical`).
+    pub(super) flipped: HashSet<[u32; 4]>,
+}
+
+/// How a quad is split: along its shorter diagonal (0), the other one (1), or the shorter
+/// for good after the other did not help (2).
+pub(super) fn split(q: [u32; 4], positions: &[Vec3], state: u8) -> [[u32; 3]; 2] {
+    let [a, b, c, d] = q;
+    let shorter = super::split_quad(q, positions);
+    if state != 1 {
+        shorter
+    } else if shorter[0] == [a, b, c] {
+        [[a, b, d], [b, c, d]]
+    } else {
+        [[a, b, c], [a, c, d]]
+    }
+}
+
+/// Checks the quads' triangles with the moved vertices (already at their positions beyond
+/// their cells in `positions`) and undoes what folds (module docs). `normals[i]` is the
+/// crossing normal of quad `i`.
+pub(super) fn unfold(
+    positions: &mut [Vec3],
+    mut moved: Vec<Moved>,
+    quads: &[[u32; 4]],
+    normals: &[Vec3],
+    near: &[bool],
+    job: &Job,
+) -> Result<Unfolded, MeshingError> {
+    // The triangles tested for intersections: those of the quads `near` a place that can
+    // fold, as indices into the quads' triangles.
+    let tested: Vec<u32> = (0..quads.len() as u32)
+        .filter(|&q| near[q as usize])
+        .flat_map(|q| [2 * q, 2 * q + 1])
+        .collect();
+    let mut is_moved = vec![false; positions.len()];
+    let mut next: Vec<Option<Vec3>> = vec![None; positions.len()];
+    for m in &moved {
+        is_moved[m.vertex as usize] = true;
+        next[m.vertex as usize] = m.next;
+    }
+    let mut state = vec![0u8; quads.len()];
+    let mut last = false;
+    let mut round = 0;
+    loop {
+        job.check()?;
+        let triangles: Vec<[u32; 3]> = quads
+            .par_iter()
+            .zip(&state)
+            .flat_map_iter(|(&q, &s)| split(q, positions, s))
+            .collect();
+        // Facing against the crossing's normal, or degenerate.
+        let mut flagged: Vec<bool> = triangles
+            .par_chunks(2)
+            .zip(normals)
+            .map(|(pair, n)| {
+                pair.iter().any(|t| {
+                    let p = t.map(|v| positions[v as usize].as_dvec3());
+                    let facing = (p[1] - p[0]).cross(p[2] - p[0]).dot(n.as_dvec3()) > 0.0;
+                    !facing || isokit_field::mesh::zero_area(p[0], p[1], p[2])
+                })
+            })
+            .collect();
+        let sub = TriMesh::new(
+            positions.to_vec(),
+            tested.iter().map(|&t| triangles[t as usize]).collect(),
+        );
+        let x = crate::intersect::self_intersections(&sub);
+        for &t in x.pairs.iter().flatten() {
+            flagged[tested[t as usize] as usize / 2] = true;
+        }
+        let mesh = TriMesh::new(Vec::new(), triangles);
+        let folded = (2 * flagged.iter().filter(|f| **f).count()).max(x.count);
+        let done = |mesh: TriMesh, moved: &[Moved], state: &[u8]| Unfolded {
+            triangles: mesh.triangles,
+            beyond: moved.len(),
+            folded,
+            flipped: quads
+                .iter()
+                .zip(state)
+                .filter(|(_, s)| **s == 1)
+                .map(|(q, _)| super::merge::canonical(q).0)
+                .collect(),
+        };
+        if last {
+            return Ok(done(mesh, &moved, &state));
+        }
+        if round == ROUNDS || x.pairs.len() < x.count {
+            // Out of rounds, or more pairs than listed: everything back as it was.
+            if moved.is_empty() && state.iter().all(|&s| s == 0) {
+                return Ok(done(mesh, &moved, &state));
+            }
+            for m in moved.drain(..) {
+                positions[m.vertex as usize] = m.in_cell;
+            }
+            state.iter_mut().for_each(|s| *s = 0);
+            last = true;
+            round += 1;
+            continue;
+        }
+        let mut changed = false;
+        for (q, _) in flagged.iter().enumerate().filter(|f| *f.1) {
+            // A moved vertex of the quad tries its second place, or goes back.
+            let mut sent_back = false;
+            for &v in &quads[q] {
+                let v = v as usize;
+                if !is_moved[v] {
+                    continue;
+                }
+                sent_back = true;
+                match next[v].take() {
+                    Some(p) => positions[v] = p,
+                    None => is_moved[v] = false,
+                }
+            }
+            if !sent_back && state[q] < 2 {
+                state[q] += 1;
+                changed = true;
+            }
+            changed |= sent_back;
+        }
+        if !changed {
+            return Ok(done(mesh, &moved, &state));
+        }
+        moved.retain(|m| {
+            is_moved[m.vertex as usize] || {
+                positions[m.vertex as usize] = m.in_cell;
+                false
+            }
+        });
+        round += 1;
+    }
+}
