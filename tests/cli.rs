@@ -725,6 +725,112 @@ fn octree_of_a_primitive_a_mesh_and_a_volume() {
     }
 }
 
+/// `-o out.obj`: the tree's surface. Dual contouring reads the tree node by node with the
+/// exact field's Hermite data; adaptive, a box is its 12 triangles with its 8 corners.
+#[test]
+fn octree_meshes_its_surface() {
+    let d = scratch("octree-mesh");
+    let p = |name: &str| d.join(name).to_str().unwrap().to_owned();
+    let v = json(&isokit(&[
+        "octree",
+        "box",
+        "--max-level",
+        "6",
+        "-o",
+        &p("box.obj"),
+        "--mesher",
+        "dual",
+        "--mesh-error",
+        "0.001",
+        "--json",
+    ]));
+    assert_eq!(
+        (v["mesher"].as_str(), v["mesh_level"].as_u64()),
+        (Some("dual"), Some(6))
+    );
+    assert!(v["merged_cells"].as_u64().unwrap() > 0, "{v}");
+    let m = isokit::io::read_mesh(Path::new(&p("box.obj"))).unwrap();
+    let r = m.validate();
+    assert!(r.watertight && r.consistently_oriented, "{r}");
+    assert_eq!(m.triangles.len(), 12, "{r}");
+    // `isokit octree box`'s default box: centre 0, half sizes 1, 0.75, 0.5.
+    for n in 0..8 {
+        let c = glam::Vec3::new(
+            if n & 1 == 1 { 1.0 } else { -1.0 },
+            if n & 2 == 2 { 0.75 } else { -0.75 },
+            if n & 4 == 4 { 0.5 } else { -0.5 },
+        );
+        let near = m
+            .positions
+            .iter()
+            .map(|q| q.distance(c))
+            .fold(f32::INFINITY, f32::min);
+        assert!(near < 1e-4, "corner {c}: nearest vertex {near}");
+    }
+    // Marching cubes of the tree equals marching cubes of its exported grid.
+    isokit_ok(&["octree", "sphere", "--max-level", "5", "-o", &p("tree.obj")]);
+    isokit_ok(&[
+        "octree",
+        "sphere",
+        "--max-level",
+        "5",
+        "-o",
+        &p("tree.nrrd"),
+    ]);
+    isokit_ok(&["mesh", &p("tree.nrrd"), "-o", &p("grid.obj")]);
+    let (a, b) = (
+        isokit::io::read_mesh(Path::new(&p("tree.obj"))).unwrap(),
+        isokit::io::read_mesh(Path::new(&p("grid.obj"))).unwrap(),
+    );
+    assert!(a.validate().watertight);
+    assert_eq!(
+        (a.positions.len(), a.triangles.len()),
+        (b.positions.len(), b.triangles.len())
+    );
+    // Uniform dual contouring through the tree: closed.
+    isokit_ok(&[
+        "octree",
+        "torus",
+        "--max-level",
+        "5",
+        "-o",
+        &p("torus.obj"),
+        "--mesher",
+        "dual",
+    ]);
+    let t = isokit::io::read_mesh(Path::new(&p("torus.obj")))
+        .unwrap()
+        .validate();
+    assert!(t.watertight && t.genus() == Some(1), "{t}");
+    // The mesher's flags need a mesh output, and --mesh-error needs dual.
+    assert_clear_error(
+        &isokit(&[
+            "octree",
+            "box",
+            "--max-level",
+            "4",
+            "-o",
+            &p("x.nrrd"),
+            "--mesher",
+            "dual",
+        ]),
+        "mesh output",
+    );
+    assert_clear_error(
+        &isokit(&[
+            "octree",
+            "box",
+            "--max-level",
+            "4",
+            "-o",
+            &p("x.obj"),
+            "--mesh-error",
+            "0.1",
+        ]),
+        "--mesh-error applies to --mesher dual",
+    );
+}
+
 #[test]
 fn octree_refuses_bad_input_with_one_line() {
     assert_clear_error(

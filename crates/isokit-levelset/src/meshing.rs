@@ -146,6 +146,11 @@ pub enum MeshingError {
     /// The meshing's [`Job`] was cancelled.
     #[error(transparent)]
     Cancelled(#[from] isokit_field::Cancelled),
+    /// A lattice given by its sampling function
+    /// ([`mesh_dual_lattice_job`](crate::dual::mesh_dual_lattice_job)) whose origin or
+    /// spacing is not finite (and positive), or with more nodes than its keys can number.
+    #[error("lattice: {0}")]
+    BadLattice(String),
     /// A block of a lattice ([`mesh_lattice_block`]) that is empty, reaches beyond the
     /// lattice, or whose samples do not match it; or a lattice too large or with an origin
     /// or spacing that is not finite (and positive).

@@ -49,12 +49,25 @@ pub struct Args {
     #[arg(long)]
     pub padding: Option<f32>,
     /// Export the tree sampled on a grid (.nrrd, or .npy with its lattice sidecar
-    /// .npy.json: origin, spacing, dims [nx, ny, nz], axis_order "zyx").
+    /// .npy.json: origin, spacing, dims [nx, ny, nz], axis_order "zyx"), or its surface as a
+    /// mesh (.obj .ply .stl .off .glb .gltf; see --mesher) meshed at the export level.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Mesh output: `mc` (marching cubes of the tree's samples at the export level) or
+    /// `dual` (dual contouring: the tree read node by node, never stored as a grid, with
+    /// Hermite data from the input's exact field; sharp edges and corners).
+    #[arg(long, value_enum, default_value_t = crate::cmd::mesher_args::MesherArg::Mc)]
+    pub mesher: crate::cmd::mesher_args::MesherArg,
+    /// --mesher dual: adaptive meshing, cells merged where one vertex lies within E (world
+    /// units) of every crossing's tangent plane and of the exact surface, as `isokit mesh
+    /// --error` (named apart from --error, the tree's own bound) [default: one vertex per
+    /// cell].
+    #[arg(long, value_name = "E")]
+    pub mesh_error: Option<f64>,
     #[command(flatten)]
     pub out: crate::cmd::volume_args::VolumeOut,
-    /// Level of the exported grid (2^level + 1 samples a side) [default: min(max level, 8)].
+    /// Level of the exported grid or mesh (2^level + 1 samples a side) [default: min(max
+    /// level, 8)].
     #[arg(long)]
     pub export_level: Option<u32>,
     /// Random test points within the band (independent of the construction).

@@ -3,12 +3,14 @@
 
 mod args;
 mod bench;
+mod mesh;
 mod summary;
 
 pub use args::Args;
 pub use bench::{BenchArgs, bench};
 
 use super::check_output;
+use super::mesher_args::MesherArg;
 use anyhow::{Result, bail};
 use isokit_io::Volume;
 use isokit_octree::{
@@ -19,10 +21,26 @@ use serde_json::json;
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
+    let mesh_out = a.output.as_deref().filter(|o| mesh::is_mesh(o));
     if let Some(o) = &a.output {
-        check_output(o, &crate::cmd::volume_args::VOLUME_OUTPUTS)?;
-        a.out.check(o)?;
+        if mesh_out.is_none() {
+            let mut allowed = crate::cmd::volume_args::VOLUME_OUTPUTS.to_vec();
+            allowed.extend(mesh::MESHES);
+            check_output(o, &allowed)?;
+            a.out.check(o)?;
+        }
     }
+    if mesh_out.is_none() && (a.mesher != MesherArg::Mc || a.mesh_error.is_some()) {
+        bail!(
+            "--mesher and --mesh-error apply to a mesh output (-o out.obj, .ply, .stl, .off, .glb, .gltf)"
+        );
+    }
+    let mesh_error = super::mesher_args::MesherOpts {
+        mesher: a.mesher,
+        error: a.mesh_error,
+    }
+    .error()
+    .map_err(|e| anyhow::anyhow!("{}", e.to_string().replace("--error", "--mesh-error")))?;
     let l = a.max_level;
     if l > isokit_octree::MAX_LEVEL {
         bail!(
@@ -77,7 +95,19 @@ pub fn run(a: Args) -> Result<()> {
     let e = errors(&tree, &*inp.field, &pts);
     let (max_error, rms_error) = (e.max, e.rms);
     let miss = bound_misses(&tree, &*inp.field, &pts, opts.error as f64);
+    let mut meshed = None;
     let exported = match &a.output {
+        Some(o) if mesh_out.is_some() => {
+            meshed = Some(mesh::mesh_tree(
+                &tree,
+                &*inp.field,
+                export_level,
+                a.mesher,
+                mesh_error,
+                o,
+            )?);
+            Some((o.display().to_string(), [(1usize << export_level) + 1; 3]))
+        }
         Some(o) => {
             let g = tree.to_grid(export_level)?;
             let dims = g.dims();
@@ -134,6 +164,11 @@ pub fn run(a: Args) -> Result<()> {
     v["bound_missed_cells"] = miss.missed_cells.into();
     v["bound_missed_cells_at_max_level"] = miss.missed_at_max_level.into();
     v["level_for_bound"] = miss.level_for_bound.into();
+    if let Some(serde_json::Value::Object(m)) = meshed {
+        v.as_object_mut()
+            .into_iter()
+            .for_each(|o| o.extend(m.clone()));
+    }
     if a.json {
         println!("{v}");
     } else {

@@ -1,0 +1,99 @@
+//! `isokit octree … -o out.obj`: the tree's surface as a triangle mesh, meshed from the
+//! tree's own reconstruction at a chosen level.
+
+use crate::cmd::mesher_args::MesherArg;
+use anyhow::Result;
+use glam::UVec3;
+use isokit_field::{Field, TriMesh};
+use isokit_levelset::dual::{DualOptions, mesh_dual_lattice_job};
+use isokit_levelset::meshing::{MeshOptions, mesh_grid_job};
+use isokit_octree::{HashedOctree, Octree};
+use serde_json::{Value, json};
+use std::path::Path;
+use std::time::Instant;
+
+/// The mesh extensions `-o` takes (the others are volumes).
+pub const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
+
+/// Whether `path` names a mesh output.
+pub fn is_mesh(path: &Path) -> bool {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    MESHES.iter().any(|e| name.ends_with(e))
+}
+
+/// Meshes the tree's reconstruction sampled at the nodes of `level` (2^level + 1 a side),
+/// writes it to `path` and returns what `--json` adds. Marching cubes reads the samples as
+/// a grid; dual contouring reads the tree node by node (no grid is stored) and takes its
+/// Hermite data from `exact`, the field the tree was built from (`--error E` merges cells
+/// as for `isokit mesh`).
+pub fn mesh_tree(
+    tree: &HashedOctree,
+    exact: &dyn Field,
+    level: u32,
+    mesher: MesherArg,
+    error: Option<f64>,
+    path: &Path,
+) -> Result<Value> {
+    let d = tree.domain();
+    let n = (1usize << level) + 1;
+    let shift = d.max_level() - level;
+    let job = crate::cmd::progress::job();
+    let t = Instant::now();
+    let (mesh, dual): (TriMesh, _) = match mesher {
+        MesherArg::Mc => {
+            let grid = tree.to_grid(level)?;
+            (mesh_grid_job(&grid, &MeshOptions::default(), &job)?, None)
+        }
+        MesherArg::Dual => {
+            let at = |i: usize, j: usize, k: usize| {
+                let g = UVec3::new(i as u32, j as u32, k as u32) << shift;
+                tree.value_at_grid(g.as_dvec3())
+            };
+            let opts = DualOptions {
+                error,
+                ..DualOptions::default()
+            };
+            let (m, st) = mesh_dual_lattice_job(
+                [n; 3],
+                d.origin(),
+                d.cell_side(level) as f32,
+                at,
+                Some(exact),
+                &opts,
+                &job,
+            )?;
+            crate::cmd::mesher_args::print_dual_stats(
+                st.clamped,
+                st.multi_component_cells,
+                st.beyond_cell,
+                error.map(|_| st.merged_cells),
+                st.folded_triangles,
+            );
+            (m, Some(st))
+        }
+    };
+    let secs = t.elapsed().as_secs_f64();
+    isokit_io::write_mesh(path, &mesh)?;
+    let r = mesh.validate();
+    eprintln!(
+        "{} triangles from the tree at level {level} in {secs:.2} s; watertight {} -> {}",
+        mesh.triangles.len(),
+        r.watertight,
+        path.display()
+    );
+    let mut v = json!({
+        "mesher": match mesher { MesherArg::Mc => "mc", MesherArg::Dual => "dual" },
+        "mesh_level": level,
+        "triangles": mesh.triangles.len(),
+        "mesh_seconds": secs,
+        "watertight": r.watertight,
+    });
+    if let Some(st) = dual {
+        v["clamped_vertices"] = st.clamped.into();
+        v["folded_triangles"] = st.folded_triangles.into();
+        if error.is_some() {
+            v["merged_cells"] = st.merged_cells.into();
+        }
+    }
+    Ok(v)
+}
