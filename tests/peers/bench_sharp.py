@@ -15,7 +15,11 @@ Errors are the symmetric Hausdorff distance (libigl point-to-mesh distances from
 samples of both meshes) to the reference and the relative volume error. Run:
 
     cargo build --release --bin isokit
-    python tests/peers/bench_sharp.py --isokit target/release/isokit --out docs/bench_sharp.md
+    python tests/peers/bench_sharp.py --isokit target/release/isokit --out docs/bench_sharp.md \
+        --plot docs/bench_sharp.png
+
+`--plot` (needs matplotlib, not a test dependency) draws the trade: Hausdorff distance
+against seconds and against triangles, one panel per part.
 """
 
 import argparse
@@ -144,6 +148,48 @@ def table(rows):
     return "\n".join(out)
 
 
+def tool_family(tool):
+    """The series a row belongs to in the plot: its tool without the resolution."""
+    return tool.replace(" (edge = voxel)", "").replace(" (256-gon)", "")
+
+
+def plot(parts, path):
+    """Hausdorff distance against seconds and against triangles, log-log, per part."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, len(parts), figsize=(6 * len(parts), 9), squeeze=False)
+    # One colour and marker per tool in every panel.
+    families = sorted({tool_family(r["tool"]) for _, rows in parts for r in rows})
+    for col, (title, rows) in enumerate(parts):
+        for row, (key, label) in enumerate([("seconds", "seconds (whole command)"),
+                                            ("triangles", "triangles")]):
+            ax = axes[row][col]
+            for i, fam in enumerate(families):
+                pts = [(r[key], max(r["hausdorff"], 1e-5), r["res"])
+                       for r in rows if tool_family(r["tool"]) == fam]
+                if not pts:
+                    continue
+                xs, ys, _ = zip(*pts)
+                ax.plot(xs, ys, marker="osD^v<>"[i % 7], color=f"C{i}",
+                        linestyle="-" if len(pts) > 1 else "", label=fam)
+                for x, y, n in pts:
+                    if n:
+                        ax.annotate(str(n), (x, y), textcoords="offset points", xytext=(4, 4),
+                                    fontsize=7)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(label)
+            ax.set_ylabel("Hausdorff distance to the exact boolean")
+            ax.grid(True, which="both", alpha=0.3)
+            if row == 0:
+                ax.set_title(title, fontsize=10)
+        axes[0][col].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--isokit", default=str(ROOT / "target/release/isokit"))
@@ -153,6 +199,7 @@ def main():
     ap.add_argument("--segments", type=int, default=64)
     ap.add_argument("--errors", type=float, nargs="*", default=[0.02, 0.1],
                     help="adaptive dual contouring's --error, in voxels")
+    ap.add_argument("--plot", help="also draw the trade into this PNG (needs matplotlib)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = pathlib.Path(d)
@@ -170,6 +217,9 @@ def main():
     ]) + "\n"
     pathlib.Path(args.out).write_text(text)
     print(text)
+    if args.plot:
+        plot([("A. box minus cylinder (analytic)", a),
+              (f"B. torus mesh minus cylinder mesh ({args.segments} segments)", b)], args.plot)
 
 
 if __name__ == "__main__":
