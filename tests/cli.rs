@@ -803,30 +803,14 @@ fn octree_meshes_its_surface() {
         .validate();
     assert!(t.watertight && t.genus() == Some(1), "{t}");
     // The mesher's flags need a mesh output, and --mesh-error needs dual.
+    let small_box =
+        |more: &[&str]| isokit(&[&["octree", "box", "--max-level", "4"], more].concat());
     assert_clear_error(
-        &isokit(&[
-            "octree",
-            "box",
-            "--max-level",
-            "4",
-            "-o",
-            &p("x.nrrd"),
-            "--mesher",
-            "dual",
-        ]),
+        &small_box(&["-o", &p("x.nrrd"), "--mesher", "dual"]),
         "mesh output",
     );
     assert_clear_error(
-        &isokit(&[
-            "octree",
-            "box",
-            "--max-level",
-            "4",
-            "-o",
-            &p("x.obj"),
-            "--mesh-error",
-            "0.1",
-        ]),
+        &small_box(&["-o", &p("x.obj"), "--mesh-error", "0.1"]),
         "--mesh-error applies to --mesher dual",
     );
 }

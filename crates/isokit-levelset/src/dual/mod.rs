@@ -224,7 +224,7 @@ pub fn mesh_dual_grid_job(
 ) -> Result<(TriMesh, DualStats), MeshingError> {
     let data = grid.data();
     let [nx, ny, _] = grid.dims();
-    contour(
+    mesh_dual_lattice_job(
         grid.dims(),
         grid.origin(),
         grid.spacing(),
@@ -233,52 +233,6 @@ pub fn mesh_dual_grid_job(
         opts,
         job,
     )
-}
-
-/// Dual contouring of samples given by a function on a lattice of `dims` nodes from
-/// `origin`, `spacing` apart: `sample(i, j, k)` is the value at node (i, j, k). The lattice
-/// is never stored (only the crossed edges and their cells are), so it serves sources that
-/// hold their samples in another form, such as the leaves of a hashed octree; every node is
-/// read a few times, so `sample` should be cheap. As [`mesh_dual_grid_job`] otherwise.
-///
-/// ```
-/// use glam::Vec3;
-/// use isokit_field::{Field, Job, primitives::Sphere};
-/// use isokit_levelset::dual::{DualOptions, mesh_dual_lattice_job};
-///
-/// let s = Sphere::new(Vec3::ZERO, 0.7).unwrap();
-/// let (n, h) = (24, 2.0 / 23.0);
-/// let at = |i: usize, j: usize, k: usize| {
-///     s.value(Vec3::splat(-1.0) + h * Vec3::new(i as f32, j as f32, k as f32))
-/// };
-/// let (m, _) = mesh_dual_lattice_job([n; 3], Vec3::splat(-1.0), h, at, Some(&s),
-///     &DualOptions::default(), &Job::default()).unwrap();
-/// assert!(m.validate().watertight);
-/// ```
-pub fn mesh_dual_lattice_job(
-    dims: [usize; 3],
-    origin: Vec3,
-    spacing: f32,
-    sample: impl Fn(usize, usize, usize) -> f32 + Sync,
-    field: Option<&dyn Field>,
-    opts: &DualOptions,
-    job: &Job,
-) -> Result<(TriMesh, DualStats), MeshingError> {
-    if !(spacing.is_finite() && spacing > 0.0 && origin.is_finite()) {
-        return Err(MeshingError::BadLattice(format!(
-            "origin {origin} and spacing {spacing} must be finite, the spacing positive"
-        )));
-    }
-    // Node keys number the padded lattice's nodes times three axes in a u64.
-    let keys = dims
-        .iter()
-        .try_fold(3u64, |n, &d| n.checked_mul(d as u64 + 2));
-    if keys.is_none() {
-        return Err(MeshingError::BadLattice(format!(
-            "{dims:?} nodes are more than a mesh's keys can number"
-        )));
-    }
-    contour(dims, origin, spacing, sample, field, opts, job)
 }
 
 /// Dual contouring of a sparse brick grid, read through [`BrickGrid::get`] (absent bricks
@@ -300,7 +254,7 @@ pub fn mesh_dual_brick_grid_job(
     opts: &DualOptions,
     job: &Job,
 ) -> Result<(TriMesh, DualStats), MeshingError> {
-    contour(
+    mesh_dual_lattice_job(
         grid.dims(),
         grid.origin(),
         grid.spacing(),
@@ -978,7 +932,27 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
     }
 }
 
-fn contour(
+/// Dual contouring of samples given by a function on a lattice of `dims` nodes from
+/// `origin`, `spacing` apart: `sample(i, j, k)` is the value at node (i, j, k). The lattice
+/// is never stored (only the crossed edges and their cells are), so it serves sources that
+/// hold their samples in another form, such as the leaves of a hashed octree; every node is
+/// read a few times, so `sample` should be cheap. As [`mesh_dual_grid_job`] otherwise.
+///
+/// ```
+/// use glam::Vec3;
+/// use isokit_field::{Field, Job, primitives::Sphere};
+/// use isokit_levelset::dual::{DualOptions, mesh_dual_lattice_job};
+///
+/// let s = Sphere::new(Vec3::ZERO, 0.7).unwrap();
+/// let (n, h) = (24, 2.0 / 23.0);
+/// let at = |i: usize, j: usize, k: usize| {
+///     s.value(Vec3::splat(-1.0) + h * Vec3::new(i as f32, j as f32, k as f32))
+/// };
+/// let (m, _) = mesh_dual_lattice_job([n; 3], Vec3::splat(-1.0), h, at, Some(&s),
+///     &DualOptions::default(), &Job::default()).unwrap();
+/// assert!(m.validate().watertight);
+/// ```
+pub fn mesh_dual_lattice_job(
     dims: [usize; 3],
     origin: Vec3,
     spacing: f32,
@@ -992,6 +966,20 @@ fn contour(
     }
     if dims.iter().any(|&d| d < 2) {
         return Err(MeshingError::GridTooSmall { dims });
+    }
+    if !(spacing.is_finite() && spacing > 0.0 && origin.is_finite()) {
+        return Err(MeshingError::BadLattice(format!(
+            "origin {origin} and spacing {spacing} must be finite, the spacing positive"
+        )));
+    }
+    // Node keys number the padded lattice's nodes times three axes in a u64.
+    let keys = dims
+        .iter()
+        .try_fold(3u64, |n, &d| n.checked_mul(d as u64 + 2));
+    if keys.is_none() {
+        return Err(MeshingError::BadLattice(format!(
+            "{dims:?} nodes are more than a mesh's keys can number"
+        )));
     }
     let lat = Lattice {
         dims,
