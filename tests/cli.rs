@@ -813,6 +813,22 @@ fn octree_meshes_its_surface() {
         &small_box(&["-o", &p("x.obj"), "--mesh-error", "0.1"]),
         "--mesh-error applies to --mesher dual",
     );
+    // A mesh level beyond a grid's size is refused before the tree is built.
+    for level in ["20", "100"] {
+        assert_clear_error(
+            &isokit(&[
+                "octree",
+                "box",
+                "--max-level",
+                "4",
+                "--export-level",
+                level,
+                "-o",
+                &p("x.obj"),
+            ]),
+            "use --export-level 10 or less",
+        );
+    }
 }
 
 #[test]

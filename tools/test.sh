@@ -28,7 +28,11 @@ cargo test --workspace
 # included. They are run from there: `cargo build --bin isokit` or `cargo run --example`
 # would resolve features for one package alone (other features of bytemuck, serde, num, …)
 # and compile about 70 crates a second time (4–5 minutes on 2 cores).
-bin_dir="${CARGO_TARGET_DIR:-$PWD/target}/debug"
+# The target directory as cargo resolves it (CARGO_TARGET_DIR, CARGO_BUILD_TARGET_DIR or a
+# config's build.target-dir), so these are the files `cargo test` has just written.
+target_dir=$(cargo metadata --no-deps --format-version 1 |
+  python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+bin_dir="$target_dir/debug"
 # The modeling scripts in examples/ run too (they check their own results).
 examples_out=$(mktemp -d)
 trap 'rm -rf "$examples_out"; [ -z "$xvfb_pid" ] || kill "$xvfb_pid" 2>/dev/null || true' EXIT

@@ -342,7 +342,7 @@ impl TriMesh {
             t.iter().all(|&i| (i as usize) < nv) && t[0] != t[1] && t[1] != t[2] && t[0] != t[2]
         };
         // Triangles around each vertex, as offsets into one array (compressed rows).
-        let mut start = vec![0u32; nv + 1];
+        let mut start = vec![0usize; nv + 1];
         for t in self.triangles.iter().filter(|t| proper(t)) {
             for &i in t {
                 start[i as usize + 1] += 1;
@@ -352,10 +352,10 @@ impl TriMesh {
             start[v + 1] += start[v];
         }
         let mut fill = start.clone();
-        let mut around = vec![0u32; start[nv] as usize];
+        let mut around = vec![0usize; start[nv]];
         for (k, t) in self.triangles.iter().enumerate().filter(|(_, t)| proper(t)) {
             for &i in t {
-                around[fill[i as usize] as usize] = k as u32;
+                around[fill[i as usize]] = k;
                 fill[i as usize] += 1;
             }
         }
@@ -363,7 +363,7 @@ impl TriMesh {
         let mut parent: Vec<u32> = Vec::new();
         let mut pairs: Vec<(u32, u32)> = Vec::new();
         for v in 0..nv {
-            let tris = &around[start[v] as usize..start[v + 1] as usize];
+            let tris = &around[start[v]..start[v + 1]];
             if tris.len() < 2 {
                 continue;
             }
@@ -374,7 +374,7 @@ impl TriMesh {
             parent.extend(0..tris.len() as u32);
             pairs.clear();
             for (a, &k) in tris.iter().enumerate() {
-                for &w in &self.triangles[k as usize] {
+                for &w in &self.triangles[k] {
                     if w as usize != v {
                         pairs.push((w, a as u32));
                     }

@@ -2,7 +2,7 @@
 //! tree's own reconstruction at a chosen level.
 
 use crate::cmd::mesher_args::MesherArg;
-use anyhow::Result;
+use anyhow::{Result, bail};
 use glam::UVec3;
 use isokit_field::{Field, TriMesh};
 use isokit_levelset::dual::{DualOptions, mesh_dual_lattice_job};
@@ -19,6 +19,26 @@ pub const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
 pub fn is_mesh(path: &Path) -> bool {
     let name = path.to_string_lossy().to_ascii_lowercase();
     MESHES.iter().any(|e| name.ends_with(e))
+}
+
+/// Refuses a mesh level whose lattice exceeds a grid's size limit, before anything is built
+/// (dual contouring reads the tree node by node, so the limit is one of time: every node is
+/// read).
+pub fn check_level(level: u32) -> Result<()> {
+    let n = (1usize << level.min(40)) + 1;
+    if n.checked_pow(3)
+        .is_none_or(|s| s > isokit_field::MAX_SAMPLES)
+    {
+        bail!(
+            "a mesh at level {level} reads {n}^3 samples, more than {}; use --export-level {} or less",
+            isokit_field::MAX_SAMPLES,
+            (0..=level.min(21))
+                .rev()
+                .find(|&l| ((1usize << l) + 1).pow(3) <= isokit_field::MAX_SAMPLES)
+                .unwrap_or(0)
+        );
+    }
+    Ok(())
 }
 
 /// Meshes the tree's reconstruction sampled at the nodes of `level` (2^level + 1 a side),
@@ -90,6 +110,8 @@ pub fn mesh_tree(
     });
     if let Some(st) = dual {
         v["clamped_vertices"] = st.clamped.into();
+        v["multi_component_cells"] = st.multi_component_cells.into();
+        v["beyond_cell_vertices"] = st.beyond_cell.into();
         v["folded_triangles"] = st.folded_triangles.into();
         if error.is_some() {
             v["merged_cells"] = st.merged_cells.into();

@@ -23,7 +23,9 @@ use serde_json::json;
 pub fn run(a: Args) -> Result<()> {
     let mesh_out = a.output.as_deref().filter(|o| mesh::is_mesh(o));
     if let Some(o) = &a.output {
-        if mesh_out.is_none() {
+        if mesh_out.is_some() {
+            check_output(o, &mesh::MESHES)?;
+        } else {
             let mut allowed = crate::cmd::volume_args::VOLUME_OUTPUTS.to_vec();
             allowed.extend(mesh::MESHES);
             check_output(o, &allowed)?;
@@ -49,6 +51,9 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let export_level = a.export_level.unwrap_or(l.min(8));
+    if mesh_out.is_some() {
+        mesh::check_level(export_level)?;
+    }
     if a.output.is_some() && export_level > l {
         bail!("--export-level {export_level} is finer than --max-level {l}");
     }

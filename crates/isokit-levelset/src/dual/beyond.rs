@@ -8,7 +8,10 @@
 //! solid and the edge is cut (Ju et al. 2002, Sec. 2.3: clamping the minimiser is what
 //! loses such features). With an exact field, the point of the edge's line nearest the cell
 //! is exact; it is used when it lies within half a cell of the cell and on the surface, and
-//! the point of the line nearest the clamped vertex is the second choice.
+//! the point of the line nearest the clamped vertex is the second choice. Where the
+//! crossings hold three planes whose corner is not on the surface near the cell (a plane
+//! passing by without meeting the other two there), the first edge of two of the planes
+//! that is near and on the surface.
 //!
 //! A vertex outside its cell can fold the mesh, and so can a quad split along the wrong
 //! diagonal where it straddles a sharp edge (both its vertices exact, on the two faces). So
@@ -26,13 +29,13 @@
 //! around its lattice edge (half a cell more for a moved vertex), so only quads whose cells
 //! are that close can cross; where every vertex lies inside its cell on one smooth plane the
 //! mesh follows the marching-cubes surface, which does not cross itself. The check costs
-//! about 1.1–1.3× the uniform mesher's time on the shipped part (`isokit scene
+//! about 1.1–1.7× the uniform mesher's time on the shipped part (`isokit scene
 //! examples/scenes/part.json --mesher dual`, resolutions 128 and 256).
 
 use glam::Vec3;
 use isokit_field::{Job, TriMesh};
 use rayon::prelude::*;
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 use crate::meshing::MeshingError;
 
@@ -56,14 +59,39 @@ pub(super) struct Unfolded {
     /// Triangles still facing the wrong way, degenerate or crossing another at the end (at
     /// least the number of intersecting pairs when more are found than listed).
     pub(super) folded: usize,
-    /// The quads split along the diagonal that is not the shorter, in canonical form
-    /// (`merge::canonical`).
-    pub(super) flipped: HashSet<[u32; 4]>,
+    /// The quads split along the diagonal that is not the shorter: their canonical form
+    /// (`merge::canonical`) and the diagonal taken (its two vertices, smaller first).
+    pub(super) flipped: HashMap<[u32; 4], [u32; 2]>,
+}
+
+/// The diagonal of a quad split into the triangles `t` (the two vertices both share),
+/// smaller vertex first.
+fn diagonal(t: &[[u32; 3]]) -> [u32; 2] {
+    let mut d = [u32::MAX; 2];
+    let mut n = 0;
+    for v in t[0] {
+        if n < 2 && t[1].contains(&v) {
+            d[n] = v;
+            n += 1;
+        }
+    }
+    [d[0].min(d[1]), d[0].max(d[1])]
+}
+
+/// The quad `q` split along the diagonal `d` (two of its vertices), keeping its
+/// orientation.
+pub(super) fn split_along(q: [u32; 4], d: [u32; 2]) -> [[u32; 3]; 2] {
+    let [a, b, c, dd] = q;
+    if [a.min(c), a.max(c)] == d {
+        [[a, b, c], [a, c, dd]]
+    } else {
+        [[a, b, dd], [b, c, dd]]
+    }
 }
 
 /// How a quad is split: along its shorter diagonal (0), the other one (1), or the shorter
 /// for good after the other did not help (2).
-pub(super) fn split(q: [u32; 4], positions: &[Vec3], state: u8) -> [[u32; 3]; 2] {
+fn split(q: [u32; 4], positions: &[Vec3], state: u8) -> [[u32; 3]; 2] {
     let [a, b, c, d] = q;
     let shorter = super::split_quad(q, positions);
     if state != 1 {
@@ -130,18 +158,35 @@ pub(super) fn unfold(
         }
         let mesh = TriMesh::new(Vec::new(), triangles);
         let folded = (2 * flagged.iter().filter(|f| **f).count()).max(x.count);
-        let done = |mesh: TriMesh, moved: &[Moved], state: &[u8]| Unfolded {
-            triangles: mesh.triangles,
-            beyond: moved.len(),
-            folded,
-            flipped: quads
+        let done = |mesh: TriMesh, moved: &[Moved], state: &[u8]| {
+            let flipped = quads
                 .iter()
                 .zip(state)
-                .filter(|(_, s)| **s == 1)
-                .map(|(q, _)| super::merge::canonical(q).0)
-                .collect(),
+                .zip(mesh.triangles.chunks(2))
+                .filter(|((_, s), _)| **s == 1)
+                .map(|((q, _), t)| (super::merge::canonical(q).0, diagonal(t)))
+                .collect();
+            Unfolded {
+                triangles: mesh.triangles,
+                beyond: moved.len(),
+                folded,
+                flipped,
+            }
         };
         if last {
+            return Ok(done(mesh, &moved, &state));
+        }
+        // What a flagged quad can still change: a moved vertex to move again or send back,
+        // or, near a place that can fold (where its new triangles are tested for crossings),
+        // a split to try or to settle.
+        let can_change = |q: usize, is_moved: &[bool], state: &[u8]| {
+            quads[q].iter().any(|&v| is_moved[v as usize]) || (near[q] && state[q] < 2)
+        };
+        let pending = flagged
+            .iter()
+            .enumerate()
+            .any(|(q, f)| *f && can_change(q, &is_moved, &state));
+        if !pending {
             return Ok(done(mesh, &moved, &state));
         }
         if round == ROUNDS || x.pairs.len() < x.count {
@@ -158,6 +203,9 @@ pub(super) fn unfold(
             continue;
         }
         let mut changed = false;
+        // Moved vertices changed this round (one step per round, however many of their quads
+        // are flagged).
+        let mut stepped = vec![false; positions.len()];
         for (q, _) in flagged.iter().enumerate().filter(|f| *f.1) {
             // A moved vertex of the quad tries its second place, or goes back.
             let mut sent_back = false;
@@ -167,12 +215,15 @@ pub(super) fn unfold(
                     continue;
                 }
                 sent_back = true;
+                if std::mem::replace(&mut stepped[v], true) {
+                    continue;
+                }
                 match next[v].take() {
                     Some(p) => positions[v] = p,
                     None => is_moved[v] = false,
                 }
             }
-            if !sent_back && state[q] < 2 {
+            if !sent_back && near[q] && state[q] < 2 {
                 state[q] += 1;
                 changed = true;
             }

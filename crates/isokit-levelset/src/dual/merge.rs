@@ -37,7 +37,7 @@ use super::{CellVerts, Hermite, Lattice, cell_edge, solve_in_cell};
 use glam::{DVec3, Vec3};
 use isokit_field::{Job, TriMesh};
 use rayon::prelude::*;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 use crate::meshing::MeshingError;
 
@@ -387,7 +387,7 @@ pub(super) fn adaptive_polygons(
     mut merged: Merged,
     quads: &[[u32; 4]],
     normals: &[Vec3],
-    flipped: &HashSet<[u32; 4]>,
+    flipped: &HashMap<[u32; 4], [u32; 2]>,
     job: &Job,
 ) -> Result<AdaptiveMesh, MeshingError> {
     let counter = job.counter(
@@ -456,13 +456,13 @@ pub(super) fn adaptive_polygons(
 /// normal of a crossing it came from and its polygon (`u32::MAX` as the fourth vertex of a
 /// triangle), and how many polygons remained more than once (0 on a 2-manifold result).
 /// Quads in `flipped` (canonical, as [`canonical`] gives them) are split along the diagonal
-/// that is not the shorter (the uniform mesher's fold repair, [`super::beyond`]).
+/// it gives (the uniform mesher's fold repair, [`super::beyond`]).
 #[expect(clippy::type_complexity, reason = "a private helper's triples")]
 fn polygons(
     quads: &[[u32; 4]],
     normals: &[Vec3],
     positions: &[Vec3],
-    flipped: &HashSet<[u32; 4]>,
+    flipped: &HashMap<[u32; 4], [u32; 2]>,
 ) -> (Vec<([u32; 3], Vec3, [u32; 4])>, usize) {
     // Per polygon (its vertices, zero-padded, and their count): the orientation count and a
     // crossing normal of each orientation.
@@ -497,7 +497,7 @@ fn polygons(
     keys.sort_unstable_by_key(|k| k.0);
     let mut out = Vec::with_capacity(keys.len() * 2);
     for ((mut poly, len), (n, forward, backward)) in keys {
-        let state = u8::from(len == 4 && flipped.contains(&poly));
+        let diagonal = if len == 4 { flipped.get(&poly) } else { None };
         if n.unsigned_abs() > 1 {
             repeated += 1;
         }
@@ -512,7 +512,11 @@ fn polygons(
                 let t = [poly[0], poly[1], poly[2]];
                 out.push((t, normal, [t[0], t[1], t[2], u32::MAX]));
             } else {
-                out.extend(super::beyond::split(poly, positions, state).map(|t| (t, normal, poly)));
+                let t = match diagonal {
+                    Some(&d) => super::beyond::split_along(poly, d),
+                    None => super::split_quad(poly, positions),
+                };
+                out.extend(t.map(|t| (t, normal, poly)));
             }
         }
     }
@@ -543,15 +547,15 @@ mod tests {
         let n = [Vec3::Z; 4];
         // (0, 1, 2) three times with alternating orientation: once remains.
         let quads = [[0, 1, 2, 2], [2, 1, 0, 0], [1, 2, 0, 0]];
-        let (tris, repeated) = polygons(&quads, &n, &pos, &HashSet::new());
+        let (tris, repeated) = polygons(&quads, &n, &pos, &HashMap::new());
         assert_eq!(tris, vec![([0, 1, 2], Vec3::Z, [0, 1, 2, u32::MAX])]);
         assert_eq!(repeated, 0);
         // A reversed pair leaves nothing; degenerate quads give nothing.
         let quads = [[0, 1, 2, 3], [3, 2, 1, 0], [0, 0, 1, 1], [0, 1, 0, 2]];
-        let (tris, _) = polygons(&quads, &n, &pos, &HashSet::new());
+        let (tris, _) = polygons(&quads, &n, &pos, &HashMap::new());
         assert!(tris.is_empty(), "{tris:?}");
         // The same orientation twice is reported.
-        let (tris, repeated) = polygons(&[[0, 1, 3, 3], [1, 3, 0, 0]], &n, &pos, &HashSet::new());
+        let (tris, repeated) = polygons(&[[0, 1, 3, 3], [1, 3, 0, 0]], &n, &pos, &HashMap::new());
         assert_eq!((tris.len(), repeated), (2, 1));
     }
 }

@@ -578,6 +578,20 @@ fn qef_line(normals: &[DVec3], truncation: f64) -> Option<DVec3> {
     (d.is_finite() && d.length_squared() > 0.5).then(|| d.normalize())
 }
 
+/// The crossings (indices) grouped by plane: a normal within 20° of a group's first joins
+/// it.
+fn plane_groups(normals: &[DVec3]) -> Vec<Vec<usize>> {
+    let c = 20f64.to_radians().cos();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, n) in normals.iter().enumerate() {
+        match groups.iter_mut().find(|g| normals[g[0]].dot(*n) >= c) {
+            Some(g) => g.push(i),
+            None => groups.push(vec![i]),
+        }
+    }
+    groups
+}
+
 /// Crossing normals further apart than this (degrees) make a cell's vertex a sharp feature's
 /// for the fold checks ([`beyond`]); smooth surfaces turn by a few degrees per cell.
 const SHARP_DEGREES: f64 = 30.0;
@@ -852,7 +866,10 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             };
             let before = off(x);
             let rank = qef_rank(&nrm[..m], truncation);
-            suspect |= clamped || (rank >= 2 && sharp(&nrm[..m]));
+            // Clamped, on a sharp feature (or a thin wall's opposite normals), or put on
+            // the cell's boundary by the edge rule of `solve_in_cell`.
+            let on_boundary = (0..3).any(|a| x[a] <= 1e-9 || x[a] >= 1.0 - 1e-9);
+            suspect |= clamped || sharp(&nrm[..m]) || (rank >= 2 && on_boundary);
             let try_neighbours = match self.field {
                 Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
                 None => rank == 2 && !clamped,
@@ -906,6 +923,29 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                     [None, Some(b)] => Some((w(b), None)),
                     [None, None] => None,
                 };
+            }
+            // Three planes or more whose corner is not on the surface near the cell (a plane
+            // of the crossings passes by without meeting the others there): the edge of two of
+            // the planes that is, on the same terms.
+            if self.field.is_some() && clamped && rank == 3 && off(x) > SURFACE_TOL && l < 4 {
+                let groups = plane_groups(&nrm[..m]);
+                'pairs: for (i, gi) in groups.iter().enumerate() {
+                    for gj in &groups[i + 1..] {
+                        let (mut p2, mut n2) = ([DVec3::ZERO; 12], [DVec3::ZERO; 12]);
+                        let mut k = 0;
+                        for &c in gi.iter().chain(gj) {
+                            p2[k] = pts[c];
+                            n2[k] = nrm[c];
+                            k += 1;
+                        }
+                        let on = edge_near_cell(&p2[..k], &n2[..k], truncation, 0.5, x)
+                            .map(|y| y.filter(|y| off(*y) <= SURFACE_TOL));
+                        if let Some(y) = on.into_iter().flatten().next() {
+                            beyond[l] = Some(((lo + self.h * y).as_vec3(), None));
+                            break 'pairs;
+                        }
+                    }
+                }
             }
             let v = (lo + self.h * x).clamp(lo_in, hi_in).as_vec3();
             // f32 rounding must not put it back onto the cell's boundary.
