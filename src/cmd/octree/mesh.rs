@@ -30,7 +30,7 @@ pub fn check_level(level: u32) -> Result<()> {
         .is_none_or(|s| s > isokit_field::MAX_SAMPLES)
     {
         bail!(
-            "a mesh at level {level} reads {n}^3 samples, more than {}; use --export-level {} or less",
+            "a mesh at level {level} reads (2^{level} + 1)^3 samples, more than {}; use --export-level {} or less",
             isokit_field::MAX_SAMPLES,
             (0..=level.min(21))
                 .rev()

@@ -51,11 +51,11 @@ pub fn run(a: Args) -> Result<()> {
         );
     }
     let export_level = a.export_level.unwrap_or(l.min(8));
-    if mesh_out.is_some() {
-        mesh::check_level(export_level)?;
-    }
     if a.output.is_some() && export_level > l {
         bail!("--export-level {export_level} is finer than --max-level {l}");
+    }
+    if mesh_out.is_some() {
+        mesh::check_level(export_level)?;
     }
     let inp = open_field(&a.input, a.knobs.options())?;
     if !inp.field.bounds().is_finite() {

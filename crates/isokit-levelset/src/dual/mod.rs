@@ -929,7 +929,10 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             // the planes that is, on the same terms.
             if self.field.is_some() && clamped && rank == 3 && off(x) > SURFACE_TOL && l < 4 {
                 let groups = plane_groups(&nrm[..m]);
-                'pairs: for (i, gi) in groups.iter().enumerate() {
+                // Every pair's edge points near the cell and on the surface, nearest the
+                // surface first.
+                let mut found: Vec<(f64, DVec3)> = Vec::new();
+                for (i, gi) in groups.iter().enumerate() {
                     for gj in &groups[i + 1..] {
                         let (mut p2, mut n2) = ([DVec3::ZERO; 12], [DVec3::ZERO; 12]);
                         let mut k = 0;
@@ -938,13 +941,21 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                             n2[k] = nrm[c];
                             k += 1;
                         }
-                        let on = edge_near_cell(&p2[..k], &n2[..k], truncation, 0.5, x)
-                            .map(|y| y.filter(|y| off(*y) <= SURFACE_TOL));
-                        if let Some(y) = on.into_iter().flatten().next() {
-                            beyond[l] = Some(((lo + self.h * y).as_vec3(), None));
-                            break 'pairs;
+                        for y in edge_near_cell(&p2[..k], &n2[..k], truncation, 0.5, x)
+                            .into_iter()
+                            .flatten()
+                        {
+                            let e = off(y);
+                            if e <= SURFACE_TOL {
+                                found.push((e, y));
+                            }
                         }
                     }
+                }
+                found.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let w = |y: DVec3| (lo + self.h * y).as_vec3();
+                if let Some(&(_, y)) = found.first() {
+                    beyond[l] = Some((w(y), found.get(1).map(|f| w(f.1))));
                 }
             }
             let v = (lo + self.h * x).clamp(lo_in, hi_in).as_vec3();
@@ -1224,37 +1235,45 @@ pub fn mesh_dual_lattice_job(
     // only where their cells are within two cells of each other. Quads near a suspect cell
     // are tested for intersections ([`beyond`]); elsewhere every vertex lies in its cell on
     // one plane and the mesh follows the marching-cubes surface, which does not cross itself.
-    let mut near_cell = vec![false; cells.len()];
+    // Each crossed cell's distance (in cells, the largest coordinate difference) to the
+    // nearest such place, up to 2.
+    let mut cell_reach = vec![u8::MAX; cells.len()];
     for (i, c) in per_cell.iter().enumerate() {
         if !(c.suspect || c.beyond.iter().any(Option::is_some)) {
             continue;
         }
         let g = decode(cells[i]);
-        for dz in -2..=2 {
-            for dy in -2..=2 {
-                for dx in -2..=2 {
+        for dz in -2i64..=2 {
+            for dy in -2i64..=2 {
+                for dx in -2i64..=2 {
                     let nb = [g[0] + dx, g[1] + dy, g[2] + dz];
                     if (0..3).all(|a| nb[a] >= cell_lo[a] && nb[a] <= cell_hi[a]) {
                         if let Ok(j) = cells.binary_search(&lat.node_key(nb)) {
-                            near_cell[j] = true;
+                            let d = dx.abs().max(dy.abs()).max(dz.abs()) as u8;
+                            cell_reach[j] = cell_reach[j].min(d);
                         }
                     }
                 }
             }
         }
     }
-    let mut near_vertex = vec![false; positions.len()];
+    let mut vertex_reach = vec![u8::MAX; positions.len()];
     for (i, c) in per_cell.iter().enumerate() {
-        if near_cell[i] {
-            let f = first[i] as usize;
-            near_vertex[f..f + c.verts.len()]
-                .iter_mut()
-                .for_each(|v| *v = true);
-        }
+        let f = first[i] as usize;
+        vertex_reach[f..f + c.verts.len()]
+            .iter_mut()
+            .for_each(|v| *v = cell_reach[i]);
     }
+    // Tested for crossings: quads with a cell within two cells of such a place. Free to take
+    // their other diagonal: quads whose four cells are all within one cell of it, so that
+    // every quad they could cross is tested.
     let near: Vec<bool> = quads
         .iter()
-        .map(|q| q.iter().any(|&v| near_vertex[v as usize]))
+        .map(|q| q.iter().any(|&v| vertex_reach[v as usize] <= 2))
+        .collect();
+    let flippable: Vec<bool> = quads
+        .iter()
+        .map(|q| q.iter().all(|&v| vertex_reach[v as usize] <= 1))
         .collect();
     let (positions, triangles, merged_cells, repeated_polygons, folded_triangles, beyond_cell) =
         match opts.error {
@@ -1262,7 +1281,15 @@ pub fn mesh_dual_lattice_job(
                 // The merged polygons are checked (and their folds undone) by the merging; the
                 // moved vertices and the unmerged quads' splits are settled first, as for the
                 // uniform mesh.
-                let u = beyond::unfold(&mut positions, moved, &quads, &normals, &near, job)?;
+                let u = beyond::unfold(
+                    &mut positions,
+                    moved,
+                    &quads,
+                    &normals,
+                    &near,
+                    &flippable,
+                    job,
+                )?;
                 let m = merge::merge(
                     &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
                 )?;
@@ -1277,7 +1304,15 @@ pub fn mesh_dual_lattice_job(
                 )
             }
             _ => {
-                let u = beyond::unfold(&mut positions, moved, &quads, &normals, &near, job)?;
+                let u = beyond::unfold(
+                    &mut positions,
+                    moved,
+                    &quads,
+                    &normals,
+                    &near,
+                    &flippable,
+                    job,
+                )?;
                 (positions, u.triangles, 0, 0, u.folded, u.beyond)
             }
         };
@@ -1304,7 +1339,10 @@ pub fn mesh_dual_lattice_job(
 fn split_quad(quad: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
     let p = quad.map(|v| positions[v as usize]);
     let [a, b, c, d] = quad;
-    if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
+    let (ac, bd) = (p[0].distance_squared(p[2]), p[1].distance_squared(p[3]));
+    // Equal diagonals (symmetric flat quads): the one through the smaller vertex index, so
+    // the choice does not depend on which vertex the quad is written from.
+    if ac < bd || (ac == bd && a.min(c) < b.min(d)) {
         [[a, b, c], [a, c, d]]
     } else {
         [[a, b, d], [b, c, d]]
