@@ -38,7 +38,7 @@
 //!   result is clamped to the cell; on an edge (two planes) whose line crosses the cell, the
 //!   point of the line inside the cell nearest the minimiser is taken instead. With an
 //!   exact field, an edge whose line misses the cell by less than half a cell puts the
-//!   vertex on the line beyond the cell where that folds nothing ([`beyond`]).
+//!   vertex on the line beyond the cell where that folds nothing (`beyond`).
 //! - **One quad per crossed edge**, joining the vertices (of the loops holding that edge)
 //!   of the four cells around it,
 //!   split into two triangles along its shorter diagonal and oriented so that the edge's
@@ -62,7 +62,7 @@
 //! features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
 //! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
 //! coincide and no quad collapses into a degenerate triangle). The folds are checked and
-//! undone where they can be ([`beyond`]: moved vertices sent back, quads split along their
+//! undone where they can be (`beyond`: moved vertices sent back, quads split along their
 //! other diagonal); what remains is counted in [`DualStats::folded_triangles`]. Measured on
 //! 14 random CSG trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 1 tree gave 3
 //! intersecting pairs among 50,200 triangles (2 trees and 19 pairs without the checks), and
@@ -153,7 +153,7 @@ pub struct DualStats {
     /// were counted with their orientation (0 when the result is 2-manifold there).
     pub repeated_polygons: usize,
     /// Triangles that still face against their crossing's normal, are degenerate or
-    /// intersect another triangle after the checks undid what they could ([`beyond`]; when
+    /// intersect another triangle after the checks undid what they could (`beyond`; when
     /// adaptive, also after the merges of their nodes were taken back, at most 16 rounds).
     pub folded_triangles: usize,
 }
@@ -593,7 +593,7 @@ fn plane_groups(normals: &[DVec3]) -> Vec<Vec<usize>> {
 }
 
 /// Crossing normals further apart than this (degrees) make a cell's vertex a sharp feature's
-/// for the fold checks ([`beyond`]); smooth surfaces turn by a few degrees per cell.
+/// for the fold checks (`beyond`); smooth surfaces turn by a few degrees per cell.
 const SHARP_DEGREES: f64 = 30.0;
 
 /// Whether two of the normals are more than [`SHARP_DEGREES`] apart.
@@ -913,7 +913,7 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                 }
             }
             // Both planes of an edge whose line misses the cell: the edge's point nearest
-            // the cell, when it is near and on the surface ([`beyond`]).
+            // the cell, when it is near and on the surface (`beyond`).
             if self.field.is_some() && clamped && rank == 2 && off(x) > SURFACE_TOL && l < 4 {
                 let on = edge_near_cell(&pts[..m], &nrm[..m], truncation, 0.5, x)
                     .map(|y| y.filter(|y| off(*y) <= SURFACE_TOL));
@@ -1233,7 +1233,7 @@ pub fn mesh_dual_lattice_job(
     // The quads that can cross a folded one: each quad's triangles lie in the four cells
     // around its edge (or half a cell beyond, for a moved vertex), so two quads can cross
     // only where their cells are within two cells of each other. Quads near a suspect cell
-    // are tested for intersections ([`beyond`]); elsewhere every vertex lies in its cell on
+    // are tested for intersections (`beyond`); elsewhere every vertex lies in its cell on
     // one plane and the mesh follows the marching-cubes surface, which does not cross itself.
     // Each crossed cell's distance (in cells, the largest coordinate difference) to the
     // nearest such place, up to 2.
