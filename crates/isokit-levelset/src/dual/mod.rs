@@ -541,15 +541,20 @@ fn solve_qef_fixed(
 /// improved.
 const SURFACE_TOL: f64 = 0.01;
 
-/// Rank of the normals after truncation (how many independent planes the QEF sees: 1 on a
-/// face, 2 on an edge, 3 at a corner).
-fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
+/// `Σ nᵢ nᵢᵀ`: the QEF's normal matrix `AᵀA` without fixed coordinates.
+fn normal_matrix(normals: &[DVec3]) -> Matrix3<f64> {
     let mut ata = Matrix3::<f64>::zeros();
     for nn in normals {
         let nv = Vector3::new(nn.x, nn.y, nn.z);
         ata += nv * nv.transpose();
     }
-    let sv = ata.singular_values();
+    ata
+}
+
+/// Rank of the normals after truncation (how many independent planes the QEF sees: 1 on a
+/// face, 2 on an edge, 3 at a corner).
+fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
+    let sv = normal_matrix(normals).singular_values();
     let smax = sv.max().max(0.0).sqrt();
     sv.iter()
         .filter(|&&v| smax > 0.0 && v.max(0.0).sqrt() > truncation * smax)
@@ -559,12 +564,7 @@ fn qef_rank(normals: &[DVec3], truncation: f64) -> usize {
 /// The direction of the QEF's line of minimisers where the normals span exactly two
 /// independent planes after truncation (an edge), or `None`.
 fn qef_line(normals: &[DVec3], truncation: f64) -> Option<DVec3> {
-    let mut ata = Matrix3::<f64>::zeros();
-    for nn in normals {
-        let nv = Vector3::new(nn.x, nn.y, nn.z);
-        ata += nv * nv.transpose();
-    }
-    let svd = ata.svd(false, true);
+    let svd = normal_matrix(normals).svd(false, true);
     let vt = svd.v_t?;
     let smax = svd.singular_values.max().max(0.0).sqrt();
     let kept: Vec<usize> = (0..3)
@@ -1275,21 +1275,21 @@ pub fn mesh_dual_lattice_job(
         .iter()
         .map(|q| q.iter().all(|&v| vertex_reach[v as usize] <= 1))
         .collect();
+    // The moved vertices and the quads' splits are settled first; when adaptive, the merged
+    // polygons are then checked (and their folds undone) by the merging, which takes the
+    // chosen splits of the quads it leaves unmerged.
+    let u = beyond::unfold(
+        &mut positions,
+        moved,
+        &quads,
+        &normals,
+        &near,
+        &flippable,
+        job,
+    )?;
     let (positions, triangles, merged_cells, repeated_polygons, folded_triangles, beyond_cell) =
         match opts.error {
             Some(error) if error > 0.0 => {
-                // The merged polygons are checked (and their folds undone) by the merging; the
-                // moved vertices and the unmerged quads' splits are settled first, as for the
-                // uniform mesh.
-                let u = beyond::unfold(
-                    &mut positions,
-                    moved,
-                    &quads,
-                    &normals,
-                    &near,
-                    &flippable,
-                    job,
-                )?;
                 let m = merge::merge(
                     &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
                 )?;
@@ -1303,18 +1303,7 @@ pub fn mesh_dual_lattice_job(
                     u.beyond,
                 )
             }
-            _ => {
-                let u = beyond::unfold(
-                    &mut positions,
-                    moved,
-                    &quads,
-                    &normals,
-                    &near,
-                    &flippable,
-                    job,
-                )?;
-                (positions, u.triangles, 0, 0, u.folded, u.beyond)
-            }
+            _ => (positions, u.triangles, 0, 0, u.folded, u.beyond),
         };
     let stats = DualStats {
         edges: edges.len(),
