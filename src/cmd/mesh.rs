@@ -70,10 +70,7 @@ pub struct Args {
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    check_output(
-        &a.output,
-        &[".obj", ".ply", ".stl", ".off", ".glb", ".gltf"],
-    )?;
+    check_output(&a.output, &super::MESH_OUTPUTS)?;
     if !a.iso.is_finite() {
         bail!("--iso {} must be finite", a.iso);
     }

@@ -54,7 +54,7 @@ pub struct Args {
     pub out: super::volume_args::VolumeOut,
 }
 
-const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
+use super::MESH_OUTPUTS as MESHES;
 
 /// The node kinds a scene file can hold, for `--help` (from the library's list).
 pub fn node_kinds_help() -> String {

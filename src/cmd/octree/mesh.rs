@@ -12,13 +12,9 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Instant;
 
-/// The mesh extensions `-o` takes (the others are volumes).
-pub const MESHES: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
-
-/// Whether `path` names a mesh output.
+/// Whether `path` names a mesh output (a format `isokit_io::write_mesh` writes).
 pub fn is_mesh(path: &Path) -> bool {
-    let name = path.to_string_lossy().to_ascii_lowercase();
-    MESHES.iter().any(|e| name.ends_with(e))
+    isokit_io::MeshFormat::from_path(path).is_ok()
 }
 
 /// Refuses a mesh level whose lattice exceeds a grid's size limit, before anything is built

@@ -24,10 +24,10 @@ pub fn run(a: Args) -> Result<()> {
     let mesh_out = a.output.as_deref().filter(|o| mesh::is_mesh(o));
     if let Some(o) = &a.output {
         if mesh_out.is_some() {
-            check_output(o, &mesh::MESHES)?;
+            check_output(o, &super::MESH_OUTPUTS)?;
         } else {
             let mut allowed = crate::cmd::volume_args::VOLUME_OUTPUTS.to_vec();
-            allowed.extend(mesh::MESHES);
+            allowed.extend(super::MESH_OUTPUTS);
             check_output(o, &allowed)?;
             a.out.check(o)?;
         }
