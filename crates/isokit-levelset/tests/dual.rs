@@ -263,7 +263,8 @@ fn random_csg_trees_non_manifold_frequency() {
 }
 
 /// A wall thinner than a cell: a vertex for each side of the wall in the cells it crosses,
-/// so no holes and no shared vertices.
+/// so no holes and no shared vertices; no triangle facing the wrong way or crossing another
+/// (the two sides' vertices lie a fraction of a cell apart).
 #[test]
 fn thin_wall() {
     let n = 24;
@@ -280,6 +281,9 @@ fn thin_wall() {
     );
     check_promise(&m, true, "thin wall");
     assert_eq!(r.genus(), Some(0));
+    assert_eq!(st.folded_triangles, 0, "thin wall");
+    let x = isokit_levelset::intersect::self_intersections(&m);
+    assert_eq!(x.count, 0, "thin wall: {} crossing pairs", x.count);
     let mc = mesh_grid(&g, &MeshOptions::default()).unwrap().validate();
     assert!(mc.watertight && mc.consistently_oriented, "{mc}");
 }

@@ -14,32 +14,40 @@
 //! near and on the surface are used the same way, the one nearest the surface first.
 //!
 //! A vertex outside its cell can fold the mesh, and so can a quad split along the wrong
-//! diagonal where it straddles a sharp edge (both its vertices exact, on the two faces). So
-//! the triangles are checked as the adaptive merging's are ([`super::merge`]): every round,
-//! a quad with a triangle that faces against its crossing's normal, is degenerate or crosses
-//! another triangle (exactly, [`crate::intersect`]) moves its moved vertices to their second
-//! choice or back into their cells or, with none and where every quad it could cross is
-//! tested, is split along its other diagonal (once; a quad still flagged after that goes back
-//! to its first split for good). When nothing flagged can change any more the result stands;
-//! when changes are still pending after `ROUNDS` rounds, or more crossings are found than
-//! listed, every vertex goes back into its cell and every quad takes its first split: the
-//! result is either checked or the plain in-cell mesh, so these steps add no fold.
+//! diagonal where it straddles a sharp edge (both its vertices exact, on the two faces), and
+//! a vertex on an edge of a faceted field's planes (a mesh operand's facets meet at a few
+//! degrees, and their edge can pass anywhere through the cell). So the triangles are checked
+//! as the adaptive merging's are ([`super::merge`]): every round, a quad with a triangle that
+//! faces against its crossing's normal, is degenerate or crosses another triangle (exactly,
+//! [`crate::intersect`]) moves its moved vertices to their second choice or back into their
+//! cells or, with none and where every quad it could cross is tested, is split along its
+//! other diagonal (once; a quad still flagged after that goes back to its first split for
+//! good). When a round has nothing else to change, the vertices of the quads that still
+//! cross another go to their loops' mass points of crossings (the vertex of surface nets,
+//! inside the cell: the sharp feature is given up there for a mesh that does not cross
+//! itself), where every quad they could cross is tested. When nothing flagged can change any
+//! more the result stands; when changes are still pending after `ROUNDS` rounds, or more
+//! crossings are found than listed, every vertex goes back to its first place in its cell
+//! and every quad takes its first split: the result is either checked or the plain in-cell
+//! mesh, so these steps add no fold.
 //!
 //! Facing and degeneracy are checked on every quad; intersections on the quads within two
 //! cells of a cell where the mesh can fold (a vertex clamped, on a sharp feature, on a thin
-//! wall's two opposite planes, put on its cell's boundary by the edge rule or beyond its
-//! cell, or several vertices in one cell), and a quad may take its other diagonal only
-//! within one cell of such a place, so that whatever it could cross is tested. Each quad's
-//! triangles lie in the four cells around its lattice edge (half a cell more for a moved
-//! vertex), so only quads whose cells are that close can cross; where every vertex lies
-//! inside its cell on one smooth plane the mesh follows the marching-cubes surface, which
-//! does not cross itself. Faceted mesh operands and blends thinner than a cell fold where
-//! no flip or move undoes it (the shipped `demo.json` keeps 46 crossing pairs among 54,448
-//! triangles, 88 without these steps).
+//! wall's two opposite planes, on an edge or corner of planes at any angle, or beyond its
+//! cell, or several vertices in one cell); a quad may take its other diagonal only within
+//! one cell of such a place, and a vertex may go to its mass point only in such a cell, so
+//! that whatever they could cross is tested. Each quad's triangles lie in the four cells
+//! around its lattice edge (half a cell more for a moved vertex), so only quads whose cells
+//! are that close can cross; where every vertex lies inside its cell on one plane of
+//! crossings the mesh follows the marching-cubes surface, which does not cross itself. On
+//! the shipped scenes (faceted mesh operands, thin blends) this leaves no crossing and no
+//! triangle facing the wrong way (`demo.json` had 88 crossing pairs among 54,448 triangles
+//! without these steps, 46 with moves and flips alone).
 
-use glam::Vec3;
-use isokit_field::{Job, TriMesh};
+use glam::{DVec3, Vec3};
+use isokit_field::{Field, Job, TriMesh};
 use rayon::prelude::*;
+use std::cmp::Ordering;
 use std::collections::HashMap;
 
 use crate::meshing::MeshingError;
@@ -53,6 +61,27 @@ pub(super) struct Moved {
     pub(super) vertex: u32,
     pub(super) in_cell: Vec3,
     pub(super) next: Option<Vec3>,
+}
+
+/// The place of last resort for a vertex whose quads fold: its loop's mass point of
+/// crossings, moved onto the surface (where there is an exact field) when it is used.
+#[derive(Clone, Copy)]
+pub(super) struct Smooth {
+    pub(super) at: Vec3,
+    /// The vertex is on a sharp feature (an edge or corner of planes more than
+    /// `SHARP_DEGREES` apart): it goes to `at` only where its quads cross others, not where
+    /// they merely face the wrong way (a sliver at a corner, where several cells' vertices
+    /// meet on the corner point).
+    pub(super) sharp: bool,
+}
+
+/// The quads [`unfold`] checks: `normals[i]` is the crossing normal of quad `i`; `near[i]`:
+/// tested for intersections; `flippable[i]`: free to take its other diagonal.
+pub(super) struct Checked<'a> {
+    pub(super) quads: &'a [[u32; 4]],
+    pub(super) normals: &'a [Vec3],
+    pub(super) near: &'a [bool],
+    pub(super) flippable: &'a [bool],
 }
 
 /// What [`unfold`] gives.
@@ -108,18 +137,53 @@ fn split(q: [u32; 4], positions: &[Vec3], state: u8) -> [[u32; 3]; 2] {
     }
 }
 
+/// Whether the triangle `p` folds: degenerate (as `TriMesh::validate` counts them), or facing
+/// against `n`, the normal of the crossing it came from, and, with an exact field, against
+/// the field's gradient at its centroid and at each of its corners too. The crossing is up
+/// to a cell away: across a sharp edge whose faces turn by more than a right angle, a
+/// triangle lying on one face faces against the other's crossing normal without folding;
+/// and at a sharp edge or corner the surface's normals are the cone of its faces' normals,
+/// so a small triangle there facing along one of them does not fold.
+pub(super) fn folds(p: [DVec3; 3], n: Vec3, field: Option<&dyn Field>) -> bool {
+    let normal = (p[1] - p[0]).cross(p[2] - p[0]);
+    if isokit_field::mesh::zero_area(p[0], p[1], p[2]) {
+        return true;
+    }
+    if normal.dot(n.as_dvec3()) > 0.0 {
+        return false;
+    }
+    field.is_none_or(|f| {
+        let centroid = (p[0] + p[1] + p[2]) / 3.0;
+        [centroid, p[0], p[1], p[2]]
+            .iter()
+            // Not facing along it (NaN included).
+            .all(|x| {
+                normal
+                    .dot(f.gradient(x.as_vec3()).as_dvec3())
+                    .partial_cmp(&0.0)
+                    != Some(Ordering::Greater)
+            })
+    })
+}
+
 /// Checks the quads' triangles with the moved vertices (already at their positions beyond
-/// their cells in `positions`) and undoes what folds (module docs). `normals[i]` is the
-/// crossing normal of quad `i`.
+/// their cells in `positions`) and undoes what folds (module docs). `smooth[v]`: where
+/// vertex `v` may go last, through `onto` (the vertex and the mass point give the place).
 pub(super) fn unfold(
     positions: &mut [Vec3],
     mut moved: Vec<Moved>,
-    quads: &[[u32; 4]],
-    normals: &[Vec3],
-    near: &[bool],
-    flippable: &[bool],
+    checked: Checked,
+    mut smooth: Vec<Option<Smooth>>,
+    onto: &(dyn Fn(u32, Vec3) -> Vec3 + Sync),
+    field: Option<&dyn Field>,
     job: &Job,
 ) -> Result<Unfolded, MeshingError> {
+    let Checked {
+        quads,
+        normals,
+        near,
+        flippable,
+    } = checked;
     // The triangles tested for intersections: those of the quads `near` a place that can
     // fold, as indices into the quads' triangles.
     let tested: Vec<u32> = (0..quads.len() as u32)
@@ -133,6 +197,8 @@ pub(super) fn unfold(
         next[m.vertex as usize] = m.next;
     }
     let mut state = vec![0u8; quads.len()];
+    // Vertices sent to their mass points, with where they were.
+    let mut smoothed: Vec<(u32, Vec3)> = Vec::new();
     let mut last = false;
     let mut round = 0;
     loop {
@@ -146,12 +212,9 @@ pub(super) fn unfold(
         let mut flagged: Vec<bool> = triangles
             .par_chunks(2)
             .zip(normals)
-            .map(|(pair, n)| {
-                pair.iter().any(|t| {
-                    let p = t.map(|v| positions[v as usize].as_dvec3());
-                    let facing = (p[1] - p[0]).cross(p[2] - p[0]).dot(n.as_dvec3()) > 0.0;
-                    !facing || isokit_field::mesh::zero_area(p[0], p[1], p[2])
-                })
+            .map(|(pair, &n)| {
+                pair.iter()
+                    .any(|t| folds(t.map(|v| positions[v as usize].as_dvec3()), n, field))
             })
             .collect();
         let sub = TriMesh::new(
@@ -159,8 +222,10 @@ pub(super) fn unfold(
             tested.iter().map(|&t| triangles[t as usize]).collect(),
         );
         let x = crate::intersect::self_intersections(&sub);
+        let mut crossing = vec![false; quads.len()];
         for &t in x.pairs.iter().flatten() {
             flagged[tested[t as usize] as usize / 2] = true;
+            crossing[tested[t as usize] as usize / 2] = true;
         }
         let mesh = TriMesh::new(Vec::new(), triangles);
         let folded = (2 * flagged.iter().filter(|f| **f).count()).max(x.count);
@@ -184,13 +249,19 @@ pub(super) fn unfold(
         }
         // What a flagged quad can still change: a moved vertex to move again or send back,
         // or, where every quad it could cross is tested, a split to try or to settle.
-        let can_change = |q: usize, is_moved: &[bool], state: &[u8]| {
-            quads[q].iter().any(|&v| is_moved[v as usize]) || (flippable[q] && state[q] < 2)
+        let can_smooth = |q: usize, v: u32, smooth: &[Option<Smooth>]| {
+            smooth[v as usize].is_some_and(|s| crossing[q] || !s.sharp)
+        };
+        let can_change = |q: usize, is_moved: &[bool], state: &[u8], smooth: &[Option<Smooth>]| {
+            quads[q]
+                .iter()
+                .any(|&v| is_moved[v as usize] || can_smooth(q, v, smooth))
+                || (flippable[q] && state[q] < 2)
         };
         let pending = flagged
             .iter()
             .enumerate()
-            .any(|(q, f)| *f && can_change(q, &is_moved, &state));
+            .any(|(q, f)| *f && can_change(q, &is_moved, &state, &smooth));
         // More crossing pairs than listed: `flagged` is incomplete, and what was changed may
         // cross where it is not seen.
         let unlisted = x.pairs.len() < x.count;
@@ -200,11 +271,14 @@ pub(super) fn unfold(
         if round == ROUNDS || unlisted {
             // Out of rounds with changes pending, or crossings not all listed: everything
             // back as it was.
-            if moved.is_empty() && state.iter().all(|&s| s == 0) {
+            if moved.is_empty() && smoothed.is_empty() && state.iter().all(|&s| s == 0) {
                 return Ok(done(mesh, &moved, &state));
             }
             for m in moved.drain(..) {
                 positions[m.vertex as usize] = m.in_cell;
+            }
+            for (v, p) in smoothed.drain(..) {
+                positions[v as usize] = p;
             }
             state.iter_mut().for_each(|s| *s = 0);
             last = true;
@@ -215,6 +289,8 @@ pub(super) fn unfold(
         // Moved vertices changed this round (one step per round, however many of their quads
         // are flagged).
         let mut stepped = vec![false; positions.len()];
+        // Flagged quads with no moved vertex and no split left to try.
+        let mut stuck = Vec::new();
         for (q, _) in flagged.iter().enumerate().filter(|f| *f.1) {
             // A moved vertex of the quad tries its second place, or goes back.
             let mut sent_back = false;
@@ -235,8 +311,25 @@ pub(super) fn unfold(
             if !sent_back && flippable[q] && state[q] < 2 {
                 state[q] += 1;
                 changed = true;
+            } else if !sent_back {
+                stuck.push(q);
             }
             changed |= sent_back;
+        }
+        if !changed {
+            // Nothing else left to try: the stuck quads' vertices go to their mass points of
+            // crossings (the vertex of surface nets, inside the cell, which gives up the
+            // sharp feature for a mesh that does not fold).
+            for q in stuck {
+                for &v in &quads[q] {
+                    if can_smooth(q, v, &smooth) {
+                        let s = smooth[v as usize].take().expect("checked");
+                        smoothed.push((v, positions[v as usize]));
+                        positions[v as usize] = onto(v, s.at);
+                        changed = true;
+                    }
+                }
+            }
         }
         if !changed {
             return Ok(done(mesh, &moved, &state));

@@ -35,7 +35,7 @@
 
 use super::{CellVerts, Hermite, Lattice, cell_edge, solve_in_cell};
 use glam::{DVec3, Vec3};
-use isokit_field::{Job, TriMesh};
+use isokit_field::{Field, Job, TriMesh};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
@@ -376,8 +376,9 @@ const SPLIT_ROUNDS: usize = 16;
 
 /// The adaptive mesh: the fine quads (each with the normal of the crossed edge it came
 /// from) with their cells' vertices replaced by the merged nodes', as [`polygons`] makes
-/// them. Every round, a triangle that faces against its crossing's normal or is degenerate
-/// (a fold where a large node meets small cells across a feature), or that intersects
+/// them. Every round, a triangle that folds (faces against its crossing's normal and the
+/// surface's, or is degenerate, [`super::beyond::folds`]: where a large node meets small
+/// cells across a feature), or that intersects
 /// another triangle (exactly, [`crate::intersect`]), takes back the merges of its polygon's
 /// nodes, and the polygons are made again (at most `SPLIT_ROUNDS` times): merging adds no
 /// self-intersection to what the uniform mesher gives unless the rounds run out. The
@@ -388,6 +389,7 @@ pub(super) fn adaptive_polygons(
     quads: &[[u32; 4]],
     normals: &[Vec3],
     flipped: &HashMap<[u32; 4], [u32; 2]>,
+    field: Option<&dyn Field>,
     job: &Job,
 ) -> Result<AdaptiveMesh, MeshingError> {
     let counter = job.counter(
@@ -402,7 +404,7 @@ pub(super) fn adaptive_polygons(
         let (remap, merged_cells) = merged.remap();
         let mapped: Vec<[u32; 4]> = quads.iter().map(|q| q.map(|v| remap[v as usize])).collect();
         let (tris, repeated) = polygons(&mapped, normals, &mesh.positions, flipped);
-        // Triangles facing against their crossing's normal or degenerate, and triangles
+        // Triangles facing the wrong way or degenerate, and triangles
         // crossing others without facing the wrong way (a large node's triangle reaching over
         // a concave rim of small cells; exact tests).
         let mut flagged: Vec<usize> = tris
@@ -410,9 +412,7 @@ pub(super) fn adaptive_polygons(
             .enumerate()
             .filter(|(_, (t, n, _))| {
                 let p = t.map(|v| mesh.positions[v as usize].as_dvec3());
-                let facing = (p[1] - p[0]).cross(p[2] - p[0]).dot(n.as_dvec3()) > 0.0;
-                // Degenerate as `TriMesh::validate` counts them, or facing the wrong way.
-                !facing || isokit_field::mesh::zero_area(p[0], p[1], p[2])
+                super::beyond::folds(p, *n, field)
             })
             .map(|(i, _)| i)
             .collect();

@@ -58,16 +58,21 @@
 //! its loop's mass point of crossings), so merging coincident vertices pinches nothing: the
 //! mesh is 2-manifold at every vertex too (tests: random noise, random CSG trees).
 //!
-//! Vertices clamped into their cells can make quads fold, so triangles may intersect near
-//! features the lattice cannot resolve ([`crate::intersect`] finds them exactly; vertices
-//! are kept 1/1024 of a cell inside their cells, so vertices of different cells never
-//! coincide and no quad collapses into a degenerate triangle). The folds are checked and
-//! undone where they can be (`beyond`: moved vertices sent back, quads split along their
-//! other diagonal); what remains is counted in [`DualStats::folded_triangles`]. Measured on
-//! 14 random CSG trees at resolution 40 (`isokit-scene`'s `tests/dual.rs`): 1 tree gave 3
-//! intersecting pairs among 50,200 triangles (2 trees and 19 pairs without the checks), and
-//! no degenerate triangle; the shipped scenes, a box, a box minus a cylinder and two boxes
-//! (one rotated 30°, 3 pairs without the checks) gave none.
+//! Vertices clamped into their cells or on edges of planes can make quads fold, so triangles
+//! may intersect near features the lattice cannot resolve ([`crate::intersect`] finds them
+//! exactly; vertices are kept 1/1024 of a cell inside their cells, so vertices of different
+//! cells never coincide and no quad collapses into a degenerate triangle). The folds are
+//! checked and undone (`beyond`: moved vertices sent back, quads split along their other
+//! diagonal, and last the vertices of quads that still cross another sent to their mass
+//! points of crossings, which gives up the feature there); what remains is counted in
+//! [`DualStats::folded_triangles`]. This is a check, not a construction: where the rounds
+//! run out everything is taken back, and crossings would remain. Measured (`isokit-scene`'s
+//! `tests/dual.rs` and `tests/scene_cli.rs`): no intersecting pair on 14 random CSG trees at
+//! resolution 40 (2 trees and 19 pairs without the checks, 3 pairs with moves and flips
+//! alone), on the shipped scenes (`demo.json`, a faceted trefoil mesh blended into a sphere,
+//! 88 pairs without the checks) and on a box, a box minus a cylinder and two boxes (one
+//! rotated 30°); no degenerate triangle; a few small triangles at sharp corners may still
+//! face the wrong way (`trefoil_cut.json` 2 of 58,976, `vase.json` 8 of 222,472).
 //! Crossings refined on the field are exact to about f32 rounding; normals are the field's
 //! gradient (analytic or finite differences). Vertices are not shared across cells, so a
 //! vertex of one component never serves another.
@@ -152,9 +157,10 @@ pub struct DualStats {
     /// Adaptive meshing: polygons that remained more than once after the fine quads' copies
     /// were counted with their orientation (0 when the result is 2-manifold there).
     pub repeated_polygons: usize,
-    /// Triangles that still face against their crossing's normal, are degenerate or
-    /// intersect another triangle after the checks undid what they could (`beyond`; when
-    /// adaptive, also after the merges of their nodes were taken back, at most 16 rounds).
+    /// Triangles that still face the wrong way (against their crossing's normal and the
+    /// exact field's gradient), are degenerate or intersect another triangle after the
+    /// checks undid what they could (`beyond`; when adaptive, also after the merges of their
+    /// nodes were taken back, at most 16 rounds).
     pub folded_triangles: usize,
 }
 
@@ -734,6 +740,10 @@ struct CellVerts {
     beyond: [Option<(Vec3, Option<Vec3>)>; 4],
     /// A vertex clamped or on a sharp feature, or several vertices: the mesh can fold here.
     suspect: bool,
+    /// Per vertex, its loop's mass point of crossings (inside the cell, on the surface where
+    /// there is an exact field), and whether the vertex is on a sharp feature: the place of
+    /// last resort for a vertex whose quads fold ([`beyond`]).
+    smooth: Vec<(Vec3, bool)>,
 }
 
 /// The crossed edge with this key, from the sorted crossed edges.
@@ -794,6 +804,38 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         crate::meshing::faces_in_one_loop(&loops, mask)
     }
 
+    /// `p` moved onto the exact surface by Newton steps along the field's gradient, where
+    /// there is an exact field and the steps converge within a cell of `p`, and kept inside
+    /// `cell` as its vertices are.
+    fn onto_surface_in(&self, cell: [i64; 3], p: Vec3) -> Vec3 {
+        let lo = self.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
+        let inset = DVec3::splat(self.h / 1024.0);
+        let (lo, hi) = (lo + inset, lo + DVec3::splat(self.h) - inset);
+        let x = self.onto_surface(p.as_dvec3()).clamp(lo, hi).as_vec3();
+        x.clamp(lo.as_vec3(), hi.as_vec3())
+    }
+
+    /// `p` moved onto the exact surface (as [`Self::onto_surface_in`]), or `p`.
+    fn onto_surface(&self, p: DVec3) -> DVec3 {
+        let Some(f) = self.field else { return p };
+        let mut x = p;
+        for _ in 0..4 {
+            let v = f.value(x.as_vec3()) as f64 - self.iso as f64;
+            let g = f.gradient(x.as_vec3()).as_dvec3();
+            let gg = g.length_squared();
+            if !(v.is_finite() && gg.is_finite() && gg > 1e-12) {
+                return p;
+            }
+            x -= v / gg * g;
+        }
+        let v = f.value(x.as_vec3()) as f64 - self.iso as f64;
+        if v.abs() <= SURFACE_TOL * self.h && x.distance(p) <= self.h {
+            x
+        } else {
+            p
+        }
+    }
+
     /// A vertex per surface component of the crossed cell (per marching-cubes loop of the
     /// cell, with the face decisions of `crate::meshing`, reversed on the faces in `flip`).
     fn cell_vertices(
@@ -814,12 +856,14 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         let (lo_in, hi_in) = (lo + inset, lo + DVec3::splat(self.h) - inset);
         let mut of_edge = [0u8; 12];
         let mut verts = Vec::with_capacity(loops.count);
+        let mut smooth = Vec::with_capacity(loops.count);
         // Each loop's mass point of crossings (world units), for two loops' vertices that
         // would coincide.
         let mut mass = [DVec3::ZERO; 4];
         let mut beyond = [None; 4];
-        // A vertex clamped into the cell or on a sharp feature (two or three planes at more
-        // than `SHARP_DEGREES`), or several vertices: where the mesh can fold.
+        // A vertex clamped into the cell, on a sharp feature (two or three planes at more
+        // than `SHARP_DEGREES`) or on an edge of planes, or several vertices: where the mesh
+        // can fold.
         let mut suspect = loops.count > 1;
         let mut at = 0;
         for l in 0..loops.count.max(1) {
@@ -844,10 +888,14 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             at += len;
             if m == 0 {
                 // No loop traced (cannot happen for a crossed cell): the cell's centre.
-                verts.push(((lo + 0.5 * self.h * DVec3::ONE).as_vec3(), false));
+                let centre = (lo + 0.5 * self.h * DVec3::ONE).as_vec3();
+                verts.push((centre, false));
+                smooth.push((centre, false));
                 continue;
             }
             mass[l.min(3)] = lo + self.h * pts[..m].iter().sum::<DVec3>() / m as f64;
+            let c = mass[l.min(3)].clamp(lo_in, hi_in).as_vec3();
+            smooth.push((c.clamp(lo_in.as_vec3(), hi_in.as_vec3()), sharp(&nrm[..m])));
             let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
             // An edge whose corner lies in this cell while the third face crosses only the
             // neighbours' edges (rank 2), or, with an exact field, a vertex off the surface:
@@ -866,10 +914,11 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             };
             let before = off(x);
             let rank = qef_rank(&nrm[..m], truncation);
-            // Clamped, on a sharp feature (or a thin wall's opposite normals), or put on
-            // the cell's boundary by the edge rule of `solve_in_cell`.
-            let on_boundary = (0..3).any(|a| x[a] <= 1e-9 || x[a] >= 1.0 - 1e-9);
-            suspect |= clamped || sharp(&nrm[..m]) || (rank >= 2 && on_boundary);
+            // Clamped, on a sharp feature (or a thin wall's opposite normals), or solved on
+            // an edge or corner of planes (rank 2 or 3, however small their angle: the
+            // facets of a mesh operand meet at a few degrees, and a vertex on their edge
+            // can lie anywhere in the cell).
+            suspect |= clamped || sharp(&nrm[..m]) || rank >= 2;
             let try_neighbours = match self.field {
                 Some(_) => (rank == 2 && !clamped) || (before > SURFACE_TOL && rank >= 2),
                 None => rank == 2 && !clamped,
@@ -979,6 +1028,7 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
             several: loops.count > 1,
             beyond,
             suspect,
+            smooth,
         }
     }
 }
@@ -1161,6 +1211,7 @@ pub fn mesh_dual_lattice_job(
                     several: false,
                     beyond: [None; 4],
                     suspect: false,
+                    smooth: Vec::new(),
                 };
             }
             let c = lat.cell_vertices(decode(ck), &r, &edges, truncation, flip);
@@ -1234,7 +1285,8 @@ pub fn mesh_dual_lattice_job(
     // around its edge (or half a cell beyond, for a moved vertex), so two quads can cross
     // only where their cells are within two cells of each other. Quads near a suspect cell
     // are tested for intersections (`beyond`); elsewhere every vertex lies in its cell on
-    // one plane and the mesh follows the marching-cubes surface, which does not cross itself.
+    // one plane of crossings and the mesh follows the marching-cubes surface, which does
+    // not cross itself.
     // Each crossed cell's distance (in cells, the largest coordinate difference) to the
     // nearest such place, up to 2.
     let mut cell_reach = vec![u8::MAX; cells.len()];
@@ -1275,16 +1327,42 @@ pub fn mesh_dual_lattice_job(
         .iter()
         .map(|q| q.iter().all(|&v| vertex_reach[v as usize] <= 1))
         .collect();
+    // Free to move to its mass point: a vertex of such a place itself (its quads' cells are
+    // within one cell of it, so whatever they could cross is tested), where that moves it.
+    let smooth: Vec<Option<beyond::Smooth>> = per_cell
+        .iter()
+        .zip(&first)
+        .flat_map(|(c, &f)| {
+            c.smooth
+                .iter()
+                .enumerate()
+                .map(move |(l, &p)| (f as usize + l, p))
+        })
+        .map(|(v, (at, sharp))| {
+            (vertex_reach[v] == 0 && at != positions[v]).then_some(beyond::Smooth { at, sharp })
+        })
+        .collect();
     // The moved vertices and the quads' splits are settled first; when adaptive, the merged
     // polygons are then checked (and their folds undone) by the merging, which takes the
     // chosen splits of the quads it leaves unmerged.
+    // A mass point moved onto the surface, in its vertex's cell.
+    let onto = |v: u32, p: Vec3| {
+        let i = first.partition_point(|&f| f <= v) - 1;
+        lat.onto_surface_in(decode(cells[i]), p)
+    };
+    let checked = beyond::Checked {
+        quads: &quads,
+        normals: &normals,
+        near: &near,
+        flippable: &flippable,
+    };
     let u = beyond::unfold(
         &mut positions,
         moved,
-        &quads,
-        &normals,
-        &near,
-        &flippable,
+        checked,
+        smooth,
+        &onto,
+        lat.field,
         job,
     )?;
     let (positions, triangles, merged_cells, repeated_polygons, folded_triangles, beyond_cell) =
@@ -1293,7 +1371,7 @@ pub fn mesh_dual_lattice_job(
                 let m = merge::merge(
                     &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
                 )?;
-                let a = merge::adaptive_polygons(m, &quads, &normals, &u.flipped, job)?;
+                let a = merge::adaptive_polygons(m, &quads, &normals, &u.flipped, lat.field, job)?;
                 (
                     a.positions,
                     a.triangles,
