@@ -22,10 +22,13 @@
 //! [`crate::intersect`]) moves its moved vertices to their second choice or back into their
 //! cells or, with none and where every quad it could cross is tested, is split along its
 //! other diagonal (once; a quad still flagged after that goes back to its first split for
-//! good). When a round has nothing else to change, the vertices of the quads that still
-//! cross another go to their loops' mass points of crossings (the vertex of surface nets,
-//! inside the cell: the sharp feature is given up there for a mesh that does not cross
-//! itself), where every quad they could cross is tested. When nothing flagged can change any
+//! good; the first split is the shorter diagonal, or where a vertex is on a sharp feature
+//! the one nearer the exact surface, [`first_diagonals`]). When a round has nothing else to
+//! change, the vertices of the quads still flagged go to their loops' mass points of
+//! crossings (the vertex of surface nets, inside the cell, moved onto the exact surface: the
+//! sharp feature is given up there for a mesh that does not fold; a vertex on a sharp
+//! feature only where its quad crosses another, [`Smooth::sharp`]), where every quad they
+//! could cross is tested. When nothing flagged can change any
 //! more the result stands; when changes are still pending after `ROUNDS` rounds, or more
 //! crossings are found than listed, every vertex goes back to its first place in its cell
 //! and every quad takes its first split: the result is either checked or the plain in-cell
@@ -69,9 +72,9 @@ pub(super) struct Moved {
 pub(super) struct Smooth {
     pub(super) at: Vec3,
     /// The vertex is on a sharp feature (an edge or corner of planes more than
-    /// `SHARP_DEGREES` apart): it goes to `at` only where its quads cross others, not where
-    /// they merely face the wrong way (a sliver at a corner, where several cells' vertices
-    /// meet on the corner point).
+    /// `SHARP_DEGREES` apart, not clamped off it): it goes to `at` only where its quads cross
+    /// others, not where they merely face the wrong way (a sliver at a corner, where several
+    /// cells' vertices meet on the corner point).
     pub(super) sharp: bool,
 }
 
@@ -82,6 +85,9 @@ pub(super) struct Checked<'a> {
     pub(super) normals: &'a [Vec3],
     pub(super) near: &'a [bool],
     pub(super) flippable: &'a [bool],
+    /// The diagonal each quad is split along first ([`first_diagonals`]; the shorter where
+    /// `None`).
+    pub(super) first: &'a [Option<[u32; 2]>],
 }
 
 /// What [`unfold`] gives.
@@ -123,18 +129,62 @@ pub(super) fn split_along(q: [u32; 4], d: [u32; 2]) -> [[u32; 3]; 2] {
     }
 }
 
-/// How a quad is split: along its shorter diagonal (0), the other one (1), or the shorter
-/// for good after the other did not help (2).
-fn split(q: [u32; 4], positions: &[Vec3], state: u8) -> [[u32; 3]; 2] {
+/// How a quad is split: along its first diagonal (0: `first`, or the shorter one), the
+/// other one (1), or the first for good after the other did not help (2).
+fn split(q: [u32; 4], positions: &[Vec3], first: Option<[u32; 2]>, state: u8) -> [[u32; 3]; 2] {
     let [a, b, c, d] = q;
-    let shorter = super::split_quad(q, positions);
+    let first = match first {
+        Some(diag) => split_along(q, diag),
+        None => super::split_quad(q, positions),
+    };
     if state != 1 {
-        shorter
-    } else if shorter[0] == [a, b, c] {
+        first
+    } else if first[0] == [a, b, c] {
         [[a, b, d], [b, c, d]]
     } else {
         [[a, b, c], [a, c, d]]
     }
+}
+
+/// The diagonal to split each quad along first, where it is not the shorter one: across a
+/// sharp feature the shorter diagonal can cut a face near an edge or corner (a triangle from
+/// a vertex on one face over to vertices on the edges of another), which chamfers the face
+/// by a fraction of a cell. For the quads free to take either diagonal (`flippable`) with a
+/// vertex on a sharp feature (`feature`), and an exact field, the split whose triangles'
+/// centroids and diagonal's midpoint lie nearer the surface is taken, where it halves the
+/// shorter split's largest distance.
+pub(super) fn first_diagonals(
+    quads: &[[u32; 4]],
+    positions: &[Vec3],
+    flippable: &[bool],
+    feature: &[bool],
+    field: Option<&dyn Field>,
+    iso: f32,
+) -> Vec<Option<[u32; 2]>> {
+    let Some(f) = field else {
+        return vec![None; quads.len()];
+    };
+    let off = |t: [[u32; 3]; 2]| {
+        let d = diagonal(&t);
+        let mid = (positions[d[0] as usize] + positions[d[1] as usize]) / 2.0;
+        let centroid = |t: [u32; 3]| t.map(|v| positions[v as usize]).iter().sum::<Vec3>() / 3.0;
+        [mid, centroid(t[0]), centroid(t[1])]
+            .iter()
+            .map(|&p| (f.value(p) - iso).abs())
+            .fold(0.0f32, f32::max)
+    };
+    quads
+        .par_iter()
+        .enumerate()
+        .map(|(i, &q)| {
+            if !flippable[i] || !q.iter().any(|&v| feature[v as usize]) {
+                return None;
+            }
+            let shorter = split(q, positions, None, 0);
+            let other = split(q, positions, None, 1);
+            (off(other) < 0.5 * off(shorter)).then(|| diagonal(&other))
+        })
+        .collect()
 }
 
 /// Whether the triangle `p` folds: degenerate (as `TriMesh::validate` counts them), or facing
@@ -183,6 +233,7 @@ pub(super) fn unfold(
         normals,
         near,
         flippable,
+        first,
     } = checked;
     // The triangles tested for intersections: those of the quads `near` a place that can
     // fold, as indices into the quads' triangles.
@@ -206,7 +257,8 @@ pub(super) fn unfold(
         let triangles: Vec<[u32; 3]> = quads
             .par_iter()
             .zip(&state)
-            .flat_map_iter(|(&q, &s)| split(q, positions, s))
+            .zip(first)
+            .flat_map_iter(|((&q, &s), &d)| split(q, positions, d, s))
             .collect();
         // Facing against the crossing's normal, or degenerate.
         let mut flagged: Vec<bool> = triangles
@@ -229,13 +281,12 @@ pub(super) fn unfold(
         }
         let mesh = TriMesh::new(Vec::new(), triangles);
         let folded = (2 * flagged.iter().filter(|f| **f).count()).max(x.count);
-        let done = |mesh: TriMesh, moved: &[Moved], state: &[u8]| {
+        let done = |mesh: TriMesh, moved: &[Moved], positions: &[Vec3]| {
             let flipped = quads
                 .iter()
-                .zip(state)
                 .zip(mesh.triangles.chunks(2))
-                .filter(|((_, s), _)| **s == 1)
-                .map(|((q, _), t)| (super::merge::canonical(q).0, diagonal(t)))
+                .filter(|(q, t)| diagonal(t) != diagonal(&super::split_quad(**q, positions)))
+                .map(|(q, t)| (super::merge::canonical(q).0, diagonal(t)))
                 .collect();
             Unfolded {
                 triangles: mesh.triangles,
@@ -245,7 +296,7 @@ pub(super) fn unfold(
             }
         };
         if last {
-            return Ok(done(mesh, &moved, &state));
+            return Ok(done(mesh, &moved, positions));
         }
         // What a flagged quad can still change: a moved vertex to move again or send back,
         // or, where every quad it could cross is tested, a split to try or to settle.
@@ -266,13 +317,13 @@ pub(super) fn unfold(
         // cross where it is not seen.
         let unlisted = x.pairs.len() < x.count;
         if !pending && !unlisted {
-            return Ok(done(mesh, &moved, &state));
+            return Ok(done(mesh, &moved, positions));
         }
         if round == ROUNDS || unlisted {
             // Out of rounds with changes pending, or crossings not all listed: everything
             // back as it was.
             if moved.is_empty() && smoothed.is_empty() && state.iter().all(|&s| s == 0) {
-                return Ok(done(mesh, &moved, &state));
+                return Ok(done(mesh, &moved, positions));
             }
             for m in moved.drain(..) {
                 positions[m.vertex as usize] = m.in_cell;
@@ -332,7 +383,7 @@ pub(super) fn unfold(
             }
         }
         if !changed {
-            return Ok(done(mesh, &moved, &state));
+            return Ok(done(mesh, &moved, positions));
         }
         moved.retain(|m| {
             is_moved[m.vertex as usize] || {
@@ -365,7 +416,7 @@ mod tests {
             [t[m], t[(m + 1) % 3], t[(m + 2) % 3]]
         };
         for state in [0, 1] {
-            let tris = split(q, &positions, state);
+            let tris = split(q, &positions, None, state);
             let d = diagonal(&tris);
             let mut want = tris.map(canon);
             want.sort_unstable();
@@ -383,8 +434,8 @@ mod tests {
         }
         // The two states take different diagonals.
         assert_ne!(
-            diagonal(&split(q, &positions, 0)),
-            diagonal(&split(q, &positions, 1))
+            diagonal(&split(q, &positions, None, 0)),
+            diagonal(&split(q, &positions, None, 1))
         );
     }
 }

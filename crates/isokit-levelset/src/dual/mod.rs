@@ -71,8 +71,8 @@
 //! resolution 40 (2 trees and 19 pairs without the checks, 3 pairs with moves and flips
 //! alone), on the shipped scenes (`demo.json`, a faceted trefoil mesh blended into a sphere,
 //! 88 pairs without the checks) and on a box, a box minus a cylinder and two boxes (one
-//! rotated 30°); no degenerate triangle; a few small triangles at sharp corners may still
-//! face the wrong way (`trefoil_cut.json` 2 of 58,976, `vase.json` 8 of 222,472).
+//! rotated 30°); no degenerate triangle, and on the shipped scenes no triangle facing the
+//! wrong way.
 //! Crossings refined on the field are exact to about f32 rounding; normals are the field's
 //! gradient (analytic or finite differences). Vertices are not shared across cells, so a
 //! vertex of one component never serves another.
@@ -740,10 +740,10 @@ struct CellVerts {
     beyond: [Option<(Vec3, Option<Vec3>)>; 4],
     /// A vertex clamped or on a sharp feature, or several vertices: the mesh can fold here.
     suspect: bool,
-    /// Per vertex, its loop's mass point of crossings (inside the cell, on the surface where
-    /// there is an exact field), and whether the vertex is on a sharp feature: the place of
-    /// last resort for a vertex whose quads fold ([`beyond`]).
-    smooth: Vec<(Vec3, bool)>,
+    /// Per vertex, its loop's mass point of crossings (inside the cell), the place of last
+    /// resort for a vertex whose quads fold ([`beyond`]); whether its crossings hold a sharp
+    /// feature, and whether the vertex was clamped into the cell.
+    smooth: Vec<(Vec3, bool, bool)>,
 }
 
 /// The crossed edge with this key, from the sorted crossed edges.
@@ -890,13 +890,17 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                 // No loop traced (cannot happen for a crossed cell): the cell's centre.
                 let centre = (lo + 0.5 * self.h * DVec3::ONE).as_vec3();
                 verts.push((centre, false));
-                smooth.push((centre, false));
+                smooth.push((centre, false, false));
                 continue;
             }
             mass[l.min(3)] = lo + self.h * pts[..m].iter().sum::<DVec3>() / m as f64;
             let c = mass[l.min(3)].clamp(lo_in, hi_in).as_vec3();
-            smooth.push((c.clamp(lo_in.as_vec3(), hi_in.as_vec3()), sharp(&nrm[..m])));
             let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
+            smooth.push((
+                c.clamp(lo_in.as_vec3(), hi_in.as_vec3()),
+                sharp(&nrm[..m]),
+                clamped,
+            ));
             // An edge whose corner lies in this cell while the third face crosses only the
             // neighbours' edges (rank 2), or, with an exact field, a vertex off the surface:
             // the crossings of the neighbouring cells are added, and their minimiser kept
@@ -1338,10 +1342,18 @@ pub fn mesh_dual_lattice_job(
                 .enumerate()
                 .map(move |(l, &p)| (f as usize + l, p))
         })
-        .map(|(v, (at, sharp))| {
+        .map(|(v, (at, sharp, clamped))| {
+            // A clamped vertex is off its feature already: it may move as a smooth one.
+            let sharp = sharp && !clamped;
             (vertex_reach[v] == 0 && at != positions[v]).then_some(beyond::Smooth { at, sharp })
         })
         .collect();
+    let feature: Vec<bool> = per_cell
+        .iter()
+        .flat_map(|c| c.smooth.iter().map(|s| s.1))
+        .collect();
+    let first_diagonals =
+        beyond::first_diagonals(&quads, &positions, &flippable, &feature, lat.field, lat.iso);
     // The moved vertices and the quads' splits are settled first; when adaptive, the merged
     // polygons are then checked (and their folds undone) by the merging, which takes the
     // chosen splits of the quads it leaves unmerged.
@@ -1355,6 +1367,7 @@ pub fn mesh_dual_lattice_job(
         normals: &normals,
         near: &near,
         flippable: &flippable,
+        first: &first_diagonals,
     };
     let u = beyond::unfold(
         &mut positions,
