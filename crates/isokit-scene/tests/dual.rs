@@ -255,10 +255,11 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
     // the edge of two of them), and quads straddling an edge split along the diagonal that
     // does not fold (`isokit_levelset::dual`). Every vertex within 0.05 voxel (0.14 with
     // every vertex clamped into its cell), no self-intersection (3 pairs then). Hausdorff
-    // 0.27 voxel, short of the 0.1 aimed at: about a cell from a corner of the rotated box,
-    // the vertices of four or five cells meet on one point of its edge, and a face beside
-    // the edge is covered by the fan of a vertex on the other face, which cuts it by a
-    // fraction of a cell.
+    // 0.27 voxel over these points (0.34 over a million), short of the 0.1 aimed at: in two
+    // places along one edge of the rotated box a vertex that should lie on the edge lies on
+    // one of its faces (a vertex beyond its cell that folded and went back; an edge clipping
+    // a cell whose crossings see one face), and the triangles there cut the other face by a
+    // third of a cell.
     let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners, true, 0.3);
     assert_eq!(rep.dual_pairs, 0, "self-intersecting pairs");
 }
