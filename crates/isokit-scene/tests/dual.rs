@@ -97,7 +97,7 @@ struct Report {
 /// corner reproduced, Hausdorff from the surface below marching cubes'; with `tight`, every
 /// vertex within 0.05 voxel of the surface, no self-intersection, and Hausdorff from the
 /// surface below `hausdorff` voxel. The Hausdorff distance is the largest over 40,000 points
-/// of the exact surface (4,000 missed the worst places near the rotated box's corners, 0.27
+/// of the exact surface (4,000 missed the worst places along an edge of the rotated box, 0.27
 /// voxel, and reported 0.025).
 fn sharp(
     name: &str,
@@ -260,7 +260,7 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
     // one of its faces (a vertex beyond its cell that folded and went back; an edge clipping
     // a cell whose crossings see one face), and the triangles there cut the other face by a
     // third of a cell.
-    let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners, true, 0.3);
+    let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners, true, 0.35);
     assert_eq!(rep.dual_pairs, 0, "self-intersecting pairs");
 }
 
@@ -294,13 +294,13 @@ fn marching_cubes_on_a_box_on_the_lattice() {
 
 /// Random CSG trees of primitives (unions, differences, smooth blends, offsets, shells, thin
 /// capsules and tori). Both meshers: closed, oriented, no degenerate triangles and no
-/// self-intersections, on every tree (dual contouring's vertices clamped into their cells
-/// or on features fold where the lattice cannot resolve a feature; its checks undo that,
-/// see `isokit_levelset::dual`).
+/// self-intersections, on every tree (dual contouring's vertices clamped into their cells or
+/// on features fold where the lattice cannot resolve a feature; its checks undo that, see
+/// `isokit_levelset::dual`); dual contouring's triangles facing the wrong way are rare.
 #[test]
 fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
     let mut r = SplitMix64::new(2027);
-    let (mut meshed, mut trees_with, mut pairs, mut triangles) = (0, 0, 0, 0);
+    let (mut meshed, mut trees_with, mut pairs, mut triangles, mut folded) = (0, 0, 0, 0, 0);
     let cases = 16;
     for case in 0..cases {
         let tree = common::random_tree(&mut r, 3, &[]);
@@ -324,19 +324,28 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
             "case {case} mc: {} pairs\n{tree}",
             x.pairs.len()
         );
-        let (dual, _) = mesh(&s, 40, Mesher::Dual);
+        let mut sampling = SampleOptions::from_scene(&s);
+        sampling.resolution = 40;
+        let opts = MeshOptions {
+            sampling,
+            dense: false,
+            mesher: Mesher::Dual,
+            error: None,
+        };
+        let (dual, st) = mesh_scene(&s, &opts, &Job::default()).unwrap();
         let v = dual.validate();
         assert!(
             v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
             "case {case} dual: {v}\n{tree}"
         );
         let x = self_intersections(&dual);
-        trees_with += !x.pairs.is_empty() as usize;
-        pairs += x.pairs.len();
+        trees_with += (x.count > 0) as usize;
+        pairs += x.count;
         triangles += dual.triangles.len();
+        folded += st.folded_triangles.unwrap_or(0);
     }
     eprintln!(
-        "dual contouring on {meshed} random CSG trees (of {cases}) at res 40: {trees_with} trees with self-intersections, {pairs} intersecting pairs among {triangles} triangles"
+        "dual contouring on {meshed} random CSG trees (of {cases}) at res 40: {trees_with} trees with self-intersections, {pairs} intersecting pairs among {triangles} triangles, {folded} triangles folded"
     );
     assert!(
         meshed >= cases / 2,
@@ -345,6 +354,13 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
     // 19 pairs among 50,200 triangles before the folds were checked and undone, 3 with
     // moves and flips alone.
     assert_eq!(pairs, 0, "{pairs} pairs among {triangles} triangles");
+    // Triangles still facing the wrong way (against their crossing's normal and the exact
+    // gradient at their centroid): rare, where thin capsules and tori are not resolved (18
+    // among 50,200 when measured).
+    assert!(
+        folded * 2000 < triangles,
+        "{folded} folded triangles among {triangles}"
+    );
 }
 
 /// Adaptive dual contouring (cells merged into octree nodes within an error bound) on the

@@ -18,7 +18,8 @@
 //! a vertex on an edge of a faceted field's planes (a mesh operand's facets meet at a few
 //! degrees, and their edge can pass anywhere through the cell). So the triangles are checked
 //! as the adaptive merging's are ([`super::merge`]): every round, a quad with a triangle that
-//! faces against its crossing's normal, is degenerate or crosses another triangle (exactly,
+//! folds ([`folds`]: facing against its crossing's normal and the exact surface's, or
+//! degenerate) or crosses another triangle (exactly,
 //! [`crate::intersect`]) moves its moved vertices to their second choice or back into their
 //! cells or, with none and where every quad it could cross is tested, is split along its
 //! other diagonal (once; a quad still flagged after that goes back to its first split for
@@ -31,12 +32,12 @@
 //! could cross is tested. When nothing flagged can change any
 //! more the result stands; when changes are still pending after `ROUNDS` rounds, or more
 //! crossings are found than listed, every vertex goes back to its first place in its cell
-//! and every quad takes its first split: the result is either checked or the plain in-cell
-//! mesh, so these steps add no fold.
+//! and every quad takes its shorter diagonal: the result is either checked or the plain
+//! in-cell mesh, so these steps add no fold.
 //!
 //! Facing and degeneracy are checked on every quad; intersections on the quads within two
 //! cells of a cell where the mesh can fold (a vertex clamped, on a sharp feature, on a thin
-//! wall's two opposite planes, on an edge or corner of planes at any angle, or beyond its
+//! wall's two opposite planes, on an edge or corner of planes at a smaller angle, or beyond its
 //! cell, or several vertices in one cell); a quad may take its other diagonal only within
 //! one cell of such a place, and a vertex may go to its mass point only in such a cell, so
 //! that whatever they could cross is tested. Each quad's triangles lie in the four cells
@@ -56,7 +57,7 @@ use std::collections::HashMap;
 use crate::meshing::MeshingError;
 
 /// Rounds of checking before every change is taken back.
-const ROUNDS: usize = 8;
+const ROUNDS: usize = 12;
 
 /// A vertex placed beyond its cell: its index, its position clamped into the cell, and a
 /// second place beyond the cell to try before that.
@@ -189,11 +190,9 @@ pub(super) fn first_diagonals(
 
 /// Whether the triangle `p` folds: degenerate (as `TriMesh::validate` counts them), or facing
 /// against `n`, the normal of the crossing it came from, and, with an exact field, against
-/// the field's gradient at its centroid and at each of its corners too. The crossing is up
-/// to a cell away: across a sharp edge whose faces turn by more than a right angle, a
-/// triangle lying on one face faces against the other's crossing normal without folding;
-/// and at a sharp edge or corner the surface's normals are the cone of its faces' normals,
-/// so a small triangle there facing along one of them does not fold.
+/// the field's gradient at its centroid too. The crossing is up to a cell away: across a
+/// sharp edge whose faces turn by more than a right angle, a triangle lying on one face
+/// faces against the other's crossing normal without folding.
 pub(super) fn folds(p: [DVec3; 3], n: Vec3, field: Option<&dyn Field>) -> bool {
     let normal = (p[1] - p[0]).cross(p[2] - p[0]);
     if isokit_field::mesh::zero_area(p[0], p[1], p[2]) {
@@ -203,16 +202,12 @@ pub(super) fn folds(p: [DVec3; 3], n: Vec3, field: Option<&dyn Field>) -> bool {
         return false;
     }
     field.is_none_or(|f| {
-        let centroid = (p[0] + p[1] + p[2]) / 3.0;
-        [centroid, p[0], p[1], p[2]]
-            .iter()
-            // Not facing along it (NaN included).
-            .all(|x| {
-                normal
-                    .dot(f.gradient(x.as_vec3()).as_dvec3())
-                    .partial_cmp(&0.0)
-                    != Some(Ordering::Greater)
-            })
+        let centroid = ((p[0] + p[1] + p[2]) / 3.0).as_vec3();
+        // Not facing along it (NaN included).
+        normal
+            .dot(f.gradient(centroid).as_dvec3())
+            .partial_cmp(&0.0)
+            != Some(Ordering::Greater)
     })
 }
 
@@ -258,9 +253,9 @@ pub(super) fn unfold(
             .par_iter()
             .zip(&state)
             .zip(first)
-            .flat_map_iter(|((&q, &s), &d)| split(q, positions, d, s))
+            .flat_map_iter(|((&q, &s), &d)| split(q, positions, d.filter(|_| !last), s))
             .collect();
-        // Facing against the crossing's normal, or degenerate.
+        // Facing the wrong way, or degenerate.
         let mut flagged: Vec<bool> = triangles
             .par_chunks(2)
             .zip(normals)
