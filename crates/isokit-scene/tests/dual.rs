@@ -8,7 +8,7 @@ use isokit_field::{Job, TriMesh};
 use isokit_kdtree::{MeshOptions as SdfOptions, MeshSdf, QueryStats, SignMode};
 use isokit_levelset::intersect::self_intersections;
 use isokit_levelset::weld::merge_coincident;
-use isokit_scene::{MeshOptions, Mesher, SampleOptions, Scene, SceneFormat, mesh_scene};
+use isokit_scene::{MeshOptions, MeshStats, Mesher, SampleOptions, Scene, SceneFormat, mesh_scene};
 use std::path::Path;
 
 mod common;
@@ -19,6 +19,12 @@ fn scene(json: &str) -> Scene {
 
 /// The scene meshed at `res` samples along the longest side: the mesh and the spacing.
 fn mesh(s: &Scene, res: usize, mesher: Mesher) -> (TriMesh, f32) {
+    let (m, st) = mesh_with_stats(s, res, mesher);
+    (m, st.sampling.spacing)
+}
+
+/// The scene meshed at `res` samples along the longest side, with the meshing's statistics.
+fn mesh_with_stats(s: &Scene, res: usize, mesher: Mesher) -> (TriMesh, MeshStats) {
     let mut sampling = SampleOptions::from_scene(s);
     sampling.resolution = res;
     let opts = MeshOptions {
@@ -27,8 +33,7 @@ fn mesh(s: &Scene, res: usize, mesher: Mesher) -> (TriMesh, f32) {
         mesher,
         error: None,
     };
-    let (m, st) = mesh_scene(s, &opts, &Job::default()).unwrap();
-    (m, st.sampling.spacing)
+    mesh_scene(s, &opts, &Job::default()).unwrap()
 }
 
 /// Points on the exact surface: random points near it projected by `p ← p − f ∇f` (exact
@@ -324,15 +329,7 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
             "case {case} mc: {} pairs\n{tree}",
             x.pairs.len()
         );
-        let mut sampling = SampleOptions::from_scene(&s);
-        sampling.resolution = 40;
-        let opts = MeshOptions {
-            sampling,
-            dense: false,
-            mesher: Mesher::Dual,
-            error: None,
-        };
-        let (dual, st) = mesh_scene(&s, &opts, &Job::default()).unwrap();
+        let (dual, st) = mesh_with_stats(&s, 40, Mesher::Dual);
         let v = dual.validate();
         assert!(
             v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
