@@ -328,6 +328,8 @@ fn mesher_dual_error_merges_cells() {
         vec!["--error", "0.01"],
         vec!["--mesher", "dual", "--error", "0"],
         vec!["--mesher", "dual", "--error", "nan"],
+        // A negative value after a space is the value, refused as such (not an option).
+        vec!["--mesher", "dual", "--error", "-0.01"],
     ] {
         let mut a = vec!["scene", &scene, "-o", adaptive.to_str().unwrap()];
         a.extend_from_slice(&bad);
@@ -335,5 +337,8 @@ fn mesher_dual_error_merges_cells() {
         assert_eq!(o.status.code(), Some(2), "{bad:?}");
         let msg = String::from_utf8_lossy(&o.stderr);
         assert!(msg.contains("--error"), "{bad:?}: {msg}");
+        if bad.len() == 4 {
+            assert!(msg.contains("positive"), "{bad:?}: {msg}");
+        }
     }
 }

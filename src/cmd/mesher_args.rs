@@ -39,7 +39,7 @@ pub struct MesherOpts {
     /// plane (and of a scene's exact surface), and the merge keeps the surface's topology:
     /// few large triangles where the surface is flat, the cells' own vertices at edges and
     /// corners [default: one vertex per cell].
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
     pub error: Option<f64>,
 }
 
@@ -74,7 +74,7 @@ pub fn print_dual_stats(
     });
     let folded = if folded > 0 {
         format!(
-            "; {folded} triangles face against the surface or cross another (`isokit info --self-intersections` lists crossings)"
+            "; {folded} triangles face against the surface or cross another (`isokit info --self-intersections` counts crossings)"
         )
     } else {
         String::new()

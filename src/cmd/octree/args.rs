@@ -62,7 +62,7 @@ pub struct Args {
     /// units) of every crossing's tangent plane and of the exact surface, as `isokit mesh
     /// --error` (named apart from --error, the tree's own bound) [default: one vertex per
     /// cell].
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", allow_hyphen_values = true)]
     pub mesh_error: Option<f64>,
     #[command(flatten)]
     pub out: crate::cmd::volume_args::VolumeOut,
