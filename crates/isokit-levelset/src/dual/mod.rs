@@ -742,9 +742,9 @@ struct CellVerts {
     /// A vertex clamped or on a sharp feature, or several vertices: the mesh can fold here.
     suspect: bool,
     /// Per vertex, its loop's mass point of crossings (inside the cell), the place of last
-    /// resort for a vertex whose quads fold ([`beyond`]); whether its crossings hold a sharp
-    /// feature, and whether the vertex was clamped into the cell.
-    smooth: Vec<(Vec3, bool, bool)>,
+    /// resort for a vertex whose quads fold ([`beyond`]), and whether its crossings hold a
+    /// sharp feature.
+    smooth: Vec<(Vec3, bool)>,
 }
 
 /// The crossed edge with this key, from the sorted crossed edges.
@@ -806,35 +806,28 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
     }
 
     /// `p` moved onto the exact surface by Newton steps along the field's gradient, where
-    /// there is an exact field and the steps converge within a cell of `p`, and kept inside
-    /// `cell` as its vertices are.
+    /// there is an exact field and the steps converge within a cell of `p` (`p` otherwise),
+    /// and kept inside `cell` as its vertices are.
     fn onto_surface_in(&self, cell: [i64; 3], p: Vec3) -> Vec3 {
         let lo = self.world(DVec3::new(cell[0] as f64, cell[1] as f64, cell[2] as f64));
         let inset = DVec3::splat(self.h / 1024.0);
         let (lo, hi) = (lo + inset, lo + DVec3::splat(self.h) - inset);
-        let x = self.onto_surface(p.as_dvec3()).clamp(lo, hi).as_vec3();
-        x.clamp(lo.as_vec3(), hi.as_vec3())
-    }
-
-    /// `p` moved onto the exact surface (as [`Self::onto_surface_in`]), or `p`.
-    fn onto_surface(&self, p: DVec3) -> DVec3 {
-        let Some(f) = self.field else { return p };
-        let mut x = p;
-        for _ in 0..4 {
-            let v = f.value(x.as_vec3()) as f64 - self.iso as f64;
-            let g = f.gradient(x.as_vec3()).as_dvec3();
-            let gg = g.length_squared();
-            if !(v.is_finite() && gg.is_finite() && gg > 1e-12) {
-                return p;
+        let p = p.as_dvec3();
+        let newton = self.field.and_then(|f| {
+            let off = |x: DVec3| f.value(x.as_vec3()) as f64 - self.iso as f64;
+            let mut x = p;
+            for _ in 0..4 {
+                let g = f.gradient(x.as_vec3()).as_dvec3();
+                let (v, gg) = (off(x), g.length_squared());
+                if !(v.is_finite() && gg.is_finite() && gg > 1e-12) {
+                    return None;
+                }
+                x -= v / gg * g;
             }
-            x -= v / gg * g;
-        }
-        let v = f.value(x.as_vec3()) as f64 - self.iso as f64;
-        if v.abs() <= SURFACE_TOL * self.h && x.distance(p) <= self.h {
-            x
-        } else {
-            p
-        }
+            (off(x).abs() <= SURFACE_TOL * self.h && x.distance(p) <= self.h).then_some(x)
+        });
+        let x = newton.unwrap_or(p).clamp(lo, hi).as_vec3();
+        x.clamp(lo.as_vec3(), hi.as_vec3())
     }
 
     /// A vertex per surface component of the crossed cell (per marching-cubes loop of the
@@ -891,17 +884,13 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
                 // No loop traced (cannot happen for a crossed cell): the cell's centre.
                 let centre = (lo + 0.5 * self.h * DVec3::ONE).as_vec3();
                 verts.push((centre, false));
-                smooth.push((centre, false, false));
+                smooth.push((centre, false));
                 continue;
             }
             mass[l.min(3)] = lo + self.h * pts[..m].iter().sum::<DVec3>() / m as f64;
             let c = mass[l.min(3)].clamp(lo_in, hi_in).as_vec3();
             let (mut x, clamped) = solve_in_cell(&pts[..m], &nrm[..m], truncation);
-            smooth.push((
-                c.clamp(lo_in.as_vec3(), hi_in.as_vec3()),
-                sharp(&nrm[..m]),
-                clamped,
-            ));
+            smooth.push((c.clamp(lo_in.as_vec3(), hi_in.as_vec3()), sharp(&nrm[..m])));
             // An edge whose corner lies in this cell while the third face crosses only the
             // neighbours' edges (rank 2), or, with an exact field, a vertex off the surface:
             // the crossings of the neighbouring cells are added, and their minimiser kept
@@ -1354,9 +1343,10 @@ pub fn mesh_dual_lattice_job(
             c.smooth
                 .iter()
                 .enumerate()
-                .map(move |(l, &p)| (f as usize + l, p, c.several))
+                .zip(&c.verts)
+                .map(move |((l, &p), &(_, clamped))| (f as usize + l, p, clamped, c.several))
         })
-        .map(|(v, (at, sharp, clamped), several)| {
+        .map(|(v, (at, sharp), clamped, several)| {
             // A clamped vertex is off its feature already: it may move as a smooth one. Not
             // in a cell of several loops, whose vertices must keep apart.
             let sharp = sharp && !clamped;
