@@ -57,6 +57,11 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
 /// The mesh extensions a command's `-o` takes (the formats `isokit_io::write_mesh` writes).
 pub const MESH_OUTPUTS: [&str; 6] = [".obj", ".ply", ".stl", ".off", ".glb", ".gltf"];
 
+/// Whether `path` names a mesh output (one of [`MESH_OUTPUTS`]), not a volume.
+pub fn is_mesh_output(path: &std::path::Path) -> bool {
+    isokit_io::MeshFormat::from_path(path).is_ok()
+}
+
 /// Checks that an output path has a known extension before any work is done, so a long
 /// run never fails at the end on a typo. An empty `allowed` accepts any extension.
 pub fn check_output(path: &std::path::Path, allowed: &[&str]) -> anyhow::Result<()> {

@@ -1,8 +1,8 @@
 //! `isokit scene SCENE -o out.nrrd|npy|zarr|obj|ply|stl|off [--res N] [--band W]
 //! [--mesher mc|dual [--error E]] [--stats]`: a scene file evaluated lazily to a band field or a mesh.
 
-use super::check_output;
 use super::mesher_args::MesherArg;
+use super::{MESH_OUTPUTS, check_output, is_mesh_output};
 use anyhow::{Result, bail};
 use glam::Vec3;
 use isokit_io::{Volume, write_mesh, write_mesh_colored};
@@ -54,8 +54,6 @@ pub struct Args {
     pub out: super::volume_args::VolumeOut,
 }
 
-use super::MESH_OUTPUTS as MESHES;
-
 /// The node kinds a scene file can hold, for `--help` (from the library's list).
 pub fn node_kinds_help() -> String {
     format!(
@@ -68,13 +66,12 @@ pub fn node_kinds_help() -> String {
 pub fn run(a: Args) -> Result<()> {
     let all: Vec<&str> = super::volume_args::VOLUME_OUTPUTS
         .iter()
-        .chain(&MESHES)
+        .chain(&MESH_OUTPUTS)
         .copied()
         .collect();
     check_output(&a.output, &all)?;
     a.out.check(&a.output)?;
-    let name = a.output.to_string_lossy().to_ascii_lowercase();
-    let to_mesh = MESHES.iter().any(|e| name.ends_with(e));
+    let to_mesh = is_mesh_output(&a.output);
     let to_store = super::volume_out::is_zarr(&a.output);
     if a.resume && (a.dense || !to_store) {
         bail!("--resume continues a lazily sampled .zarr output");
@@ -83,7 +80,7 @@ pub fn run(a: Args) -> Result<()> {
     if !to_mesh && a.mesher.mesher != MesherArg::Mc {
         bail!(
             "--mesher applies to mesh outputs ({}) only",
-            MESHES.join(" ")
+            MESH_OUTPUTS.join(" ")
         );
     }
     let t0 = Instant::now();

@@ -12,11 +12,6 @@ use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Instant;
 
-/// Whether `path` names a mesh output (a format `isokit_io::write_mesh` writes).
-pub fn is_mesh(path: &Path) -> bool {
-    isokit_io::MeshFormat::from_path(path).is_ok()
-}
-
 /// Refuses a mesh level whose lattice exceeds a grid's size limit, before anything is built
 /// (dual contouring reads the tree node by node, so the limit is one of time: every node is
 /// read).

@@ -21,7 +21,7 @@ use serde_json::json;
 
 /// Runs the command.
 pub fn run(a: Args) -> Result<()> {
-    let mesh_out = a.output.as_deref().filter(|o| mesh::is_mesh(o));
+    let mesh_out = a.output.as_deref().filter(|o| super::is_mesh_output(o));
     if let Some(o) = &a.output {
         if mesh_out.is_some() {
             check_output(o, &super::MESH_OUTPUTS)?;
