@@ -138,13 +138,7 @@ pub fn run(a: Args) -> Result<()> {
                 ..DualOptions::default()
             };
             let (mesh, st) = mesh_dual_grid_job(&grid, None, &dual, &super::progress::job())?;
-            super::mesher_args::print_dual_stats(
-                st.clamped,
-                st.multi_component_cells,
-                st.beyond_cell,
-                error.map(|_| st.merged_cells),
-                st.folded_triangles,
-            );
+            super::mesher_args::print_dual_stats(&st, error.is_some());
             mesh
         }
     };

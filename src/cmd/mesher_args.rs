@@ -2,6 +2,7 @@
 //! and what `isokit info` says about a mesh.
 
 use anyhow::{Result, bail};
+use isokit_levelset::dual::DualStats;
 use isokit_scene::Mesher;
 use serde_json::{Value, json};
 use std::path::Path;
@@ -59,41 +60,53 @@ impl MesherOpts {
     }
 }
 
-/// Prints what dual contouring reports about its vertices (`clamped`, `several`, `beyond`
-/// as in `DualStats`), its merges when adaptive, and the triangles still folded or
-/// intersecting.
-pub fn print_dual_stats(
-    clamped: usize,
-    several: usize,
-    beyond: usize,
-    merged: Option<usize>,
-    folded: usize,
-) {
-    let merged = merged.map_or(String::new(), |m| {
-        format!(", {m} cells merged into larger octree nodes")
-    });
-    let folded = if folded > 0 {
+/// Prints what dual contouring reports: its vertices (clamped, beyond their cells, cells of
+/// several pieces), its merges when `adaptive`, the edges split onto sharp features, and the
+/// triangles still folded or intersecting.
+pub fn print_dual_stats(st: &DualStats, adaptive: bool) {
+    let merged = if adaptive {
         format!(
-            "; {folded} triangles face against the surface or cross another (`isokit info --self-intersections` counts crossings)"
+            ", {} cells merged into larger octree nodes",
+            st.merged_cells
+        )
+    } else {
+        String::new()
+    };
+    let sharpened = if st.sharpened_edges > 0 {
+        format!(
+            ", {} mesh edges or triangles split at a sharp edge or corner",
+            st.sharpened_edges
+        )
+    } else {
+        String::new()
+    };
+    let folded = if st.folded_triangles > 0 {
+        format!(
+            "; {} triangles face against the surface or cross another (`isokit info --self-intersections` counts crossings)",
+            st.folded_triangles
         )
     } else {
         String::new()
     };
     eprintln!(
-        "dual contouring: {clamped} vertices clamped into their cells ({beyond} placed on an edge just beyond), {several} cells crossed in more than one piece{merged}{folded}"
+        "dual contouring: {} vertices clamped into their cells ({} placed on an edge just beyond), {} cells crossed in more than one piece{merged}{sharpened}{folded}",
+        st.clamped, st.beyond_cell, st.multi_component_cells
     );
 }
 
 /// [`print_dual_stats`] of a scene's mesh, where dual contouring made it.
 pub fn print_scene_dual_stats(st: &isokit_scene::MeshStats) {
     if let (Some(clamped), Some(several)) = (st.clamped_vertices, st.multi_component_cells) {
-        print_dual_stats(
+        let dual = DualStats {
             clamped,
-            several,
-            st.beyond_cell_vertices.unwrap_or(0),
-            st.merged_cells,
-            st.folded_triangles.unwrap_or(0),
-        );
+            multi_component_cells: several,
+            beyond_cell: st.beyond_cell_vertices.unwrap_or(0),
+            merged_cells: st.merged_cells.unwrap_or(0),
+            folded_triangles: st.folded_triangles.unwrap_or(0),
+            sharpened_edges: st.sharpened_edges.unwrap_or(0),
+            ..DualStats::default()
+        };
+        print_dual_stats(&dual, st.merged_cells.is_some());
     }
 }
 
@@ -107,6 +120,7 @@ pub fn add_dual_counts(j: &mut Value, st: &isokit_scene::MeshStats) -> Result<()
         "merged_cells",
         "folded_triangles",
         "beyond_cell_vertices",
+        "sharpened_edges",
     ] {
         if let Some(v) = counts.get(k) {
             j[k] = v.clone();

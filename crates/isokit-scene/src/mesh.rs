@@ -75,6 +75,10 @@ pub struct MeshStats {
     /// the cell holds both of the edge's faces but not the edge).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beyond_cell_vertices: Option<usize>,
+    /// Dual contouring only: mesh edges and triangles that cut across a sharp edge or
+    /// corner of the exact surface, split at a vertex on it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sharpened_edges: Option<usize>,
 }
 
 /// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
@@ -139,6 +143,7 @@ pub fn mesh_scene(
                 .map(|d| d.merged_cells),
             folded_triangles: dual.map(|d| d.folded_triangles),
             beyond_cell_vertices: dual.map(|d| d.beyond_cell),
+            sharpened_edges: dual.map(|d| d.sharpened_edges),
         },
     ))
 }

@@ -99,19 +99,12 @@ struct Report {
 }
 
 /// Meshes `s` both ways and checks dual contouring's guarantees: closed, oriented, every
-/// corner reproduced, Hausdorff from the surface below marching cubes'; with `tight`, every
-/// vertex within 0.05 voxel of the surface, no self-intersection, and Hausdorff from the
-/// surface below `hausdorff` voxel. The Hausdorff distance is the largest over 40,000 points
-/// of the exact surface (4,000 missed the worst places along an edge of the rotated box, 0.27
+/// corner reproduced, Hausdorff from the surface below marching cubes', every vertex within
+/// 0.05 voxel of the surface, no self-intersection, and Hausdorff from the
+/// surface below 0.1 voxel. The Hausdorff distance is the largest over 40,000 points of the
+/// exact surface (4,000 once missed the worst places along an edge of the rotated box, 0.27
 /// voxel, and reported 0.025).
-fn sharp(
-    name: &str,
-    s: &Scene,
-    res: usize,
-    corners: &[Vec3],
-    tight: bool,
-    hausdorff: f64,
-) -> Report {
+fn sharp(name: &str, s: &Scene, res: usize, corners: &[Vec3]) -> Report {
     let (dual, h) = mesh(s, res, Mesher::Dual);
     let (mc, _) = mesh(s, res, Mesher::Mc);
     let h = h as f64;
@@ -133,18 +126,13 @@ fn sharp(
         merged.watertight && merged.non_manifold_vertices == 0,
         "{name}: after merging: {merged}"
     );
-    // Self-intersections (exact triangle–triangle tests): none from marching cubes, none
-    // from dual contouring where the features are resolved (`tight`).
+    // Self-intersections (exact triangle–triangle tests): none from either mesher.
     let x = self_intersections(&mc);
     assert!(x.pairs.is_empty(), "{name}: mc: {} pairs", x.pairs.len());
     let x = self_intersections(&dual);
     let dual_pairs = x.count;
     eprintln!("{name}: dual: {} self-intersecting pairs", x.pairs.len());
-    assert!(
-        !tight || x.pairs.is_empty(),
-        "{name}: dual: {} pairs",
-        x.pairs.len()
-    );
+    assert!(x.pairs.is_empty(), "{name}: dual: {} pairs", x.pairs.len());
     for c in corners {
         assert!(s.field().value(*c).abs() < 1e-5, "{name}: {c} is no corner");
         let near = dual
@@ -172,18 +160,16 @@ fn sharp(
         rep.mc_hausdorff,
         vertex_error(s, &mc) / h
     );
-    if tight {
-        assert!(
-            rep.dual_vertex < 0.05,
-            "{name}: vertex error {} voxel",
-            rep.dual_vertex
-        );
-        assert!(
-            rep.dual_hausdorff < hausdorff,
-            "{name}: Hausdorff {} voxel",
-            rep.dual_hausdorff
-        );
-    }
+    assert!(
+        rep.dual_vertex < 0.05,
+        "{name}: vertex error {} voxel",
+        rep.dual_vertex
+    );
+    assert!(
+        rep.dual_hausdorff < 0.1,
+        "{name}: Hausdorff {} voxel",
+        rep.dual_hausdorff
+    );
     assert!(rep.mc_hausdorff > 2.0 * rep.dual_hausdorff, "{name}");
     rep
 }
@@ -206,7 +192,7 @@ fn box_edges_and_corners_are_sharp() {
     let s =
         scene(r#"{"shape": {"box": {"half": [0.6, 0.4, 0.3], "center": [0.013, -0.021, 0.007]}}}"#);
     let corners = box_corners(Vec3::new(0.013, -0.021, 0.007), Vec3::new(0.6, 0.4, 0.3));
-    sharp("box", &s, 64, &corners, true, 0.1);
+    sharp("box", &s, 64, &corners);
 }
 
 #[test]
@@ -218,7 +204,7 @@ fn box_minus_cylinder_is_sharp() {
         ]}}"#,
     );
     let corners = box_corners(Vec3::new(0.011, 0.0, -0.013), Vec3::new(0.6, 0.4, 0.5));
-    sharp("box minus cylinder", &s, 64, &corners, true, 0.1);
+    sharp("box minus cylinder", &s, 64, &corners);
 }
 
 /// Rodrigues' rotation of `p` by `deg` about unit axis `k`.
@@ -257,15 +243,14 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
     );
     // The edges at a general angle to the lattice: vertices on an edge beyond their cell
     // where a cell holds both faces but not the edge (or, with a third plane passing by,
-    // the edge of two of them), and quads straddling an edge split along the diagonal that
-    // does not fold (`isokit_levelset::dual`). Every vertex within 0.05 voxel (0.14 with
-    // every vertex clamped into its cell), no self-intersection (3 pairs then). Hausdorff
-    // 0.27 voxel over these points (0.34 over a million), short of the 0.1 aimed at: in two
-    // places along one edge of the rotated box a vertex that should lie on the edge lies on
-    // one of its faces (a vertex beyond its cell that folded and went back; an edge clipping
-    // a cell whose crossings see one face), and the triangles there cut the other face by a
-    // third of a cell.
-    let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners, true, 0.35);
+    // the edge of two of them), quads straddling an edge split along the diagonal that
+    // does not fold, and mesh edges that still cut across an edge split on it
+    // (`isokit_levelset::dual`). Every vertex within 0.05 voxel (0.14 with every vertex
+    // clamped into its cell), no self-intersection (3 pairs then). Hausdorff 0.066 voxel
+    // over these points; 0.27 before the mesh edges cutting across an edge were split (in
+    // two places along one edge of the rotated box a vertex that should lie on the edge lay
+    // on one of its faces, and the triangles there cut the other face by a third of a cell).
+    let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners);
     assert_eq!(rep.dual_pairs, 0, "self-intersecting pairs");
 }
 

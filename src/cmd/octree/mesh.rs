@@ -73,13 +73,7 @@ pub fn mesh_tree(
                 &opts,
                 &job,
             )?;
-            crate::cmd::mesher_args::print_dual_stats(
-                st.clamped,
-                st.multi_component_cells,
-                st.beyond_cell,
-                error.map(|_| st.merged_cells),
-                st.folded_triangles,
-            );
+            crate::cmd::mesher_args::print_dual_stats(&st, error.is_some());
             (m, Some(st))
         }
     };
@@ -104,6 +98,7 @@ pub fn mesh_tree(
         v["multi_component_cells"] = st.multi_component_cells.into();
         v["beyond_cell_vertices"] = st.beyond_cell.into();
         v["folded_triangles"] = st.folded_triangles.into();
+        v["sharpened_edges"] = st.sharpened_edges.into();
         if error.is_some() {
             v["merged_cells"] = st.merged_cells.into();
         }

@@ -43,6 +43,14 @@
 //!   of the four cells around it,
 //!   split into two triangles along its shorter diagonal and oriented so that the edge's
 //!   inside sample is behind it (the marching-cubes convention of [`crate::meshing`]).
+//! - **Chamfers split** (`sharpen`): with an exact field, a mesh edge or triangle that still
+//!   cuts across a sharp edge or corner of the surface (a vertex on one face joined to the
+//!   other face's, where the edge clips a cell whose crossings see one face) is split at a
+//!   vertex on the edge or corner, where that neither folds nor crosses another triangle
+//!   (the feature point of Kobbelt et al. 2001, "Feature Sensitive Surface Extraction from
+//!   Volume Data", inserted after the mesh is made); counted in
+//!   [`DualStats::sharpened_edges`]. Edge splits keep the mesh closed, 2-manifold and
+//!   oriented.
 //!
 //! ## Guarantees and limits
 //! The mesh is the dual of the marching-cubes polygon mesh (a vertex per loop, a quad per
@@ -88,6 +96,7 @@ use crate::meshing::MeshingError;
 
 mod beyond;
 mod merge;
+mod sharpen;
 
 /// Options of [`mesh_dual_grid`] and [`mesh_dual_brick_grid`].
 ///
@@ -163,6 +172,10 @@ pub struct DualStats {
     /// checks undid what they could (`beyond`; when adaptive, also after the merges of their
     /// nodes were taken back, at most 16 rounds).
     pub folded_triangles: usize,
+    /// With an exact field: mesh edges and triangles that cut across a sharp edge or corner
+    /// of the surface (their midpoint off the surface, their ends on different faces), split
+    /// at a vertex on it.
+    pub sharpened_edges: usize,
 }
 
 /// Dual contouring of a dense grid (see the [module](self) docs). With `field`, the Hermite
@@ -1404,6 +1417,22 @@ pub fn mesh_dual_lattice_job(
             }
             _ => (positions, u.triangles, 0, 0, u.folded, u.beyond),
         };
+    // Mesh edges that cut across a sharp edge of the exact surface, split on it.
+    let (positions, triangles, sharpened_edges) = match lat.field {
+        Some(f) => {
+            let (mut positions, mut triangles) = (positions, triangles);
+            let before = positions.len();
+            let n =
+                sharpen::split_chamfers(&mut positions, &mut triangles, f, lat.iso, lat.h, job)?;
+            let (positions, triangles) = if n > 0 || positions.len() > before {
+                compact(&positions, triangles)
+            } else {
+                (positions, triangles)
+            };
+            (positions, triangles, n)
+        }
+        None => (positions, triangles, 0),
+    };
     let stats = DualStats {
         edges: edges.len(),
         cells: cells.len(),
@@ -1419,6 +1448,7 @@ pub fn mesh_dual_lattice_job(
         repeated_polygons,
         folded_triangles,
         beyond_cell,
+        sharpened_edges,
     };
     Ok((TriMesh::new(positions, triangles), stats))
 }
