@@ -1,14 +1,16 @@
 """Sharp meshing: isokit's marching cubes and dual contouring against manifold3d.
 
-Two CSG parts with sharp edges, each meshed by
+Three CSG parts with sharp edges (a box minus a cylinder; two boxes, one rotated 30° about
+(1, 2, 3), whose edges run at general angles to the lattice; a torus mesh minus a cylinder
+mesh), each meshed by
 
 - `isokit scene PART -o out.obj --mesher mc|dual --res N` (whole command, wall time), and
   adaptive dual contouring `--mesher dual --error E` with E a fraction of the voxel
   (`--errors`, default 0.02 and 0.1);
 - manifold3d's `level_set` on the same signed distance (a Python callable of numpy, the
   body-centred-cubic marching tetrahedra of manifold3d, edge length = isokit's voxel) — for
-  the analytic part only;
-- manifold3d's exact booleans: of the primitives (analytic part, 1024-segment cylinder, the
+  the analytic parts only;
+- manifold3d's exact booleans: of the primitives (analytic parts, 1024-segment cylinder, the
   reference) and of the same triangles isokit reads (mesh part).
 
 Errors are the symmetric Hausdorff distance (libigl point-to-mesh distances from area
@@ -73,6 +75,49 @@ def box_minus_cylinder_exact(segments=1024):
     return mf_mesh(box - cyl)
 
 
+# Two boxes, one rotated 30° about (1, 2, 3) and moved: the union of `isokit-scene`'s
+# tests/dual.rs.
+BOX_A = [0.5, 0.35, 0.3]
+BOX_B = [0.4, 0.3, 0.35]
+B_AXIS, B_DEG, B_MOVE = [1.0, 2.0, 3.0], 30.0, [0.35, 0.3, 0.2]
+
+
+def rotation(axis, deg):
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    a = math.radians(deg)
+    return np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K
+
+
+def rotated_boxes_scene():
+    return {"shape": {"union": [
+        {"box": {"half": BOX_A}},
+        {"transform": {"translate": B_MOVE, "rotate": {"axis": B_AXIS, "degrees": B_DEG},
+                       "of": {"box": {"half": BOX_B}}}}]}}
+
+
+def rotated_boxes_sdf():
+    """The union's signed distance, positive inside, as a plain-float callable."""
+    r = rotation(B_AXIS, B_DEG)
+
+    def box(p, half):
+        q = [abs(c) - h for c, h in zip(p, half)]
+        return (math.hypot(*(max(c, 0.0) for c in q)) + min(max(q), 0.0))
+
+    def sdf(x, y, z):
+        d = np.array([x, y, z]) - B_MOVE
+        local = r.T @ d
+        return -min(box((x, y, z), BOX_A), box(local, BOX_B))
+    return sdf
+
+
+def rotated_boxes_exact():
+    a = mf.Manifold.cube([2 * h for h in BOX_A], center=True)
+    m = np.hstack([rotation(B_AXIS, B_DEG), np.asarray(B_MOVE)[:, None]])
+    b = mf.Manifold.cube([2 * h for h in BOX_B], center=True).transform(m)
+    return mf_mesh(a + b)
+
+
 def row(tool, res, seconds, mesh, ref, v_ref, voxel=None):
     h = hausdorff(mesh, ref)
     r = dict(tool=tool, res=res, seconds=seconds, triangles=len(mesh[1]), hausdorff=h,
@@ -93,14 +138,14 @@ def adaptive_rows(exe, scene, tmp, res, voxel, errors, ref, v_ref):
     return rows
 
 
-def part_analytic(exe, tmp, resolutions, errors):
-    ref = box_minus_cylinder_exact()
+def part_analytic(exe, tmp, resolutions, errors, name, scene_json, sdf, exact, bounds):
+    """An analytic part: isokit's meshers and manifold3d's `level_set` against `exact`."""
+    ref = exact()
     v_ref = volume(*ref)
-    scene = tmp / "box_cyl.json"
-    scene.write_text(json.dumps(box_minus_cylinder_scene()))
+    scene = tmp / f"{name}.json"
+    scene.write_text(json.dumps(scene_json))
     rows = []
-    lo = [c - h - 0.1 for c, h in zip(BOX_C, BOX_HALF)]
-    hi = [c + h + 0.1 for c, h in zip(BOX_C, BOX_HALF)]
+    lo, hi = bounds
     for res in resolutions:
         voxel = None
         for mesher in ["mc", "dual"]:
@@ -110,13 +155,33 @@ def part_analytic(exe, tmp, resolutions, errors):
                             voxel))
         rows += adaptive_rows(exe, scene, tmp, res, voxel, errors, ref, v_ref)
         t = time.perf_counter()
-        m = mf.Manifold.level_set(box_minus_cylinder_sdf, [*lo, *hi], voxel)
+        m = mf.Manifold.level_set(sdf, [*lo, *hi], voxel)
         secs = time.perf_counter() - t
         rows.append(row("manifold3d level_set", res, secs, mf_mesh(m), ref, v_ref, voxel))
+    return rows
+
+
+def part_box_cylinder(exe, tmp, resolutions, errors):
+    lo = [c - h - 0.1 for c, h in zip(BOX_C, BOX_HALF)]
+    hi = [c + h + 0.1 for c, h in zip(BOX_C, BOX_HALF)]
+    rows = part_analytic(exe, tmp, resolutions, errors, "box_cyl", box_minus_cylinder_scene(),
+                         box_minus_cylinder_sdf, box_minus_cylinder_exact, (lo, hi))
+    ref = box_minus_cylinder_exact()
     t = time.perf_counter()
     exact = box_minus_cylinder_exact(256)
     rows.append(row("manifold3d booleans (256-gon)", "", time.perf_counter() - t, exact, ref,
-                    v_ref))
+                    volume(*ref)))
+    return rows
+
+
+def part_rotated_boxes(exe, tmp, resolutions, errors):
+    rows = part_analytic(exe, tmp, resolutions, errors, "rot", rotated_boxes_scene(),
+                         rotated_boxes_sdf(), rotated_boxes_exact,
+                         ([-0.7, -0.6, -0.5], [1.1, 1.0, 0.9]))
+    t = time.perf_counter()
+    exact = rotated_boxes_exact()
+    rows.append(row("manifold3d booleans", "", time.perf_counter() - t, exact, exact,
+                    volume(*exact)))
     return rows
 
 
@@ -203,7 +268,8 @@ def main():
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = pathlib.Path(d)
-        a = part_analytic(args.isokit, tmp, args.res, args.errors)
+        a = part_box_cylinder(args.isokit, tmp, args.res, args.errors)
+        c = part_rotated_boxes(args.isokit, tmp, args.res, args.errors)
         b = part_mesh(args.isokit, tmp, args.segments, args.mesh_res, args.errors)
     text = "\n\n".join([
         "# Sharp meshing against manifold3d",
@@ -214,12 +280,16 @@ def main():
         f"## B. Torus mesh minus cylinder mesh ({args.segments} segments, the same triangles for "
         "every tool; reference: manifold3d's boolean of 1024-segment inputs)",
         table(b),
+        "## C. Two boxes, one rotated 30° about (1, 2, 3) (analytic; reference: manifold3d's "
+        "exact union)",
+        table(c),
     ]) + "\n"
     pathlib.Path(args.out).write_text(text)
     print(text)
     if args.plot:
         plot([("A. box minus cylinder (analytic)", a),
-              (f"B. torus mesh minus cylinder mesh ({args.segments} segments)", b)], args.plot)
+              (f"B. torus mesh minus cylinder mesh ({args.segments} segments)", b),
+              ("C. two boxes, one rotated 30° (analytic)", c)], args.plot)
 
 
 if __name__ == "__main__":

@@ -369,6 +369,8 @@ pub(super) struct AdaptiveMesh {
     pub merged_cells: usize,
     pub repeated_polygons: usize,
     pub folded_triangles: usize,
+    /// Per vertex: a merged node's (placed within the error bound of the surface, not on it).
+    pub merged_vertex: Vec<bool>,
 }
 
 /// How many times folded polygons send their merged nodes back to their children.
@@ -438,6 +440,15 @@ pub(super) fn adaptive_polygons(
         counter.advance(1);
         if !split {
             counter.advance(SPLIT_ROUNDS as u64 + 1 - round as u64);
+            let mut used = vec![false; mesh.positions.len()];
+            for &v in mesh.triangles.iter().flatten() {
+                used[v as usize] = true;
+            }
+            // In `compact`'s order: the used vertices, in their order.
+            let merged_vertex = (0..used.len())
+                .filter(|&v| used[v])
+                .map(|v| v >= merged.n_fine)
+                .collect();
             let (positions, tris) = super::compact(&mesh.positions, mesh.triangles);
             return Ok(AdaptiveMesh {
                 positions,
@@ -445,6 +456,7 @@ pub(super) fn adaptive_polygons(
                 merged_cells,
                 repeated_polygons: repeated,
                 folded_triangles: unresolved,
+                merged_vertex,
             });
         }
     }

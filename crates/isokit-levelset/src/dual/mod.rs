@@ -48,9 +48,9 @@
 //!   other face's, where the edge clips a cell whose crossings see one face) is split at a
 //!   vertex on the edge or corner, where that neither folds nor crosses another triangle
 //!   (the feature point of Kobbelt et al. 2001, "Feature Sensitive Surface Extraction from
-//!   Volume Data", inserted after the mesh is made); counted in
-//!   [`DualStats::sharpened_edges`]. Edge splits keep the mesh closed, 2-manifold and
-//!   oriented.
+//!   Volume Data", inserted after the mesh is made), and a vertex left off the surface
+//!   (clamped into its cell) moves onto it; counted in [`DualStats::sharpened_edges`].
+//!   Splits and moves keep the mesh closed, 2-manifold and oriented.
 //!
 //! ## Guarantees and limits
 //! The mesh is the dual of the marching-cubes polygon mesh (a vertex per loop, a quad per
@@ -174,7 +174,7 @@ pub struct DualStats {
     pub folded_triangles: usize,
     /// With an exact field: mesh edges and triangles that cut across a sharp edge or corner
     /// of the surface (their midpoint off the surface, their ends on different faces), split
-    /// at a vertex on it.
+    /// at a vertex on it, and vertices off the surface moved onto it.
     pub sharpened_edges: usize,
 }
 
@@ -826,19 +826,9 @@ impl<S: Fn(usize, usize, usize) -> f32 + Sync> Lattice<'_, S> {
         let inset = DVec3::splat(self.h / 1024.0);
         let (lo, hi) = (lo + inset, lo + DVec3::splat(self.h) - inset);
         let p = p.as_dvec3();
-        let newton = self.field.and_then(|f| {
-            let off = |x: DVec3| f.value(x.as_vec3()) as f64 - self.iso as f64;
-            let mut x = p;
-            for _ in 0..4 {
-                let g = f.gradient(x.as_vec3()).as_dvec3();
-                let (v, gg) = (off(x), g.length_squared());
-                if !(v.is_finite() && gg.is_finite() && gg > 1e-12) {
-                    return None;
-                }
-                x -= v / gg * g;
-            }
-            (off(x).abs() <= SURFACE_TOL * self.h && x.distance(p) <= self.h).then_some(x)
-        });
+        let newton = self
+            .field
+            .and_then(|f| newton_onto(f, self.iso, p, self.h, SURFACE_TOL));
         let x = newton.unwrap_or(p).clamp(lo, hi).as_vec3();
         x.clamp(lo.as_vec3(), hi.as_vec3())
     }
@@ -1399,40 +1389,45 @@ pub fn mesh_dual_lattice_job(
         lat.field,
         job,
     )?;
-    let (positions, triangles, merged_cells, repeated_polygons, folded_triangles, beyond_cell) =
-        match opts.error {
-            Some(error) if error > 0.0 => {
-                let m = merge::merge(
-                    &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
-                )?;
-                let a = merge::adaptive_polygons(m, &quads, &normals, &u.flipped, lat.field, job)?;
-                (
-                    a.positions,
-                    a.triangles,
-                    a.merged_cells,
-                    a.repeated_polygons,
-                    a.folded_triangles,
-                    u.beyond,
-                )
-            }
-            _ => (positions, u.triangles, 0, 0, u.folded, u.beyond),
-        };
-    // Mesh edges that cut across a sharp edge of the exact surface, split on it.
-    let (positions, triangles, sharpened_edges) = match lat.field {
-        Some(f) => {
-            let (mut positions, mut triangles) = (positions, triangles);
-            let before = positions.len();
-            let n =
-                sharpen::split_chamfers(&mut positions, &mut triangles, f, lat.iso, lat.h, job)?;
-            let (positions, triangles) = if n > 0 || positions.len() > before {
-                compact(&positions, triangles)
-            } else {
-                (positions, triangles)
-            };
-            (positions, triangles, n)
+    let mut a = match opts.error {
+        Some(error) if error > 0.0 => {
+            let m = merge::merge(
+                &lat, &r, &cells, &per_cell, &first, positions, &edges, truncation, error, job,
+            )?;
+            merge::adaptive_polygons(m, &quads, &normals, &u.flipped, lat.field, job)?
         }
-        None => (positions, triangles, 0),
+        _ => merge::AdaptiveMesh {
+            positions,
+            triangles: u.triangles,
+            merged_cells: 0,
+            repeated_polygons: 0,
+            folded_triangles: u.folded,
+            merged_vertex: Vec::new(),
+        },
     };
+    // Mesh edges and triangles that cut across a sharp edge or corner of the exact surface,
+    // split on it; vertices off the surface moved onto it (not merged nodes' vertices, which
+    // lie within the error bound of the surface by design).
+    let sharpened_edges = match lat.field {
+        Some(f) => {
+            let before = a.positions.len();
+            let n = sharpen::split_chamfers(
+                &mut a.positions,
+                &mut a.triangles,
+                f,
+                lat.iso,
+                (lat.h, &a.merged_vertex),
+                job,
+            )?;
+            if n > 0 || a.positions.len() > before {
+                (a.positions, a.triangles) =
+                    compact(&a.positions, std::mem::take(&mut a.triangles));
+            }
+            n
+        }
+        None => 0,
+    };
+    let (positions, triangles) = (a.positions, a.triangles);
     let stats = DualStats {
         edges: edges.len(),
         cells: cells.len(),
@@ -1444,13 +1439,29 @@ pub fn mesh_dual_lattice_job(
             .count(),
         multi_component_cells: per_cell.iter().filter(|c| c.several).count(),
         unrefined,
-        merged_cells,
-        repeated_polygons,
-        folded_triangles,
-        beyond_cell,
+        merged_cells: a.merged_cells,
+        repeated_polygons: a.repeated_polygons,
+        folded_triangles: a.folded_triangles,
+        beyond_cell: u.beyond,
         sharpened_edges,
     };
     Ok((TriMesh::new(positions, triangles), stats))
+}
+
+/// `p` moved onto the surface `f = iso` by four Newton steps along the field's gradient,
+/// where they end within `tol` cells (of side `h`) of the surface and within a cell of `p`.
+fn newton_onto(f: &dyn Field, iso: f32, p: DVec3, h: f64, tol: f64) -> Option<DVec3> {
+    let off = |x: DVec3| f.value(x.as_vec3()) as f64 - iso as f64;
+    let mut x = p;
+    for _ in 0..4 {
+        let g = f.gradient(x.as_vec3()).as_dvec3();
+        let (v, gg) = (off(x), g.length_squared());
+        if !(v.is_finite() && gg.is_finite() && gg > 1e-12) {
+            return None;
+        }
+        x -= v / gg * g;
+    }
+    (off(x).abs() <= tol * h && x.distance(p) <= h).then_some(x)
 }
 
 /// The two triangles of a quad, split along its shorter diagonal.
