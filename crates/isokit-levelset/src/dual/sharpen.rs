@@ -218,28 +218,50 @@ fn candidates(
         near.iter_mut().zip(focus).for_each(|(n, f)| *n &= *f);
     }
     let off = |p: DVec3| field.value(p.as_vec3()) as f64 - iso as f64;
-    let mut found: Vec<(Cut, Vec3, f64)> = edges
+    // Mesh edges whose midpoints lie off the surface, with how far.
+    let deep: Vec<(Edge, f64)> = edges
         .par_iter()
         .filter(|e| near[e.a as usize] || near[e.b as usize])
         .filter_map(|e| {
+            let m = 0.5 * (positions[e.a as usize] + positions[e.b as usize]).as_dvec3();
+            let depth = off(m).abs();
+            cuts(depth, h).then_some((*e, depth))
+        })
+        .collect();
+    let splits: Vec<Option<DVec3>> = deep
+        .par_iter()
+        .map(|(e, _)| {
             let (a, b) = (
                 positions[e.a as usize].as_dvec3(),
                 positions[e.b as usize].as_dvec3(),
             );
-            let m = 0.5 * (a + b);
-            let depth = off(m).abs();
-            if !cuts(depth, h) {
-                return None;
-            }
             // The faces on either side, from the gradients just in from either end, or where
             // those do not see two faces (an end on an edge or corner of the surface, whose
             // gradient is either face's) a quarter of the way in.
             [0.02, 0.25]
                 .iter()
                 .find_map(|&probe| split_point(field, iso, a, b, probe, h))
-                .map(|s| (Cut::Edge(*e), s.as_vec3(), depth))
         })
         .collect();
+    let mut found: Vec<(Cut, Vec3, f64)> = deep
+        .iter()
+        .zip(&splits)
+        .filter_map(|((e, depth), s)| s.map(|s| (Cut::Edge(*e), s.as_vec3(), *depth)))
+        .collect();
+    // The ends of deep edges with no split point (the feature passes just beyond an end:
+    // a vertex clamped into its cell next to a corner or edge), deepest edge first.
+    let mut unsplit: Vec<(u32, f64)> = deep
+        .iter()
+        .zip(&splits)
+        .filter(|(_, s)| s.is_none())
+        .flat_map(|((e, depth), _)| [(e.a, *depth), (e.b, *depth)])
+        // Every triangle of a vertex moved must be looked at: in `focus` after the first round.
+        .filter(|&(v, _)| {
+            !keep.get(v as usize).copied().unwrap_or(false) && focus.is_none_or(|f| f[v as usize])
+        })
+        .collect();
+    unsplit.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.total_cmp(&x.1)));
+    unsplit.dedup_by_key(|x| x.0);
     // Triangles whose edges lie on the surface while their middle cuts a corner or an edge
     // (each vertex on a different face or edge of the surface around it).
     found.par_extend(
@@ -274,25 +296,110 @@ fn candidates(
             super::newton_onto(field, iso, p, h, ON_SURFACE).map(|s| (v, s.as_vec3(), depth))
         })
         .collect();
-    if !off_surface.is_empty() {
-        let mut around: std::collections::HashMap<u32, Vec<u32>> =
-            off_surface.iter().map(|&(v, ..)| (v, Vec::new())).collect();
-        for &t in &looked {
-            for v in triangles[t as usize] {
-                if let Some(list) = around.get_mut(&v) {
-                    list.push(t);
-                }
+    // Vertices next to a corner or edge their deep edges miss: onto it, where it lies within
+    // half a cell and every edge of the vertex comes closer to the surface.
+    let moving: std::collections::HashSet<u32> = off_surface.iter().map(|m| m.0).collect();
+    let unsplit: Vec<(u32, f64)> = unsplit
+        .into_iter()
+        .filter(|(v, _)| !moving.contains(v))
+        .collect();
+    let mut around: std::collections::HashMap<u32, Vec<u32>> = off_surface
+        .iter()
+        .map(|&(v, ..)| v)
+        .chain(unsplit.iter().map(|u| u.0))
+        .map(|v| (v, Vec::new()))
+        .collect();
+    if around.is_empty() {
+        return found;
+    }
+    for &t in &looked {
+        for v in triangles[t as usize] {
+            if let Some(list) = around.get_mut(&v) {
+                list.push(t);
             }
         }
-        found.extend(off_surface.into_iter().map(|(v, s, depth)| {
-            (
-                Cut::Vertex(v, around.remove(&v).unwrap_or_default()),
-                s,
-                depth,
-            )
-        }));
     }
+    let snapped: Vec<(u32, Vec3, f64)> = unsplit
+        .par_iter()
+        .filter_map(|&(v, depth)| {
+            let ring: Vec<DVec3> = around[&v]
+                .iter()
+                .flat_map(|&t| triangles[t as usize])
+                .filter(|&w| w != v)
+                .map(|w| positions[w as usize].as_dvec3())
+                .collect();
+            vertex_point(
+                field,
+                iso,
+                positions[v as usize].as_dvec3(),
+                &ring,
+                (h, depth),
+            )
+            .map(|s| (v, s.as_vec3(), depth))
+        })
+        .collect();
+    found.extend(off_surface.into_iter().chain(snapped).map(|(v, s, depth)| {
+        (
+            Cut::Vertex(v, around.remove(&v).unwrap_or_default()),
+            s,
+            depth,
+        )
+    }));
     found
+}
+
+/// Where the vertex at `p` (its neighbours `ring`) goes onto a corner or edge of the surface
+/// that its edges, deepest `depth` off the surface, cut: the corner of the faces seen from it
+/// towards its neighbours (gradients a quarter of the way), or the point of the edge of two
+/// of them nearest `p`; within half a cell of `p`, on the surface, and with every edge to the
+/// ring's vertices at most half as deep as before.
+fn vertex_point(
+    field: &dyn Field,
+    iso: f32,
+    p: DVec3,
+    ring: &[DVec3],
+    (h, depth): (f64, f64),
+) -> Option<DVec3> {
+    let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
+    let probes: Vec<DVec3> = ring.iter().map(|&w| p + 0.25 * (w - p)).collect();
+    let s = feature_point(field, iso, &probes, p)?;
+    let moved = s.distance(p);
+    (moved <= 0.5 * h
+        && moved >= APART * h
+        && off(s).abs() <= ON_SURFACE * h
+        && ring.iter().all(|&w| off(0.5 * (s + w)).abs() < 0.5 * depth))
+    .then_some(s)
+}
+
+/// The corner of the faces seen at `probes` (planes placed by the field's value and
+/// gradient there, each more than [`FEATURE_DEGREES`] from the others), or the point of the
+/// edge of the first two nearest `near`; `None` with fewer than two faces.
+fn feature_point(field: &dyn Field, iso: f32, probes: &[DVec3], near: DVec3) -> Option<DVec3> {
+    let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
+    let feature = FEATURE_DEGREES.to_radians().cos();
+    // The planes n·x = n·x₀ − f(x₀) of the faces seen, each apart from the others.
+    let mut planes: Vec<(DVec3, f64)> = Vec::with_capacity(probes.len());
+    for &x in probes {
+        let n = field.gradient(x.as_vec3()).as_dvec3().normalize_or_zero();
+        if n == DVec3::ZERO {
+            return None;
+        }
+        if planes.iter().all(|q| n.dot(q.0) < feature) {
+            planes.push((n, n.dot(x) - off(x)));
+        }
+    }
+    match planes[..] {
+        [a, b, c, ..] if DMat3::from_cols(a.0, b.0, c.0).determinant().abs() > 0.1 => {
+            Some(DMat3::from_cols(a.0, b.0, c.0).transpose().inverse() * DVec3::new(a.1, b.1, c.1))
+        }
+        [a, b, ..] => {
+            let c = a.0.dot(b.0);
+            let (ra, rb) = (a.1 - a.0.dot(near), b.1 - b.0.dot(near));
+            let det = 1.0 - c * c;
+            Some(near + (ra - c * rb) / det * a.0 + (rb - c * ra) / det * b.0)
+        }
+        _ => None,
+    }
 }
 
 /// The split point of the triangle `p` (module docs): the corner of the faces seen from its
@@ -302,35 +409,13 @@ fn face_point(field: &dyn Field, iso: f32, p: [DVec3; 3], probe: f64, h: f64) ->
     let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
     let g = (p[0] + p[1] + p[2]) / 3.0;
     let depth = off(g).abs();
-    let feature = FEATURE_DEGREES.to_radians().cos();
-    // The planes n·x = n·x₀ − f(x₀) of the faces seen, each apart from the others.
-    let mut planes: Vec<(DVec3, f64)> = Vec::with_capacity(7);
     // From each vertex towards the other two (a vertex on an edge or at a corner sees a
     // different face in each direction), and the centroid.
-    let probes = (0..3)
+    let probes: Vec<DVec3> = (0..3)
         .flat_map(|i| [1, 2].map(|k| p[i] + probe * (p[(i + k) % 3] - p[i])))
-        .chain([g]);
-    for x in probes {
-        let n = field.gradient(x.as_vec3()).as_dvec3().normalize_or_zero();
-        if n == DVec3::ZERO {
-            return None;
-        }
-        if planes.iter().all(|q| n.dot(q.0) < feature) {
-            planes.push((n, n.dot(x) - off(x)));
-        }
-    }
-    let s = match planes[..] {
-        [a, b, c, ..] if DMat3::from_cols(a.0, b.0, c.0).determinant().abs() > 0.1 => {
-            DMat3::from_cols(a.0, b.0, c.0).transpose().inverse() * DVec3::new(a.1, b.1, c.1)
-        }
-        [a, b, ..] => {
-            let c = a.0.dot(b.0);
-            let (ra, rb) = (a.1 - a.0.dot(g), b.1 - b.0.dot(g));
-            let det = 1.0 - c * c;
-            g + (ra - c * rb) / det * a.0 + (rb - c * ra) / det * b.0
-        }
-        _ => return None,
-    };
+        .chain([g])
+        .collect();
+    let s = feature_point(field, iso, &probes, g)?;
     // Inside the triangle seen along its normal, apart from its vertices, on the surface,
     // and each new triangle nearer the surface than the old one.
     let n = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -694,6 +779,48 @@ mod tests {
         // Every edge shared by at most two triangles, in opposite directions.
         let mesh = isokit_field::TriMesh::new(positions, triangles);
         let r = mesh.validate();
+        assert!(r.consistently_oriented && r.non_manifold_edges == 0, "{r}");
+    }
+
+    #[test]
+    fn a_vertex_off_the_surface_moves_onto_it() {
+        // The wedge's strips of the first test with one vertex of the x = 0 face a fifth of
+        // a cell inside (as a vertex clamped into its cell off a sharp edge lies).
+        let f = Planes(vec![Vec3::X, Vec3::Y]);
+        let mut positions = vec![
+            Vec3::new(0.0, -0.5, 0.0),
+            Vec3::new(0.0, -0.5, 1.0),
+            Vec3::new(-0.5, 0.0, 0.0),
+            Vec3::new(-0.5, 0.0, 1.0),
+            Vec3::new(-0.2, -1.5, 0.0),
+            Vec3::new(0.0, -1.5, 1.0),
+            Vec3::new(-1.5, 0.0, 0.0),
+            Vec3::new(-1.5, 0.0, 1.0),
+        ];
+        let mut triangles = vec![
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 0, 1],
+            [4, 1, 5],
+            [2, 6, 7],
+            [2, 7, 3],
+        ];
+        split_chamfers(
+            &mut positions,
+            &mut triangles,
+            &f,
+            0.0,
+            (1.0, &[]),
+            &Job::default(),
+        )
+        .unwrap();
+        // No triangle uses a vertex off the surface any more.
+        for &v in triangles.iter().flatten() {
+            let p = positions[v as usize];
+            assert!(f.value(p).abs() < 1e-5, "vertex {v} at {p}");
+        }
+        facing_out(&positions, &triangles, &f);
+        let r = isokit_field::TriMesh::new(positions, triangles).validate();
         assert!(r.consistently_oriented && r.non_manifold_edges == 0, "{r}");
     }
 
