@@ -244,10 +244,11 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
     // The edges at a general angle to the lattice: vertices on an edge beyond their cell
     // where a cell holds both faces but not the edge (or, with a third plane passing by,
     // the edge of two of them), quads straddling an edge split along the diagonal that
-    // does not fold, and mesh edges that still cut across an edge split on it
-    // (`isokit_levelset::dual`). Every vertex within 0.05 voxel (0.14 with every vertex
-    // clamped into its cell), no self-intersection (3 pairs then). Hausdorff 0.066 voxel
-    // over these points; 0.27 before the mesh edges cutting across an edge were split (in
+    // does not fold, mesh edges that still cut across an edge split on it, and vertices
+    // clamped next to an edge or corner moved onto it (`isokit_levelset::dual`). Every
+    // vertex within 0.05 voxel (0.14 with every vertex clamped into its cell), no
+    // self-intersection (3 pairs then). Hausdorff 0.037 voxel over these points (0.066 with
+    // the splits alone); 0.27 before the mesh edges cutting across an edge were split (in
     // two places along one edge of the rotated box a vertex that should lie on the edge lay
     // on one of its faces, and the triangles there cut the other face by a third of a cell).
     let rep = sharp("two boxes, one rotated 30°", &s, 64, &corners);
