@@ -72,10 +72,10 @@ pub fn print_dual_stats(st: &DualStats, adaptive: bool) {
     } else {
         String::new()
     };
-    let sharpened = if st.sharpened_edges > 0 {
+    let sharpened = if st.sharpened_edges + st.moved_vertices > 0 {
         format!(
-            ", {} mesh edges or triangles split at a sharp edge or corner",
-            st.sharpened_edges
+            ", {} mesh edges or triangles split at (or flipped onto) a sharp edge or corner, {} vertices moved onto the surface",
+            st.sharpened_edges, st.moved_vertices
         )
     } else {
         String::new()
@@ -104,6 +104,7 @@ pub fn print_scene_dual_stats(st: &isokit_scene::MeshStats) {
             merged_cells: st.merged_cells.unwrap_or(0),
             folded_triangles: st.folded_triangles.unwrap_or(0),
             sharpened_edges: st.sharpened_edges.unwrap_or(0),
+            moved_vertices: st.moved_vertices.unwrap_or(0),
             ..DualStats::default()
         };
         print_dual_stats(&dual, st.merged_cells.is_some());
@@ -121,6 +122,7 @@ pub fn add_dual_counts(j: &mut Value, st: &isokit_scene::MeshStats) -> Result<()
         "folded_triangles",
         "beyond_cell_vertices",
         "sharpened_edges",
+        "moved_vertices",
     ] {
         if let Some(v) = counts.get(k) {
             j[k] = v.clone();

@@ -97,17 +97,24 @@ def rotated_boxes_scene():
 
 
 def rotated_boxes_sdf():
-    """The union's signed distance, positive inside, as a plain-float callable."""
-    r = rotation(B_AXIS, B_DEG)
+    """The union's signed distance, positive inside, as a callable of plain floats (the
+    rotation written out: manifold3d calls it once per grid point)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation(B_AXIS, B_DEG).tolist()
+    mx, my, mz = B_MOVE
+    (ax, ay, az), (bx, by, bz) = BOX_A, BOX_B
 
-    def box(p, half):
-        q = [abs(c) - h for c, h in zip(p, half)]
-        return (math.hypot(*(max(c, 0.0) for c in q)) + min(max(q), 0.0))
+    def box(x, y, z, hx, hy, hz):
+        qx, qy, qz = abs(x) - hx, abs(y) - hy, abs(z) - hz
+        return (math.hypot(max(qx, 0.0), max(qy, 0.0), max(qz, 0.0))
+                + min(max(qx, qy, qz), 0.0))
 
     def sdf(x, y, z):
-        d = np.array([x, y, z]) - B_MOVE
-        local = r.T @ d
-        return -min(box((x, y, z), BOX_A), box(local, BOX_B))
+        dx, dy, dz = x - mx, y - my, z - mz
+        # The rotation's transpose takes the point into the second box's frame.
+        lx = r00 * dx + r10 * dy + r20 * dz
+        ly = r01 * dx + r11 * dy + r21 * dz
+        lz = r02 * dx + r12 * dy + r22 * dz
+        return -min(box(x, y, z, ax, ay, az), box(lx, ly, lz, bx, by, bz))
     return sdf
 
 

@@ -76,9 +76,14 @@ pub struct MeshStats {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beyond_cell_vertices: Option<usize>,
     /// Dual contouring only: mesh edges and triangles that cut across a sharp edge or
-    /// corner of the exact surface, split at a vertex on it.
+    /// corner of the exact surface, split at a vertex on it, and edges flipped onto the
+    /// surface (`isokit_levelset::dual::DualStats::sharpened_edges`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sharpened_edges: Option<usize>,
+    /// Dual contouring only: vertices moved onto the exact surface, or onto a corner or edge
+    /// of it that their edges cut.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub moved_vertices: Option<usize>,
 }
 
 /// The scene's surface as a triangle mesh: with [`Mesher::Mc`] (the default) watertight and
@@ -144,6 +149,7 @@ pub fn mesh_scene(
             folded_triangles: dual.map(|d| d.folded_triangles),
             beyond_cell_vertices: dual.map(|d| d.beyond_cell),
             sharpened_edges: dual.map(|d| d.sharpened_edges),
+            moved_vertices: dual.map(|d| d.moved_vertices),
         },
     ))
 }

@@ -99,6 +99,7 @@ pub fn mesh_tree(
         v["beyond_cell_vertices"] = st.beyond_cell.into();
         v["folded_triangles"] = st.folded_triangles.into();
         v["sharpened_edges"] = st.sharpened_edges.into();
+        v["moved_vertices"] = st.moved_vertices.into();
         if error.is_some() {
             v["merged_cells"] = st.merged_cells.into();
         }

@@ -43,19 +43,22 @@
 //!   of the four cells around it,
 //!   split into two triangles along its shorter diagonal and oriented so that the edge's
 //!   inside sample is behind it (the marching-cubes convention of [`crate::meshing`]).
-//! - **Chamfers split** (`sharpen`): with an exact field, a mesh edge or triangle that still
-//!   cuts across a sharp edge or corner of the surface (a vertex on one face joined to the
-//!   other face's, where the edge clips a cell whose crossings see one face) is split at a
-//!   vertex on the edge or corner, where that neither folds nor crosses another triangle
-//!   (the feature point of Kobbelt et al. 2001, "Feature Sensitive Surface Extraction from
-//!   Volume Data", inserted after the mesh is made), and a vertex left off the surface
-//!   (clamped into its cell) moves onto it; counted in [`DualStats::sharpened_edges`].
-//!   Splits and moves keep the mesh closed, 2-manifold and oriented.
+//! - **Chamfers split** (`sharpen`): with an exact field, after the mesh is made, a mesh
+//!   edge or triangle that still cuts across a sharp edge or corner of the surface (a vertex
+//!   on one face joined to the other face's, where the edge clips a cell whose crossings see
+//!   one face) is split at a vertex on the edge or corner (the feature point of Kobbelt et
+//!   al. 2001, "Feature Sensitive Surface Extraction from Volume Data"), a tent over a
+//!   concave corner is flipped, and a vertex left off the surface (clamped into its cell)
+//!   moves onto it or onto the corner its edges miss; each change only where it neither
+//!   folds, nor comes within 0.05 cell of another vertex, nor crosses another triangle.
+//!   Counted in [`DualStats::sharpened_edges`] and [`DualStats::moved_vertices`].
 //!
 //! ## Guarantees and limits
-//! The mesh is the dual of the marching-cubes polygon mesh (a vertex per loop, a quad per
-//! marching-cubes vertex), which is closed, 2-manifold and oriented: so the dual mesh is
-//! closed and consistently oriented, and every edge borders exactly two quads. One case
+//! Before the chamfers are split, the mesh is the dual of the marching-cubes polygon mesh (a
+//! vertex per loop, a quad per marching-cubes vertex), which is closed, 2-manifold and
+//! oriented: so the dual mesh is closed and consistently oriented, and every edge borders
+//! exactly two quads; edge splits, triangle splits, flips to an edge that does not exist
+//! and vertex moves keep that. One case
 //! needs care: an ambiguous cell face whose two segments belong to one loop in *both* cells
 //! (the case `crate::meshing` describes under *Triangulation*; in random noise about one
 //! face in a hundred) would give the edge joining the two cells' vertices four quads. Such
@@ -69,7 +72,9 @@
 //! Vertices clamped into their cells or on edges of planes can make quads fold, so triangles
 //! may intersect near features the lattice cannot resolve ([`crate::intersect`] finds them
 //! exactly; vertices are kept 1/1024 of a cell inside their cells, so vertices of different
-//! cells never coincide and no quad collapses into a degenerate triangle). The folds are
+//! cells never coincide and no quad collapses into a degenerate triangle; the vertices the
+//! chamfer splits add or move leave their cells, and are kept 0.05 cell from every other
+//! vertex near them). The folds are
 //! checked and undone (`beyond`: moved vertices sent back, quads split along their other
 //! diagonal, and last the vertices of quads still flagged sent to their mass points of
 //! crossings, which gives up the feature there; a vertex on a sharp feature only where its
@@ -173,9 +178,13 @@ pub struct DualStats {
     /// nodes were taken back, at most 16 rounds).
     pub folded_triangles: usize,
     /// With an exact field: mesh edges and triangles that cut across a sharp edge or corner
-    /// of the surface (their midpoint off the surface, their ends on different faces), split
-    /// at a vertex on it, and vertices off the surface moved onto it.
+    /// of the surface (their midpoint or centroid off the surface, their ends on different
+    /// faces) split at a vertex on it, and mesh edges flipped where the quad's other diagonal
+    /// lies on the surface.
     pub sharpened_edges: usize,
+    /// With an exact field: vertices moved onto the surface (more than 0.05 cell off it), or
+    /// onto a corner or edge of it within half a cell that their edges cut.
+    pub moved_vertices: usize,
 }
 
 /// Dual contouring of a dense grid (see the [module](self) docs). With `field`, the Hermite
@@ -1408,24 +1417,28 @@ pub fn mesh_dual_lattice_job(
     // Mesh edges and triangles that cut across a sharp edge or corner of the exact surface,
     // split on it; vertices off the surface moved onto it (not merged nodes' vertices, which
     // lie within the error bound of the surface by design).
-    let sharpened_edges = match lat.field {
-        Some(f) => {
+    let changed = match lat.field {
+        Some(field) => {
             let before = a.positions.len();
-            let n = sharpen::split_chamfers(
+            let surface = sharpen::Surface {
+                field,
+                iso: lat.iso,
+                h: lat.h,
+            };
+            let changed = sharpen::split_chamfers(
                 &mut a.positions,
                 &mut a.triangles,
-                f,
-                lat.iso,
-                (lat.h, &a.merged_vertex),
+                surface,
+                &a.merged_vertex,
                 job,
             )?;
-            if n > 0 || a.positions.len() > before {
+            if a.positions.len() > before {
                 (a.positions, a.triangles) =
                     compact(&a.positions, std::mem::take(&mut a.triangles));
             }
-            n
+            changed
         }
-        None => 0,
+        None => sharpen::Changed::default(),
     };
     let (positions, triangles) = (a.positions, a.triangles);
     let stats = DualStats {
@@ -1443,7 +1456,8 @@ pub fn mesh_dual_lattice_job(
         repeated_polygons: a.repeated_polygons,
         folded_triangles: a.folded_triangles,
         beyond_cell: u.beyond,
-        sharpened_edges,
+        sharpened_edges: changed.splits,
+        moved_vertices: changed.moves,
     };
     Ok((TriMesh::new(positions, triangles), stats))
 }

@@ -11,47 +11,57 @@
 //! made, as feature-sensitive surface extraction inserts the feature point into a cell's
 //! triangle fan (Kobbelt, Botsch, Schwanecke and Seidel 2001, "Feature Sensitive Surface
 //! Extraction from Volume Data", Sec. 3); here the point goes into the mesh edge or
-//! triangle that misses it:
+//! triangle that misses it. Every round:
 //!
 //! - a mesh edge is a candidate where its midpoint lies more than [`CHAMFER`] of a cell off
 //!   the surface, a triangle where its centroid does;
-//! - the faces on either side are read from the exact gradient just in from each end of
-//!   the edge (or, where both see one face because an end sits on an edge or corner of the
-//!   surface, a quarter of the way in); for a triangle, from each vertex towards the other
-//!   two and at the centroid. Two faces more than [`FEATURE_DEGREES`] apart give an edge
-//!   (the line of their planes, each plane placed by the field's value where its gradient
-//!   was read), three a corner;
+//! - the faces on either side are read from the exact gradient a little way in from each
+//!   end of the edge ([`PROBES`]: just in, else a quarter of the way); for a triangle, from
+//!   each vertex towards the other two and at the centroid. Two faces more than
+//!   [`FEATURE_DEGREES`] apart give an edge (the line of their planes, each plane placed by
+//!   the field's value where its gradient was read), three a corner;
 //! - the split point is the point of that line nearest the mesh edge (inside it), or
 //!   nearest the triangle's centroid, or the corner (inside the triangle seen along its
 //!   normal); it is used where it lies on the surface (within [`ON_SURFACE`] of a cell),
 //!   apart from the ends, not more than a cell beyond the edge or triangle, and where every
-//!   new piece lies closer to the surface than the whole did;
-//! - a vertex more than [`VERTEX_OFF`] of a cell off the surface (clamped into its cell off a
-//!   sharp edge, where no place on the edge folded nothing) moves onto the surface by Newton
-//!   steps along the gradient, onto the nearest face; the next round splits its edges to
-//!   the other face on the sharp edge. A vertex with a deep edge and no split point (the
-//!   feature passes just beyond it: a cell's vertex clamped next to a corner outside the
-//!   cell) moves onto the corner of the faces seen towards its neighbours, or the nearest
-//!   point of the edge of two of them, where that is within half a cell and halves the depth
-//!   of each of its edges. Adaptive meshing's merged vertices are not moved (they lie within
-//!   the error bound of the surface by design); vertices move before edges are split;
-//! - an edge's two triangles become four around the new vertex, a triangle three (the mesh
-//!   stays closed, 2-manifold and oriented); a move or split whose triangles fold (facing
-//!   against the triangle they replace and the exact surface, as `beyond::folds` tests), are
-//!   degenerate, or cross another triangle (exactly, [`crate::intersect`]) is taken back.
+//!   new piece is less than half as deep as the whole was;
+//! - a deep mesh edge whose quad's other diagonal lies on the surface is flipped (two
+//!   triangles forming a tent over a concave corner, whose split point on the crease lies
+//!   next to the quad's other two vertices and folds);
+//! - a vertex more than [`VERTEX_OFF`] of a cell off the surface (clamped into its cell off
+//!   a sharp edge, where every place on the edge folded) moves onto the surface by Newton
+//!   steps along the gradient, onto the nearest face, by about as far as it is off; the next
+//!   round splits its edges to the other face on the sharp edge. A vertex with a deep edge
+//!   and no split point (the feature passes just beyond it: a cell's vertex clamped next to
+//!   a corner outside the cell) moves onto the corner of the faces seen towards its
+//!   neighbours, or the nearest point of the edge of two of them, where that is within half
+//!   a cell and each of its edges ends less than half as deep as the deepest was. Adaptive
+//!   meshing's merged vertices are not moved (they lie within the error bound of the
+//!   surface by design). Moves go first, then flips, then the deepest splits; a triangle
+//!   changes at most once a round;
+//! - an edge's two triangles become four around the new vertex, a triangle three, a flip
+//!   keeps two (the mesh stays closed, 2-manifold and oriented; a flip whose new edge exists
+//!   is not made). A change is taken back where its triangles fold (facing against the
+//!   triangle they replace and the exact surface, as `beyond::folds` tests) or are
+//!   degenerate, where its new vertex lies within [`APART`] of a cell of another vertex near
+//!   it (merging coincident vertices would pinch the mesh there), or where its triangles
+//!   cross another triangle (exactly, [`crate::intersect`]).
 //!
 //! Edges and triangles are looked at only around vertices of mesh edges whose two triangles
 //! meet at more than [`CREASE_DEGREES`], so smooth parts cost the triangles' normals and one
-//! field value per vertex (for the vertices off the surface); up to [`ROUNDS`] rounds split
-//! what the changes of the round before made (the second round only around them). Measured on two boxes, one rotated 30° (`isokit-scene`'s
-//! `tests/dual.rs`): Hausdorff distance from the surface 0.27 voxel without these steps,
-//! 0.066 with the splits alone, 0.037 with the moves too (7 changes among 16,626
-//! triangles); at resolution 128 two vertices clamped 0.14 and 0.09 cell inside the surface
-//! and one 0.1 cell from a corner left 0.14 voxel before they were moved.
+//! field value per vertex (for the vertices off the surface); up to [`ROUNDS`] rounds change
+//! what the round before changed (every later round only around those changes). A change
+//! blocked in its round by another that is then taken back is not tried again. Measured on
+//! two boxes, one rotated 30° (`isokit-scene`'s `tests/dual.rs`): Hausdorff distance from
+//! the surface 0.27 voxel without these steps, 0.066 with the splits alone, 0.037 with the
+//! moves too (7 changes among 16,626 triangles); at resolution 128 two vertices clamped 0.14
+//! and 0.09 cell inside the surface and one 0.1 cell from a corner left 0.14 voxel before
+//! they were moved.
 
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::{Field, Job};
 use rayon::prelude::*;
+use std::collections::{HashMap, HashSet};
 
 use crate::meshing::MeshingError;
 
@@ -62,74 +72,128 @@ const CHAMFER: f64 = 0.02;
 const VERTEX_OFF: f64 = 0.05;
 /// The split point must lie this close (in cells) to the surface.
 const ON_SURFACE: f64 = 0.005;
-/// The exact gradients at an edge's ends at least this far apart: the ends lie on two faces.
+/// Gradients at least this far apart belong to different faces.
 const FEATURE_DEGREES: f64 = 20.0;
 /// Edges whose triangles meet at more than this are where chamfers are looked for.
 const CREASE_DEGREES: f64 = 10.0;
-/// A split point at least this far (in cells) from the edge's ends.
+/// A new vertex at least this far (in cells) from every other vertex near it.
 const APART: f64 = 0.05;
-/// Rounds of splitting: a round splits at most one edge of each triangle.
+/// Rounds: a round changes each triangle at most once.
 const ROUNDS: usize = 4;
+/// Where the faces are read, as fractions of the way in from a vertex: just in, else a
+/// quarter of the way (where a vertex on an edge or corner of the surface sees either face).
+const PROBES: [f64; 2] = [0.02, 0.25];
 
-/// One split: the triangles it replaced (index and old vertices), those it added at the
-/// end, and every triangle it wrote with the old triangle that held it.
+/// The exact field and the lattice spacing `h` the tolerances are counted in.
+#[derive(Clone, Copy)]
+pub(super) struct Surface<'a> {
+    pub(super) field: &'a dyn Field,
+    pub(super) iso: f32,
+    pub(super) h: f64,
+}
+
+impl Surface<'_> {
+    /// The field's value less the isovalue (about the signed distance).
+    fn off(&self, p: DVec3) -> f64 {
+        self.field.value(p.as_vec3()) as f64 - self.iso as f64
+    }
+
+    /// The unit gradient; zero where it is not finite or vanishes.
+    fn normal(&self, p: DVec3) -> DVec3 {
+        self.field
+            .gradient(p.as_vec3())
+            .as_dvec3()
+            .normalize_or_zero()
+    }
+
+    /// Whether a point `depth` off the surface (NaN: no) is off it as a chamfer is.
+    fn cuts(&self, depth: f64) -> bool {
+        depth > CHAMFER * self.h
+    }
+
+    /// Whether `p` lies on the surface as a split point must.
+    fn on(&self, p: DVec3) -> bool {
+        self.off(p).abs() <= ON_SURFACE * self.h
+    }
+
+    /// The plane of the face seen at `x`: its unit normal `n` and `n · x₀` for its points
+    /// `x₀` (placed by the field's value at `x`); `None` where the gradient vanishes.
+    fn plane(&self, x: DVec3) -> Option<(DVec3, f64)> {
+        let n = self.normal(x);
+        (n != DVec3::ZERO).then(|| (n, n.dot(x) - self.off(x)))
+    }
+}
+
+/// What [`split_chamfers`] changed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Changed {
+    /// Mesh edges and triangles split, and mesh edges flipped.
+    pub(super) splits: usize,
+    /// Vertices moved onto the surface.
+    pub(super) moves: usize,
+}
+
+/// One change: the triangles it replaced (index and old vertices), those it added at the
+/// end, every triangle it wrote with the old triangle that held it, and the vertex it added.
 struct Split {
     old: Vec<(usize, [u32; 3])>,
     added: Vec<usize>,
     new: Vec<(usize, [u32; 3])>,
+    vertex: Option<u32>,
 }
 
-/// What a split cuts: a mesh edge (its two triangles become four), or a triangle (three);
+/// What a change cuts: a mesh edge (its two triangles become four), or a triangle (three);
 /// or a vertex off the surface that moves onto it (its triangles, listed, take a new
-/// vertex in its place).
+/// vertex in its place); or a mesh edge flipped (its two triangles take the other diagonal
+/// of their quad).
 #[derive(Clone)]
 enum Cut {
     Edge(Edge),
     Face(u32),
     Vertex(u32, Vec<u32>),
+    Flip(Edge),
 }
 
-/// Splits the chamfering edges of `triangles` (module docs) and returns how many splits and
-/// moves were kept. New vertices are appended to `positions`, new triangles to `triangles`.
-/// `h` is the lattice spacing; vertices `keep[v]` are not moved onto the surface (adaptive
-/// meshing's merged vertices, which lie within its error bound of the surface by design).
+/// Splits the chamfering edges and triangles of `triangles`, flips tents and moves vertices
+/// onto the surface (module docs). New vertices are appended to `positions` (those of
+/// changes taken back stay, unused: the caller compacts), new triangles to `triangles`.
+/// Vertices `keep[v]` are not moved (adaptive meshing's merged vertices, which lie within
+/// its error bound of the surface by design).
 pub(super) fn split_chamfers(
     positions: &mut Vec<Vec3>,
     triangles: &mut Vec<[u32; 3]>,
-    field: &dyn Field,
-    iso: f32,
-    (h, keep): (f64, &[bool]),
+    surface: Surface,
+    keep: &[bool],
     job: &Job,
-) -> Result<usize, MeshingError> {
-    let mut kept = 0;
-    // After the first round, only where the last round split: the new triangles' vertices.
+) -> Result<Changed, MeshingError> {
+    let mut changed = Changed::default();
+    // After the first round, only where the last round changed: the new triangles' vertices.
     let mut focus: Option<Vec<bool>> = None;
     for _ in 0..ROUNDS {
         job.check()?;
-        let found = candidates(
-            positions,
-            triangles,
-            focus.as_deref(),
-            field,
-            iso,
-            (h, keep),
-        );
+        let found = candidates(positions, triangles, focus.as_deref(), surface, keep);
         if found.is_empty() {
             break;
         }
         let splits = apply(positions, triangles, found);
-        let touched = check(positions, triangles, splits, field);
-        if touched.is_empty() {
+        let kept = check(positions, triangles, splits, surface);
+        if kept.is_empty() {
             break;
         }
-        kept += touched.len();
         let mut f = vec![false; positions.len()];
-        for t in touched.iter().flatten() {
-            f[*t as usize] = true;
+        for (vertices, moved) in &kept {
+            if *moved {
+                changed.moves += 1;
+            } else {
+                changed.splits += 1;
+            }
+            for &v in vertices {
+                f[v as usize] = true;
+            }
         }
         focus = Some(f);
     }
-    Ok(kept)
+    Ok(changed)
 }
 
 /// An interior mesh edge: its ends and its two triangles (the first has the edge as
@@ -141,6 +205,20 @@ struct Edge {
     tris: [u32; 2],
 }
 
+impl Edge {
+    /// The quad's other two vertices: `c` after `a → b` in the first triangle, `d` after
+    /// `b → a` in the second.
+    fn opposite(&self, triangles: &[[u32; 3]]) -> (u32, u32) {
+        let [t0, t1] = self.tris.map(|t| triangles[t as usize]);
+        (third(t0, self.a, self.b), third(t1, self.b, self.a))
+    }
+}
+
+/// An undirected edge's key.
+fn key(a: u32, b: u32) -> u64 {
+    (u64::from(a.min(b)) << 32) | u64::from(a.max(b))
+}
+
 /// The edges of the triangles `looked` (indices into `triangles`) shared by exactly two of
 /// them.
 fn edges(triangles: &[[u32; 3]], looked: &[u32]) -> Vec<Edge> {
@@ -150,8 +228,7 @@ fn edges(triangles: &[[u32; 3]], looked: &[u32]) -> Vec<Edge> {
             let tri = triangles[t as usize];
             (0..3).map(move |i| {
                 let (a, b) = (tri[i], tri[(i + 1) % 3]);
-                let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
-                (key, t, a < b)
+                (key(a, b), t, a < b)
             })
         })
         .collect();
@@ -183,31 +260,29 @@ fn edges(triangles: &[[u32; 3]], looked: &[u32]) -> Vec<Edge> {
     out
 }
 
-/// Whether a midpoint or centroid `depth` off the surface (NaN: no) cuts it.
-fn cuts(depth: f64, h: f64) -> bool {
-    depth > CHAMFER * h
-}
-
+/// The unit normal of triangle `t` (zero when degenerate).
 fn normal(positions: &[Vec3], t: [u32; 3]) -> DVec3 {
     let p = t.map(|v| positions[v as usize].as_dvec3());
     (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
 }
 
-/// The edges and triangles to split, with their split points and how far their midpoints or
-/// centroids lie off the surface.
+/// The changes to try, each with its new point (unused by flips) and how far off the
+/// surface the edge's midpoint, the triangle's centroid or the vertex lies.
 fn candidates(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
     focus: Option<&[bool]>,
-    field: &dyn Field,
-    iso: f32,
-    (h, keep): (f64, &[bool]),
+    sf: Surface,
+    keep: &[bool],
 ) -> Vec<(Cut, Vec3, f64)> {
+    let pos = |v: u32| positions[v as usize].as_dvec3();
+    let in_focus = |v: u32| focus.is_none_or(|f| f[v as usize]);
+    let movable = |v: u32| in_focus(v) && !keep.get(v as usize).copied().unwrap_or(false);
     // The triangles looked at: all, or those with a vertex in `focus` (every edge at such a
     // vertex has both its triangles among them).
     let looked: Vec<u32> = (0..triangles.len() as u32)
         .into_par_iter()
-        .filter(|&t| focus.is_none_or(|f| triangles[t as usize].iter().any(|&v| f[v as usize])))
+        .filter(|&t| triangles[t as usize].iter().any(|&v| in_focus(v)))
         .collect();
     let edges = edges(triangles, &looked);
     let crease = CREASE_DEGREES.to_radians().cos();
@@ -220,259 +295,220 @@ fn candidates(
         })
         .collect();
     for e in creased {
-        near[e.a as usize] = true;
-        near[e.b as usize] = true;
+        for v in [e.a, e.b] {
+            near[v as usize] = in_focus(v);
+        }
     }
-    if let Some(focus) = focus {
-        near.iter_mut().zip(focus).for_each(|(n, f)| *n &= *f);
-    }
-    let off = |p: DVec3| field.value(p.as_vec3()) as f64 - iso as f64;
     // Mesh edges whose midpoints lie off the surface, with how far.
     let deep: Vec<(Edge, f64)> = edges
         .par_iter()
         .filter(|e| near[e.a as usize] || near[e.b as usize])
         .filter_map(|e| {
-            let m = 0.5 * (positions[e.a as usize] + positions[e.b as usize]).as_dvec3();
-            let depth = off(m).abs();
-            cuts(depth, h).then_some((*e, depth))
+            let depth = sf.off(0.5 * (pos(e.a) + pos(e.b))).abs();
+            sf.cuts(depth).then_some((*e, depth))
         })
         .collect();
     let splits: Vec<Option<DVec3>> = deep
         .par_iter()
         .map(|(e, _)| {
-            let (a, b) = (
-                positions[e.a as usize].as_dvec3(),
-                positions[e.b as usize].as_dvec3(),
-            );
-            // The faces on either side, from the gradients just in from either end, or where
-            // those do not see two faces (an end on an edge or corner of the surface, whose
-            // gradient is either face's) a quarter of the way in.
-            [0.02, 0.25]
+            PROBES
                 .iter()
-                .find_map(|&probe| split_point(field, iso, a, b, probe, h))
+                .find_map(|&probe| split_point(sf, pos(e.a), pos(e.b), probe))
         })
         .collect();
-    let mut found: Vec<(Cut, Vec3, f64)> = deep
-        .iter()
-        .zip(&splits)
-        .filter_map(|((e, depth), s)| s.map(|s| (Cut::Edge(*e), s.as_vec3(), *depth)))
-        .collect();
-    // The ends of deep edges with no split point (the feature passes just beyond an end:
-    // a vertex clamped into its cell next to a corner or edge), deepest edge first.
-    let mut unsplit: Vec<(u32, f64)> = deep
-        .iter()
-        .zip(&splits)
-        .filter(|(_, s)| s.is_none())
-        .flat_map(|((e, depth), _)| [(e.a, *depth), (e.b, *depth)])
-        // Every triangle of a vertex moved must be looked at: in `focus` after the first round.
-        .filter(|&(v, _)| {
-            !keep.get(v as usize).copied().unwrap_or(false) && focus.is_none_or(|f| f[v as usize])
-        })
-        .collect();
-    unsplit.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.total_cmp(&x.1)));
-    unsplit.dedup_by_key(|x| x.0);
-    // Triangles whose edges lie on the surface while their middle cuts a corner or an edge
-    // (each vertex on a different face or edge of the surface around it).
+    let mut found: Vec<(Cut, Vec3, f64)> = Vec::new();
+    let mut unsplit: Vec<(u32, f64)> = Vec::new();
+    for ((e, depth), s) in deep.iter().zip(&splits) {
+        match s {
+            Some(s) => found.push((Cut::Edge(*e), s.as_vec3(), *depth)),
+            // The ends of deep edges with no split point (the feature passes just beyond an
+            // end: a vertex clamped into its cell next to a corner or edge).
+            None => unsplit.extend([(e.a, *depth), (e.b, *depth)]),
+        }
+        // The quad's other diagonal on the surface (a tent over a concave corner, whose
+        // split point lies next to the quad's other two vertices and folds): a flip.
+        let (c, d) = e.opposite(triangles);
+        let better = [[c, e.a, d], [d, e.b, c]]
+            .iter()
+            .all(|t| sf.off((pos(t[0]) + pos(t[1]) + pos(t[2])) / 3.0).abs() < 0.5 * depth);
+        if c != d && !sf.cuts(sf.off(0.5 * (pos(c) + pos(d))).abs()) && better {
+            found.push((Cut::Flip(*e), Vec3::ZERO, *depth));
+        }
+    }
+    // Triangles whose middle cuts a corner or an edge (each vertex on a different face or
+    // edge of the surface around it).
     found.par_extend(
         looked
             .par_iter()
-            .map(|&i| (i as usize, &triangles[i as usize]))
-            .filter(|(_, t)| t.iter().any(|&v| near[v as usize]))
-            .filter_map(|(i, t)| {
-                let p = t.map(|v| positions[v as usize].as_dvec3());
-                let depth = off((p[0] + p[1] + p[2]) / 3.0).abs();
-                if !cuts(depth, h) {
+            .filter(|&&t| triangles[t as usize].iter().any(|&v| near[v as usize]))
+            .filter_map(|&t| {
+                let p = triangles[t as usize].map(pos);
+                let depth = sf.off((p[0] + p[1] + p[2]) / 3.0).abs();
+                if !sf.cuts(depth) {
                     return None;
                 }
-                [0.02, 0.25]
+                PROBES
                     .iter()
-                    .find_map(|&probe| face_point(field, iso, p, probe, h))
-                    .map(|s| (Cut::Face(i as u32), s.as_vec3(), depth))
+                    .find_map(|&probe| face_point(sf, p, probe))
+                    .map(|s| (Cut::Face(t), s.as_vec3(), depth))
             }),
     );
     // Vertices off the surface (clamped into their cells off a sharp edge): moved onto it by
-    // Newton steps along the gradient, to the nearest face; the splits of the next round
-    // then put the edges to the other face on the sharp edge.
-    // Every vertex is looked at (in the first round; later, those in `focus`), creased or
-    // not: the triangles around a vertex off the surface can lie flat.
-    let off_surface: Vec<(u32, Vec3, f64)> = (0..positions.len() as u32)
+    // Newton steps along the gradient, to the nearest face (by about as far as they are
+    // off); the splits of the next round then put their edges to the other face on the
+    // sharp edge. Every vertex in focus is looked at, creased or not: the triangles around
+    // a vertex off the surface can lie flat.
+    let off_surface: Vec<(u32, DVec3, f64)> = (0..positions.len() as u32)
         .into_par_iter()
-        .filter(|&v| {
-            focus.is_none_or(|f| f[v as usize]) && !keep.get(v as usize).copied().unwrap_or(false)
-        })
+        .filter(|&v| movable(v))
         .filter_map(|v| {
-            let p = positions[v as usize].as_dvec3();
-            let depth = off(p).abs();
-            if depth.is_nan() || depth <= VERTEX_OFF * h {
+            let depth = sf.off(pos(v)).abs();
+            if depth.is_nan() || depth <= VERTEX_OFF * sf.h {
                 return None;
             }
-            super::newton_onto(field, iso, p, h, ON_SURFACE).map(|s| (v, s.as_vec3(), depth))
+            super::newton_onto(sf.field, sf.iso, pos(v), sf.h, ON_SURFACE)
+                .filter(|s| s.distance(pos(v)) <= 2.0 * depth + ON_SURFACE * sf.h)
+                .map(|s| (v, s, depth))
         })
         .collect();
-    // Vertices next to a corner or edge their deep edges miss: onto it, where it lies within
-    // half a cell and every edge of the vertex comes closer to the surface.
-    let moving: std::collections::HashSet<u32> = off_surface.iter().map(|m| m.0).collect();
-    let unsplit: Vec<(u32, f64)> = unsplit
-        .into_iter()
-        .filter(|(v, _)| !moving.contains(v))
-        .collect();
-    let mut around: std::collections::HashMap<u32, Vec<u32>> = off_surface
+    let moving: HashSet<u32> = off_surface.iter().map(|m| m.0).collect();
+    // The vertices next to a corner or edge their deep edges miss, deepest edge first.
+    unsplit.retain(|&(v, _)| movable(v) && !moving.contains(&v));
+    unsplit.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.total_cmp(&x.1)));
+    unsplit.dedup_by_key(|x| x.0);
+    let mut around: HashMap<u32, Vec<u32>> = moving
         .iter()
-        .map(|&(v, ..)| v)
-        .chain(unsplit.iter().map(|u| u.0))
-        .map(|v| (v, Vec::new()))
+        .chain(unsplit.iter().map(|u| &u.0))
+        .map(|&v| (v, Vec::new()))
         .collect();
     if around.is_empty() {
         return found;
     }
     for &t in &looked {
-        for v in triangles[t as usize] {
-            if let Some(list) = around.get_mut(&v) {
+        let tri = triangles[t as usize];
+        for (i, v) in tri.iter().enumerate() {
+            // Once per triangle, also where a vertex repeats.
+            if tri[..i].contains(v) {
+                continue;
+            }
+            if let Some(list) = around.get_mut(v) {
                 list.push(t);
             }
         }
     }
-    let snapped: Vec<(u32, Vec3, f64)> = unsplit
+    let snapped: Vec<(u32, DVec3, f64)> = unsplit
         .par_iter()
         .filter_map(|&(v, depth)| {
             let ring: Vec<DVec3> = around[&v]
                 .iter()
                 .flat_map(|&t| triangles[t as usize])
                 .filter(|&w| w != v)
-                .map(|w| positions[w as usize].as_dvec3())
+                .map(pos)
                 .collect();
-            vertex_point(
-                field,
-                iso,
-                positions[v as usize].as_dvec3(),
-                &ring,
-                (h, depth),
-            )
-            .map(|s| (v, s.as_vec3(), depth))
+            vertex_point(sf, pos(v), &ring, depth).map(|s| (v, s, depth))
         })
         .collect();
     found.extend(off_surface.into_iter().chain(snapped).map(|(v, s, depth)| {
-        (
-            Cut::Vertex(v, around.remove(&v).unwrap_or_default()),
-            s,
-            depth,
-        )
+        let list = around.remove(&v).unwrap_or_default();
+        (Cut::Vertex(v, list), s.as_vec3(), depth)
     }));
     found
 }
 
-/// Where the vertex at `p` (its neighbours `ring`) goes onto a corner or edge of the surface
-/// that its edges, deepest `depth` off the surface, cut: the corner of the faces seen from it
-/// towards its neighbours (gradients a quarter of the way), or the point of the edge of two
-/// of them nearest `p`; within half a cell of `p`, on the surface, and with every edge to the
-/// ring's vertices at most half as deep as before.
-fn vertex_point(
-    field: &dyn Field,
-    iso: f32,
-    p: DVec3,
-    ring: &[DVec3],
-    (h, depth): (f64, f64),
-) -> Option<DVec3> {
-    let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
-    let probes: Vec<DVec3> = ring.iter().map(|&w| p + 0.25 * (w - p)).collect();
-    let s = feature_point(field, iso, &probes, p)?;
-    let moved = s.distance(p);
-    (moved <= 0.5 * h
-        && moved >= APART * h
-        && off(s).abs() <= ON_SURFACE * h
-        && ring.iter().all(|&w| off(0.5 * (s + w)).abs() < 0.5 * depth))
-    .then_some(s)
+/// The point of the line where the planes `a` and `b` (unit normal, offset) meet nearest
+/// `near`; `None` where they are (nearly) parallel.
+fn line_point(a: (DVec3, f64), b: (DVec3, f64), near: DVec3) -> Option<DVec3> {
+    let c = a.0.dot(b.0);
+    let det = 1.0 - c * c;
+    if det.is_nan() || det <= 1e-9 {
+        return None;
+    }
+    let (ra, rb) = (a.1 - a.0.dot(near), b.1 - b.0.dot(near));
+    Some(near + (ra - c * rb) / det * a.0 + (rb - c * ra) / det * b.0)
 }
 
-/// The corner of the faces seen at `probes` (planes placed by the field's value and
-/// gradient there, each more than [`FEATURE_DEGREES`] from the others), or the point of the
-/// edge of the first two nearest `near`; `None` with fewer than two faces.
-fn feature_point(field: &dyn Field, iso: f32, probes: &[DVec3], near: DVec3) -> Option<DVec3> {
-    let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
-    let feature = FEATURE_DEGREES.to_radians().cos();
-    // The planes n·x = n·x₀ − f(x₀) of the faces seen, each apart from the others.
+/// The corner of the faces seen at `probes` (each more than [`FEATURE_DEGREES`] from the
+/// others), or the point of the edge of the first two nearest `near`; `None` with fewer
+/// than two faces.
+fn feature_point(sf: Surface, probes: &[DVec3], near: DVec3) -> Option<DVec3> {
+    let apart = FEATURE_DEGREES.to_radians().cos();
     let mut planes: Vec<(DVec3, f64)> = Vec::with_capacity(probes.len());
     for &x in probes {
-        let n = field.gradient(x.as_vec3()).as_dvec3().normalize_or_zero();
-        if n == DVec3::ZERO {
-            return None;
-        }
-        if planes.iter().all(|q| n.dot(q.0) < feature) {
-            planes.push((n, n.dot(x) - off(x)));
+        let plane = sf.plane(x)?;
+        if planes.iter().all(|q| plane.0.dot(q.0) < apart) {
+            planes.push(plane);
         }
     }
     match planes[..] {
         [a, b, c, ..] if DMat3::from_cols(a.0, b.0, c.0).determinant().abs() > 0.1 => {
             Some(DMat3::from_cols(a.0, b.0, c.0).transpose().inverse() * DVec3::new(a.1, b.1, c.1))
         }
-        [a, b, ..] => {
-            let c = a.0.dot(b.0);
-            let (ra, rb) = (a.1 - a.0.dot(near), b.1 - b.0.dot(near));
-            let det = 1.0 - c * c;
-            Some(near + (ra - c * rb) / det * a.0 + (rb - c * ra) / det * b.0)
-        }
+        [a, b, ..] => line_point(a, b, near),
         _ => None,
     }
+}
+
+/// Where the vertex at `p` (its neighbours `ring`) goes onto a corner or edge of the surface
+/// that its edges, the deepest `depth` off the surface, miss: the corner of the faces seen
+/// from it towards its neighbours (a quarter of the way), or the point of the edge of two of
+/// them nearest `p`; within half a cell of `p`, on the surface, and with every edge to the
+/// ring less than half as deep as the deepest was.
+fn vertex_point(sf: Surface, p: DVec3, ring: &[DVec3], depth: f64) -> Option<DVec3> {
+    let probes: Vec<DVec3> = ring.iter().map(|&w| p + PROBES[1] * (w - p)).collect();
+    let s = feature_point(sf, &probes, p)?;
+    let moved = s.distance(p);
+    (moved <= 0.5 * sf.h
+        && moved >= APART * sf.h
+        && sf.on(s)
+        && ring
+            .iter()
+            .all(|&w| sf.off(0.5 * (s + w)).abs() < 0.5 * depth))
+    .then_some(s)
 }
 
 /// The split point of the triangle `p` (module docs): the corner of the faces seen from its
 /// vertices (gradients taken `probe` of the way in towards the other two) and its centroid,
 /// or the point of the edge of two of them nearest the centroid.
-fn face_point(field: &dyn Field, iso: f32, p: [DVec3; 3], probe: f64, h: f64) -> Option<DVec3> {
-    let off = |x: DVec3| field.value(x.as_vec3()) as f64 - iso as f64;
+fn face_point(sf: Surface, p: [DVec3; 3], probe: f64) -> Option<DVec3> {
     let g = (p[0] + p[1] + p[2]) / 3.0;
-    let depth = off(g).abs();
+    let depth = sf.off(g).abs();
     // From each vertex towards the other two (a vertex on an edge or at a corner sees a
     // different face in each direction), and the centroid.
     let probes: Vec<DVec3> = (0..3)
         .flat_map(|i| [1, 2].map(|k| p[i] + probe * (p[(i + k) % 3] - p[i])))
         .chain([g])
         .collect();
-    let s = feature_point(field, iso, &probes, g)?;
+    let s = feature_point(sf, &probes, g)?;
     // Inside the triangle seen along its normal, apart from its vertices, on the surface,
-    // and each new triangle nearer the surface than the old one.
+    // and each new triangle less than half as deep.
     let n = (p[1] - p[0]).cross(p[2] - p[0]);
     let inside = (0..3).all(|i| {
         let (a, b) = (p[i], p[(i + 1) % 3]);
         (b - a).cross(s - a).dot(n) > 0.02 * n.length_squared()
     });
-    let better = (0..3).all(|i| off((p[i] + p[(i + 1) % 3] + s) / 3.0).abs() < 0.5 * depth);
+    let better = (0..3).all(|i| sf.off((p[i] + p[(i + 1) % 3] + s) / 3.0).abs() < 0.5 * depth);
     (s.is_finite()
         && inside
-        && off(s).abs() <= ON_SURFACE * h
-        && s.distance(g) <= p.iter().map(|v| v.distance(g)).fold(0.0, f64::max) + h
-        && p.iter().all(|v| s.distance(*v) >= APART * h)
+        && sf.on(s)
+        && s.distance(g) <= p.iter().map(|v| v.distance(g)).fold(0.0, f64::max) + sf.h
+        && p.iter().all(|v| s.distance(*v) >= APART * sf.h)
         && better)
         .then_some(s)
 }
 
 /// The split point of the mesh edge `a b` (module docs), with the faces' gradients taken
 /// `probe` of the way in from either end.
-fn split_point(
-    field: &dyn Field,
-    iso: f32,
-    a: DVec3,
-    b: DVec3,
-    probe: f64,
-    h: f64,
-) -> Option<DVec3> {
-    let off = |p: DVec3| field.value(p.as_vec3()) as f64 - iso as f64;
+fn split_point(sf: Surface, a: DVec3, b: DVec3, probe: f64) -> Option<DVec3> {
     let (m, w) = (0.5 * (a + b), b - a);
-    let depth = off(m).abs();
-    let (xa, xb) = (a + probe * w, b - probe * w);
-    let ga = field.gradient(xa.as_vec3()).as_dvec3().normalize_or_zero();
-    let gb = field.gradient(xb.as_vec3()).as_dvec3().normalize_or_zero();
-    let c = ga.dot(gb);
-    // (Zero where the gradient is not finite, so `c` is finite.)
-    if ga == DVec3::ZERO || gb == DVec3::ZERO || c >= FEATURE_DEGREES.to_radians().cos() {
+    let depth = sf.off(m).abs();
+    let pa = sf.plane(a + probe * w)?;
+    let pb = sf.plane(b - probe * w)?;
+    if pa.0.dot(pb.0) >= FEATURE_DEGREES.to_radians().cos() {
         return None;
     }
-    // The line of both faces' planes (ga·(x − xa) + f(xa) = 0, likewise for b): its point
-    // p0 nearest m is m + α ga + β gb.
-    let (ra, rb) = (-off(xa) - ga.dot(m - xa), -off(xb) - gb.dot(m - xb));
-    let det = 1.0 - c * c;
-    let p0 = m + (ra - c * rb) / det * ga + (rb - c * ra) / det * gb;
-    let u = ga.cross(gb).normalize();
+    // The line of both faces' planes: its point p0 nearest m, its direction u.
+    let p0 = line_point(pa, pb, m)?;
+    let u = pa.0.cross(pb.0).normalize_or_zero();
     // The split point: the point of the line nearest the segment, where that is inside the
     // segment and apart from its ends.
     let d = a - p0;
@@ -482,11 +518,11 @@ fn split_point(
         return None;
     }
     let s = p0 + u.dot(a + t * w - p0) * u;
-    let apart = APART * h;
-    let better = |x: DVec3| off(x).abs() < 0.5 * depth;
+    let apart = APART * sf.h;
+    let better = |x: DVec3| sf.off(x).abs() < 0.5 * depth;
     (s.is_finite()
-        && off(s).abs() <= ON_SURFACE * h
-        && s.distance(m) <= 0.5 * w.length() + h
+        && sf.on(s)
+        && s.distance(m) <= 0.5 * w.length() + sf.h
         && s.distance(a) >= apart
         && s.distance(b) >= apart
         && better(0.5 * (a + s))
@@ -494,35 +530,63 @@ fn split_point(
     .then_some(s)
 }
 
-/// Moves vertices onto the surface and splits the deepest candidates first, each triangle
-/// at most once.
+/// Makes the changes: vertices onto the surface first, then flips, then the deepest splits,
+/// each triangle at most once.
 fn apply(
     positions: &mut Vec<Vec3>,
     triangles: &mut Vec<[u32; 3]>,
     mut found: Vec<(Cut, Vec3, f64)>,
 ) -> Vec<Split> {
-    // Vertices off the surface first (their edges' splits wait for the next round), then the
-    // deepest cuts.
-    found.sort_by(|x, y| {
-        let vertex = |c: &Cut| matches!(c, Cut::Vertex(..));
-        vertex(&y.0).cmp(&vertex(&x.0)).then(y.2.total_cmp(&x.2))
-    });
+    // Vertices off the surface first (their edges' splits wait for the next round), then
+    // flips (no new vertex), then the deepest cuts.
+    let rank = |c: &Cut| match c {
+        Cut::Vertex(..) => 2,
+        Cut::Flip(_) => 1,
+        _ => 0,
+    };
+    found.sort_by(|x, y| rank(&y.0).cmp(&rank(&x.0)).then(y.2.total_cmp(&x.2)));
+    // The edges at the flips' new ends: a flip must not make an edge that exists.
+    let ends: HashSet<u32> = found
+        .iter()
+        .filter_map(|(c, ..)| match c {
+            Cut::Flip(e) => Some(e.opposite(triangles)),
+            _ => None,
+        })
+        .flat_map(|(c, d)| [c, d])
+        .collect();
+    let mut existing: HashSet<u64> = HashSet::new();
+    if !ends.is_empty() {
+        for t in triangles
+            .iter()
+            .filter(|t| t.iter().any(|v| ends.contains(v)))
+        {
+            for i in 0..3 {
+                existing.insert(key(t[i], t[(i + 1) % 3]));
+            }
+        }
+    }
     let mut used = vec![false; triangles.len()];
     let mut splits = Vec::new();
     for (cut, s, _) in found {
         let tris = match &cut {
-            Cut::Edge(e) => e.tris.to_vec(),
+            Cut::Edge(e) | Cut::Flip(e) => e.tris.to_vec(),
             Cut::Face(t) => vec![*t],
             Cut::Vertex(_, around) => around.clone(),
         };
-        if tris.is_empty() {
+        if tris.is_empty() || tris.iter().any(|&t| used[t as usize]) {
             continue;
         }
-        if tris.iter().any(|&t| used[t as usize]) {
-            continue;
+        if let Cut::Flip(e) = &cut {
+            let (c, d) = e.opposite(triangles);
+            if !existing.insert(key(c, d)) {
+                continue;
+            }
         }
         let v = positions.len() as u32;
-        positions.push(s);
+        let vertex = (!matches!(cut, Cut::Flip(_))).then(|| {
+            positions.push(s);
+            v
+        });
         let old: Vec<(usize, [u32; 3])> = tris
             .iter()
             .map(|&t| {
@@ -556,6 +620,12 @@ fn apply(
                 .iter()
                 .map(|&(_, t)| (t.map(|w| if w == u { v } else { w }), t))
                 .collect(),
+            Cut::Flip(e) => {
+                // The quad c a d b, split along c d instead of a b.
+                let (t0, t1) = (old[0].1, old[1].1);
+                let (c, d) = (third(t0, e.a, e.b), third(t1, e.b, e.a));
+                vec![([c, e.a, d], t0), ([d, e.b, c], t1)]
+            }
         };
         // The first parts go where the old triangles were, the rest at the end.
         let mut added = Vec::new();
@@ -572,7 +642,12 @@ fn apply(
             triangles[at] = tri;
             new.push((at, from));
         }
-        splits.push(Split { old, added, new });
+        splits.push(Split {
+            old,
+            added,
+            new,
+            vertex,
+        });
     }
     splits
 }
@@ -585,31 +660,48 @@ fn third(t: [u32; 3], a: u32, b: u32) -> u32 {
     t[(i + 2) % 3]
 }
 
-/// Takes back the splits whose triangles fold or cross others; returns the vertices of the
-/// triangles of those that stand (one entry per split).
-/// Taken-back splits leave their vertex unused (dropped when the mesh is compacted) and
-/// their two added triangles as copies that [`take_back`] removes.
+/// Takes back the changes whose triangles fold, whose new vertex lies within [`APART`] of a
+/// vertex near it (merging coincident vertices would pinch the mesh there), or whose
+/// triangles cross others. Returns, per change that stands, its triangles' vertices and
+/// whether it was a vertex move. Taken-back changes leave their vertex unused (dropped when
+/// the mesh is compacted) and their added triangles as copies that [`take_back`] removes.
 fn check(
     positions: &[Vec3],
     triangles: &mut Vec<[u32; 3]>,
-    mut splits: Vec<Split>,
-    field: &dyn Field,
-) -> Vec<Vec<u32>> {
+    splits: Vec<Split>,
+    sf: Surface,
+) -> Vec<(Vec<u32>, bool)> {
     // Folded (`beyond::folds`: facing against the triangle it replaces and the exact
     // surface), or degenerate.
     let folds = |s: &Split| {
         s.new.iter().any(|&(t, from)| {
             let p = triangles[t].map(|v| positions[v as usize].as_dvec3());
-            super::beyond::folds(p, normal(positions, from).as_vec3(), Some(field))
+            super::beyond::folds(p, normal(positions, from).as_vec3(), Some(sf.field))
         })
     };
-    let (mut back, mut good): (Vec<Split>, Vec<Split>) = splits.drain(..).partition(folds);
-
+    let (mut back, mut good): (Vec<Split>, Vec<Split>) = splits.into_iter().partition(folds);
     for s in &back {
         restore(triangles, s);
     }
+    // New vertices next to another vertex.
+    if !good.is_empty() {
+        let new: Vec<usize> = good
+            .iter()
+            .flat_map(|s| s.new.iter().map(|n| n.0))
+            .collect();
+        let around = near_triangles(positions, triangles, &new, &back);
+        let crowded = crowded(positions, triangles, &around, APART * sf.h);
+        let (bad, stay): (Vec<Split>, Vec<Split>) = good
+            .into_iter()
+            .partition(|s| s.vertex.is_some_and(|v| crowded.contains(&v)));
+        good = stay;
+        for s in &bad {
+            restore(triangles, s);
+        }
+        back.extend(bad);
+    }
     // Crossings: the new triangles against every triangle whose box meets theirs, until no
-    // kept split's triangle crosses another.
+    // kept change's triangle crosses another.
     loop {
         let new: Vec<usize> = good
             .iter()
@@ -624,19 +716,13 @@ fn check(
             sub.iter().map(|&t| triangles[t]).collect(),
         );
         let x = crate::intersect::self_intersections(&mesh);
-        let mut crossing = std::collections::HashSet::new();
-        for p in &x.pairs {
-            for &t in p {
-                crossing.insert(sub[t as usize]);
-            }
-        }
+        let crossing: HashSet<usize> = x.pairs.iter().flatten().map(|&t| sub[t as usize]).collect();
         let unlisted = x.pairs.len() < x.count;
         let before = good.len();
         let (cross, stay): (Vec<Split>, Vec<Split>) = good
             .into_iter()
             .partition(|s| unlisted || s.new.iter().any(|n| crossing.contains(&n.0)));
         good = stay;
-
         if good.len() == before {
             break;
         }
@@ -645,21 +731,58 @@ fn check(
         }
         back.extend(cross);
     }
-    let touched = good
+    let kept = good
         .iter()
-        .map(|s| s.new.iter().flat_map(|n| triangles[n.0]).collect())
+        .map(|s| {
+            let vertices = s.new.iter().flat_map(|n| triangles[n.0]).collect();
+            // A move replaces a vertex in each of its triangles and adds none.
+            (vertices, s.vertex.is_some() && s.added.is_empty())
+        })
         .collect();
     take_back(triangles, &back);
-    touched
+    kept
 }
 
+/// The new vertices among the triangles `around` with another vertex within `apart`.
+fn crowded(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    around: &[usize],
+    apart: f64,
+) -> HashSet<u32> {
+    let cell = |p: Vec3| (p.as_dvec3() / apart).floor().as_ivec3();
+    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
+    let mut vertices: Vec<u32> = around.iter().flat_map(|&t| triangles[t]).collect();
+    vertices.sort_unstable();
+    vertices.dedup();
+    for &v in &vertices {
+        grid.entry(cell(positions[v as usize])).or_default().push(v);
+    }
+    let mut out = HashSet::new();
+    for &v in &vertices {
+        let (p, c) = (positions[v as usize], cell(positions[v as usize]));
+        let close = (-1..=1)
+            .flat_map(|z| {
+                (-1..=1).flat_map(move |y| (-1..=1).map(move |x| glam::IVec3::new(x, y, z)))
+            })
+            .filter_map(|d| grid.get(&(c + d)))
+            .flatten()
+            .any(|&w| w != v && (positions[w as usize].as_dvec3() - p.as_dvec3()).length() < apart);
+        if close {
+            out.insert(v);
+        }
+    }
+    out
+}
+
+/// Puts back the triangles a change replaced.
 fn restore(triangles: &mut [[u32; 3]], s: &Split) {
     for &(t, old) in &s.old {
         triangles[t] = old;
     }
 }
 
-/// Removes the triangles that taken-back splits added.
+/// Removes the triangles that taken-back changes added.
 fn take_back(triangles: &mut Vec<[u32; 3]>, back: &[Split]) {
     let mut gone = vec![false; triangles.len()];
     for s in back {
@@ -777,13 +900,22 @@ mod tests {
         let n = split_chamfers(
             &mut positions,
             &mut triangles,
-            &f,
-            0.0,
-            (1.0, &[]),
+            Surface {
+                field: &f,
+                iso: 0.0,
+                h: 1.0,
+            },
+            &[],
             &Job::default(),
         )
         .unwrap();
-        assert_eq!(n, 1);
+        assert_eq!(
+            n,
+            Changed {
+                splits: 1,
+                moves: 0
+            }
+        );
         assert_eq!(triangles.len(), 8);
         // The new vertex on the edge, where the diagonal passes nearest it.
         let v = positions[8];
@@ -821,9 +953,12 @@ mod tests {
         split_chamfers(
             &mut positions,
             &mut triangles,
-            &f,
-            0.0,
-            (1.0, &[]),
+            Surface {
+                field: &f,
+                iso: 0.0,
+                h: 1.0,
+            },
+            &[],
             &Job::default(),
         )
         .unwrap();
@@ -852,13 +987,16 @@ mod tests {
         let n = split_chamfers(
             &mut positions,
             &mut triangles,
-            &f,
-            0.0,
-            (1.0, &[]),
+            Surface {
+                field: &f,
+                iso: 0.0,
+                h: 1.0,
+            },
+            &[],
             &Job::default(),
         )
         .unwrap();
-        assert!(n >= 1, "{n}");
+        assert!(n.splits >= 1, "{n:?}");
         assert!(
             positions.iter().any(|p| p.length() < 1e-6),
             "no vertex at the corner: {positions:?}"
