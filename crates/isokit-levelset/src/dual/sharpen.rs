@@ -873,22 +873,21 @@ mod tests {
         }
     }
 
-    #[test]
-    fn an_edge_across_a_sharp_edge_is_split_on_it() {
-        // The wedge x ≤ 0, y ≤ 0 (its edge the z axis). A strip on each face, and between
-        // them a chamfer strip whose diagonal a0 → b1 passes a quarter below the edge.
-        let f = Planes(vec![Vec3::X, Vec3::Y]);
-        let mut positions = vec![
-            Vec3::new(0.0, -0.5, 0.0), // a0
-            Vec3::new(0.0, -0.5, 1.0), // a1
-            Vec3::new(-0.5, 0.0, 0.0), // b0
-            Vec3::new(-0.5, 0.0, 1.0), // b1
-            Vec3::new(0.0, -1.5, 0.0), // face x = 0
+    /// The wedge x ≤ 0, y ≤ 0 (its edge the z axis): a strip on each face, and between them
+    /// a chamfer strip whose diagonal a0 → b1 passes a quarter below the edge. The x = 0
+    /// face's outer vertex at z = 0 lies `inside` within the wedge.
+    fn wedge_strips(inside: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let positions = vec![
+            Vec3::new(0.0, -0.5, 0.0),     // a0
+            Vec3::new(0.0, -0.5, 1.0),     // a1
+            Vec3::new(-0.5, 0.0, 0.0),     // b0
+            Vec3::new(-0.5, 0.0, 1.0),     // b1
+            Vec3::new(-inside, -1.5, 0.0), // face x = 0
             Vec3::new(0.0, -1.5, 1.0),
             Vec3::new(-1.5, 0.0, 0.0), // face y = 0
             Vec3::new(-1.5, 0.0, 1.0),
         ];
-        let mut triangles = vec![
+        let triangles = vec![
             [0, 2, 3],
             [0, 3, 1],
             [4, 0, 1],
@@ -896,19 +895,25 @@ mod tests {
             [2, 6, 7],
             [2, 7, 3],
         ];
+        (positions, triangles)
+    }
+
+    /// [`split_chamfers`] with cells of side 1 and nothing kept.
+    fn sharpen(f: &dyn Field, positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>) -> Changed {
+        let surface = Surface {
+            field: f,
+            iso: 0.0,
+            h: 1.0,
+        };
+        split_chamfers(positions, triangles, surface, &[], &Job::default()).unwrap()
+    }
+
+    #[test]
+    fn an_edge_across_a_sharp_edge_is_split_on_it() {
+        let f = Planes(vec![Vec3::X, Vec3::Y]);
+        let (mut positions, mut triangles) = wedge_strips(0.0);
         facing_out(&positions, &triangles, &f);
-        let n = split_chamfers(
-            &mut positions,
-            &mut triangles,
-            Surface {
-                field: &f,
-                iso: 0.0,
-                h: 1.0,
-            },
-            &[],
-            &Job::default(),
-        )
-        .unwrap();
+        let n = sharpen(&f, &mut positions, &mut triangles);
         assert_eq!(
             n,
             Changed {
@@ -929,39 +934,12 @@ mod tests {
 
     #[test]
     fn a_vertex_off_the_surface_moves_onto_it() {
-        // The wedge's strips of the first test with one vertex of the x = 0 face a fifth of
-        // a cell inside (as a vertex clamped into its cell off a sharp edge lies).
+        // One vertex of the x = 0 face a fifth of a cell inside (as a vertex clamped into its
+        // cell off a sharp edge lies).
         let f = Planes(vec![Vec3::X, Vec3::Y]);
-        let mut positions = vec![
-            Vec3::new(0.0, -0.5, 0.0),
-            Vec3::new(0.0, -0.5, 1.0),
-            Vec3::new(-0.5, 0.0, 0.0),
-            Vec3::new(-0.5, 0.0, 1.0),
-            Vec3::new(-0.2, -1.5, 0.0),
-            Vec3::new(0.0, -1.5, 1.0),
-            Vec3::new(-1.5, 0.0, 0.0),
-            Vec3::new(-1.5, 0.0, 1.0),
-        ];
-        let mut triangles = vec![
-            [0, 2, 3],
-            [0, 3, 1],
-            [4, 0, 1],
-            [4, 1, 5],
-            [2, 6, 7],
-            [2, 7, 3],
-        ];
-        split_chamfers(
-            &mut positions,
-            &mut triangles,
-            Surface {
-                field: &f,
-                iso: 0.0,
-                h: 1.0,
-            },
-            &[],
-            &Job::default(),
-        )
-        .unwrap();
+        let (mut positions, mut triangles) = wedge_strips(0.2);
+        let n = sharpen(&f, &mut positions, &mut triangles);
+        assert!(n.moves >= 1, "{n:?}");
         // No triangle uses a vertex off the surface any more.
         for &v in triangles.iter().flatten() {
             let p = positions[v as usize];
@@ -984,18 +962,7 @@ mod tests {
             Vec3::new(-0.4, -0.4, -0.4),
         ];
         let mut triangles = vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]];
-        let n = split_chamfers(
-            &mut positions,
-            &mut triangles,
-            Surface {
-                field: &f,
-                iso: 0.0,
-                h: 1.0,
-            },
-            &[],
-            &Job::default(),
-        )
-        .unwrap();
+        let n = sharpen(&f, &mut positions, &mut triangles);
         assert!(n.splits >= 1, "{n:?}");
         assert!(
             positions.iter().any(|p| p.length() < 1e-6),
