@@ -88,9 +88,12 @@ pub fn print_dual_stats(st: &DualStats, adaptive: bool) {
     } else {
         String::new()
     };
+    let several = st.multi_component_cells;
     eprintln!(
-        "dual contouring: {} vertices clamped into their cells ({} placed on an edge just beyond), {} cells crossed in more than one piece{merged}{sharpened}{folded}",
-        st.clamped, st.beyond_cell, st.multi_component_cells
+        "dual contouring: {} vertices whose QEF minimiser lay outside their cells ({} of them placed on a sharp edge just beyond the cell, the others clamped into it), {several} {} crossed in more than one piece{merged}{sharpened}{folded}",
+        st.clamped,
+        st.beyond_cell,
+        if several == 1 { "cell" } else { "cells" }
     );
 }
 

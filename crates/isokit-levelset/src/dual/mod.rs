@@ -183,7 +183,7 @@ pub struct DualStats {
     /// lies on the surface.
     pub sharpened_edges: usize,
     /// With an exact field: vertices moved onto the surface (more than 0.05 cell off it), or
-    /// onto a corner or edge of it within half a cell that their edges cut.
+    /// onto a corner or edge of it within 0.75 cell that their edges cut.
     pub moved_vertices: usize,
 }
 

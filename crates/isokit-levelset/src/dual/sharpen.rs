@@ -34,8 +34,9 @@
 //!   round splits its edges to the other face on the sharp edge. A vertex with a deep edge
 //!   and no split point (the feature passes just beyond it: a cell's vertex clamped next to
 //!   a corner outside the cell) moves onto the corner of the faces seen towards its
-//!   neighbours, or the nearest point of the edge of two of them, where that is within half
-//!   a cell and each of its edges ends less than half as deep as the deepest was. Adaptive
+//!   neighbours, or the nearest point of the edge of two of them, where that is within
+//!   [`SNAP`] of a cell and each of its edges ends less than half as deep as the deepest
+//!   was. Adaptive
 //!   meshing's merged vertices are not moved (they lie within the error bound of the
 //!   surface by design). Moves go first, then flips, then the deepest splits; a triangle
 //!   changes at most once a round;
@@ -78,6 +79,8 @@ const FEATURE_DEGREES: f64 = 20.0;
 const CREASE_DEGREES: f64 = 10.0;
 /// A new vertex at least this far (in cells) from every other vertex near it.
 const APART: f64 = 0.05;
+/// How far (in cells) a vertex may move onto a corner or edge its edges miss.
+const SNAP: f64 = 0.75;
 /// Rounds: a round changes each triangle at most once.
 const ROUNDS: usize = 4;
 /// Where the faces are read, as fractions of the way in from a vertex: just in, else a
@@ -451,13 +454,13 @@ fn feature_point(sf: Surface, probes: &[DVec3], near: DVec3) -> Option<DVec3> {
 /// Where the vertex at `p` (its neighbours `ring`) goes onto a corner or edge of the surface
 /// that its edges, the deepest `depth` off the surface, miss: the corner of the faces seen
 /// from it towards its neighbours (a quarter of the way), or the point of the edge of two of
-/// them nearest `p`; within half a cell of `p`, on the surface, and with every edge to the
+/// them nearest `p`; within [`SNAP`] of a cell of `p`, on the surface, and with every edge to the
 /// ring less than half as deep as the deepest was.
 fn vertex_point(sf: Surface, p: DVec3, ring: &[DVec3], depth: f64) -> Option<DVec3> {
     let probes: Vec<DVec3> = ring.iter().map(|&w| p + PROBES[1] * (w - p)).collect();
     let s = feature_point(sf, &probes, p)?;
     let moved = s.distance(p);
-    (moved <= 0.5 * sf.h
+    (moved <= SNAP * sf.h
         && moved >= APART * sf.h
         && sf.on(s)
         && ring
