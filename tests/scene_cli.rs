@@ -341,4 +341,23 @@ fn mesher_dual_error_merges_cells() {
             assert!(msg.contains("positive"), "{bad:?}: {msg}");
         }
     }
+    // Either mesher named with a volume output is refused, not ignored.
+    let volume = adaptive.with_extension("nrrd");
+    for mesher in ["mc", "dual"] {
+        let o = isokit(&[
+            "scene",
+            &scene,
+            "-o",
+            volume.to_str().unwrap(),
+            "--mesher",
+            mesher,
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{mesher}");
+        let msg = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            msg.contains("--mesher applies to mesh outputs"),
+            "{mesher}: {msg}"
+        );
+        assert!(!volume.exists());
+    }
 }

@@ -22,7 +22,8 @@ def png(path, img):
                            + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
 
 def draw(mesh_path, out, W=640, H=420):
-    """Faces flat-shaded by their normal (painter's order), then every visible edge."""
+    """Faces flat-shaded by their normal (a z-buffer keeps the nearest), then the edges of
+    front-facing triangles where no nearer face hides them."""
     m = trimesh.load(mesh_path, process=False)
     V, F = np.asarray(m.vertices), np.asarray(m.faces)
     # A three-quarter view: rotate about z then x.
@@ -56,15 +57,33 @@ def draw(mesh_path, out, W=640, H=420):
             return (q[0] - p[0]) * (Y - p[1]) - (q[1] - p[1]) * (X - p[0])
         w0, w1, w2 = e(t[1], t[2]), e(t[2], t[0]), e(t[0], t[1])
         inside = ((w0 >= 0) & (w1 >= 0) & (w2 >= 0)) | ((w0 <= 0) & (w1 <= 0) & (w2 <= 0))
+        # w0 + w1 + w2 is twice the triangle's signed area, the same at every pixel.
+        area = (t[2][0] - t[1][0]) * (t[0][1] - t[1][1]) - (t[2][1] - t[1][1]) * (t[0][0] - t[1][0])
+        if area == 0:
+            continue
+        # Depth (larger z is nearer) interpolated over the face: the z-buffer keeps the
+        # nearest face of each pixel, so hidden edges are not drawn below.
+        z = (w0 * P[F[f, 0], 2] + w1 * P[F[f, 1], 2] + w2 * P[F[f, 2], 2]) / area
+        zsub = zbuf[y0:y1 + 1, x0:x1 + 1]
+        near = inside & (z > zsub)
+        zsub[near] = z[near]
         g = int(90 + 150 * n[f, 2])
-        img[y0:y1 + 1, x0:x1 + 1][inside] = (g, g, min(255, g + 20))
+        img[y0:y1 + 1, x0:x1 + 1][near] = (g, g, min(255, g + 20))
+    # An edge point is drawn where it is not behind the nearest face there (within two
+    # pixels' worth of depth).
+    eps = 2.0 / s
     for f in np.nonzero(vis)[0]:
         for i in range(3):
-            p, q = xy[F[f, i]], xy[F[f, (i + 1) % 3]]
+            a_, b_ = F[f, i], F[f, (i + 1) % 3]
+            p, q = xy[a_], xy[b_]
             k = int(max(abs(q - p).max(), 1)) + 1
-            pts = np.round(p + np.linspace(0, 1, k)[:, None] * (q - p)).astype(int)
+            u = np.linspace(0, 1, k)
+            pts = np.round(p + u[:, None] * (q - p)).astype(int)
+            z = P[a_, 2] + u * (P[b_, 2] - P[a_, 2])
             ok = (pts[:, 0] >= 0) & (pts[:, 0] < W) & (pts[:, 1] >= 0) & (pts[:, 1] < H)
-            img[pts[ok, 1], pts[ok, 0]] = (30, 30, 40)
+            pts, z = pts[ok], z[ok]
+            shown = z >= zbuf[pts[:, 1], pts[:, 0]] - eps
+            img[pts[shown, 1], pts[shown, 0]] = (30, 30, 40)
     png(out, img[::-1].copy())
 
 if __name__ == "__main__":

@@ -18,10 +18,7 @@ fn refuse(a: &Args, what: &str, extra: &[(bool, &str)]) -> Result<()> {
         (a.iso != 0.0, "--iso"),
         (a.inside != Inside::Below, "--inside"),
         (a.open, "--open"),
-        (
-            a.mesher.mesher != super::mesher_args::MesherArg::Mc,
-            "--mesher",
-        ),
+        (a.mesher.mesher.is_some(), "--mesher"),
         (a.array.is_some(), "--array"),
     ];
     for &(given, flag) in common.iter().chain(extra) {

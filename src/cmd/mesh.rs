@@ -100,7 +100,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     if super::tets::is_tets(&a.field) {
         // `--error` needs `--mesher dual` (checked above), refused here with it.
-        if a.open || a.mesher.mesher != super::mesher_args::MesherArg::Mc {
+        if a.open || a.mesher.mesher.is_some() {
             bail!(
                 "--open and --mesher apply to volumes; a tetrahedral grid is meshed by marching tetrahedra, open where the surface leaves the grid"
             );
@@ -128,7 +128,7 @@ pub fn run(a: Args) -> Result<()> {
         iso,
         close_boundary: !a.open,
     };
-    let mesh = match a.mesher.mesher {
+    let mesh = match a.mesher.kind() {
         super::mesher_args::MesherArg::Mc => mesh_grid_job(&grid, &opts, &super::progress::job())?,
         super::mesher_args::MesherArg::Dual => {
             let dual = DualOptions {

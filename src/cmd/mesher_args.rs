@@ -32,9 +32,9 @@ pub struct MesherOpts {
     /// by about a voxel) or `dual` (dual contouring with Hermite data: sharp edges and
     /// corners; normals from a scene's exact field, or from a volume's central differences;
     /// watertight, 2-manifold and oriented; where the lattice cannot resolve a feature,
-    /// triangles can fold, which `isokit info --self-intersections` reports).
-    #[arg(long, value_enum, default_value_t = MesherArg::Mc)]
-    pub mesher: MesherArg,
+    /// triangles can fold, which `isokit info --self-intersections` reports) [default: mc].
+    #[arg(long, value_enum)]
+    pub mesher: Option<MesherArg>,
     /// --mesher dual: adaptive meshing. Cells are merged into octree nodes (up to 256 cells
     /// a side) where one vertex lies within E, in world units, of every crossing's tangent
     /// plane (and of a scene's exact surface), and the merge keeps the surface's topology:
@@ -45,11 +45,16 @@ pub struct MesherOpts {
 }
 
 impl MesherOpts {
+    /// The mesher: `--mesher`, or marching cubes.
+    pub fn kind(&self) -> MesherArg {
+        self.mesher.unwrap_or(MesherArg::Mc)
+    }
+
     /// `--error`, checked: only with `--mesher dual`, finite and positive.
     pub fn error(&self) -> Result<Option<f64>> {
         match self.error {
             None => Ok(None),
-            Some(_) if self.mesher != MesherArg::Dual => {
+            Some(_) if self.kind() != MesherArg::Dual => {
                 bail!("--error applies to --mesher dual (adaptive dual contouring)")
             }
             Some(e) if !(e.is_finite() && e > 0.0) => {

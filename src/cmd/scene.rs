@@ -1,7 +1,6 @@
 //! `isokit scene SCENE -o out.nrrd|npy|zarr|obj|ply|stl|off [--res N] [--band W]
 //! [--mesher mc|dual [--error E]] [--stats]`: a scene file evaluated lazily to a band field or a mesh.
 
-use super::mesher_args::MesherArg;
 use super::{MESH_OUTPUTS, check_output, is_mesh_output};
 use anyhow::{Result, bail};
 use glam::Vec3;
@@ -77,7 +76,7 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--resume continues a lazily sampled .zarr output");
     }
     let error = a.mesher.error()?;
-    if !to_mesh && a.mesher.mesher != MesherArg::Mc {
+    if !to_mesh && a.mesher.mesher.is_some() {
         bail!(
             "--mesher applies to mesh outputs ({}) only",
             MESH_OUTPUTS.join(" ")
@@ -112,7 +111,7 @@ pub fn run(a: Args) -> Result<()> {
         let mo = MeshOptions {
             sampling: opts,
             dense: a.dense,
-            mesher: a.mesher.mesher.into(),
+            mesher: a.mesher.kind().into(),
             error,
         };
         let (mesh, st) = mesh_scene(&scene, &mo, &job)?;

@@ -55,9 +55,9 @@ pub struct Args {
     pub output: Option<PathBuf>,
     /// Mesh output: `mc` (marching cubes of the tree's samples at the export level) or
     /// `dual` (dual contouring: the tree read node by node, never stored as a grid, with
-    /// Hermite data from the input's exact field; sharp edges and corners).
-    #[arg(long, value_enum, default_value_t = crate::cmd::mesher_args::MesherArg::Mc)]
-    pub mesher: crate::cmd::mesher_args::MesherArg,
+    /// Hermite data from the input's exact field; sharp edges and corners) [default: mc].
+    #[arg(long, value_enum)]
+    pub mesher: Option<crate::cmd::mesher_args::MesherArg>,
     /// --mesher dual: adaptive meshing, cells merged where one vertex lies within E (world
     /// units) of every crossing's tangent plane and of the exact surface, as `isokit mesh
     /// --error` (named apart from --error, the tree's own bound) [default: one vertex per

@@ -32,7 +32,7 @@ pub fn run(a: Args) -> Result<()> {
             a.out.check(o)?;
         }
     }
-    if mesh_out.is_none() && (a.mesher != MesherArg::Mc || a.mesh_error.is_some()) {
+    if mesh_out.is_none() && (a.mesher.is_some() || a.mesh_error.is_some()) {
         bail!(
             "--mesher and --mesh-error apply to a mesh output (-o out.obj, .ply, .stl, .off, .glb, .gltf)"
         );
@@ -107,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
                 &tree,
                 &*inp.field,
                 export_level,
-                a.mesher,
+                a.mesher.unwrap_or(MesherArg::Mc),
                 mesh_error,
                 o,
             )?);
