@@ -440,16 +440,8 @@ pub(super) fn adaptive_polygons(
         counter.advance(1);
         if !split {
             counter.advance(SPLIT_ROUNDS as u64 + 1 - round as u64);
-            let mut used = vec![false; mesh.positions.len()];
-            for &v in mesh.triangles.iter().flatten() {
-                used[v as usize] = true;
-            }
-            // In `compact`'s order: the used vertices, in their order.
-            let merged_vertex = (0..used.len())
-                .filter(|&v| used[v])
-                .map(|v| v >= merged.n_fine)
-                .collect();
-            let (positions, tris) = super::compact(&mesh.positions, mesh.triangles);
+            let (positions, tris, kept) = super::compact(&mesh.positions, mesh.triangles);
+            let merged_vertex = kept.iter().map(|&v| v as usize >= merged.n_fine).collect();
             return Ok(AdaptiveMesh {
                 positions,
                 triangles: tris,

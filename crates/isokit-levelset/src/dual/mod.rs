@@ -1433,7 +1433,7 @@ pub fn mesh_dual_lattice_job(
                 job,
             )?;
             if a.positions.len() > before {
-                (a.positions, a.triangles) =
+                (a.positions, a.triangles, _) =
                     compact(&a.positions, std::mem::take(&mut a.triangles));
             }
             changed
@@ -1492,26 +1492,28 @@ fn split_quad(quad: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
     }
 }
 
-/// The vertices the triangles use, renumbered in their order in `positions`.
-fn compact(positions: &[Vec3], triangles: Vec<[u32; 3]>) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+/// The vertices the triangles use, renumbered in their order in `positions`, and the old
+/// index of each kept vertex.
+fn compact(positions: &[Vec3], triangles: Vec<[u32; 3]>) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<u32>) {
     let mut new = vec![u32::MAX; positions.len()];
     for t in &triangles {
         for &v in t {
             new[v as usize] = 0;
         }
     }
-    let mut out = Vec::new();
+    let mut kept = Vec::new();
     for (i, n) in new.iter_mut().enumerate() {
         if *n == 0 {
-            *n = out.len() as u32;
-            out.push(positions[i]);
+            *n = kept.len() as u32;
+            kept.push(i as u32);
         }
     }
+    let out = kept.iter().map(|&i| positions[i as usize]).collect();
     let triangles = triangles
         .into_iter()
         .map(|t| t.map(|v| new[v as usize]))
         .collect();
-    (out, triangles)
+    (out, triangles, kept)
 }
 
 #[cfg(test)]
