@@ -255,6 +255,94 @@ fn intersecting_boxes_rotated_30_degrees_are_sharp() {
     assert_eq!(rep.dual_pairs, 0, "self-intersecting pairs");
 }
 
+/// Random scenes of two boxes, one rotated about a random axis by 10–80° and moved, united,
+/// subtracted or intersected: their edges and corners at general angles to the lattice and
+/// to each other, with the thin wedges, shallow creases and small facets such scenes have
+/// (which a lattice of this spacing cannot resolve, so the 0.1-voxel bound of the named
+/// shapes is not asserted here). Every mesh closed and oriented, no self-intersection, dual
+/// contouring closer to the surface than marching cubes in every scene, and the median and
+/// the count within 0.2 voxel held to what was measured.
+#[test]
+fn random_two_box_scenes_are_closer_than_marching_cubes() {
+    let mut r = SplitMix64::new(7);
+    let (mut duals, mut mcs) = (Vec::new(), Vec::new());
+    for case in 0..9 {
+        let axis = r.unit_vector();
+        let degrees = r.range(10.0, 80.0);
+        let t = Vec3::new(0.3, 0.25, 0.2) + r.point_in(Vec3::splat(-0.3), Vec3::splat(0.3));
+        let op = ["union", "difference", "intersection"][case % 3];
+        let s = scene(&format!(
+            r#"{{"shape": {{"{op}": [
+                {{"box": {{"half": [0.5, 0.35, 0.3]}}}},
+                {{"transform": {{"translate": [{}, {}, {}], "rotate": {{"axis": [{}, {}, {}], "degrees": {degrees}}},
+                               "of": {{"box": {{"half": [0.4, 0.3, 0.35]}}}}}}}}
+            ]}}}}"#,
+            t.x, t.y, t.z, axis.x, axis.y, axis.z
+        ));
+        let (dual, h) = mesh(&s, 48, Mesher::Dual);
+        let (mc, _) = mesh(&s, 48, Mesher::Mc);
+        let v = dual.validate();
+        assert!(
+            v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
+            "case {case} ({op}): {v}"
+        );
+        let x = self_intersections(&dual);
+        assert_eq!(x.count, 0, "case {case} ({op}): crossing pairs");
+        let points = surface_points(&s, 20_000, case as u64);
+        let (hd, hm) = (
+            hausdorff_to(&points, &dual) / h as f64,
+            hausdorff_to(&points, &mc) / h as f64,
+        );
+        eprintln!(
+            "case {case} ({op}, {degrees:.1}°): Hausdorff surface→mesh dual {hd:.3} voxel, mc {hm:.3}"
+        );
+        assert!(hd < hm, "case {case} ({op}): dual {hd}, mc {hm}");
+        duals.push(hd);
+        mcs.push(hm);
+    }
+    duals.sort_by(f64::total_cmp);
+    mcs.sort_by(f64::total_cmp);
+    let within = duals.iter().filter(|&&d| d <= 0.2).count();
+    eprintln!(
+        "two-box scenes at res 48: median Hausdorff dual {:.3} voxel, mc {:.3}; dual within 0.2 voxel in {within} of {}",
+        duals[duals.len() / 2],
+        mcs[mcs.len() / 2],
+        duals.len()
+    );
+    // Measured: median 0.034 voxel (marching cubes 0.786), 6 of 9 within 0.2 voxel; the
+    // others 0.19–0.42 where a wedge, a shallow crease or a small facet is finer than a cell.
+    assert!(
+        duals[duals.len() / 2] < 0.1,
+        "median {}",
+        duals[duals.len() / 2]
+    );
+    assert!(within >= 6, "{within} of {} within 0.2 voxel", duals.len());
+}
+
+/// One of those scenes (two boxes intersected, one rotated 65.4° about a general axis) where
+/// a vertex lay on one face a quarter of a cell from a sharp edge and the split of its mesh
+/// edge on the edge crossed the next triangle (the split point fell behind the edge's next
+/// vertex): 0.226 voxel over these points before such an edge's end was moved onto the sharp
+/// edge instead, 0.011 after. The exact parameters matter: rounded to seven digits, the
+/// lattice's crossings move and a vertex next to a corner is left 0.37 voxel short of it
+/// (its move onto the corner folds; measured through `isokit scene` over 300,000 points), so
+/// this case is pinned as it was found.
+#[test]
+fn a_mesh_edge_whose_split_crosses_has_its_end_moved_onto_the_sharp_edge() {
+    let s = scene(
+        r#"{"shape": {"intersection": [{"box": {"half": [0.5, 0.35, 0.3]}},
+            {"transform": {"translate": [0.36551443666238526, 0.08576558741274073, -0.015983550530679624],
+                           "rotate": {"axis": [0.8161187903968214, 0.4105571867237493, -1.227126096156625],
+                                      "degrees": 65.37203556383538},
+                           "of": {"box": {"half": [0.4, 0.3, 0.35]}}}}]}}"#,
+    );
+    let (dual, h) = mesh(&s, 64, Mesher::Dual);
+    let points = surface_points(&s, 40_000, 3);
+    let hd = hausdorff_to(&points, &dual) / h as f64;
+    eprintln!("two boxes intersected, one rotated 65.4°: Hausdorff surface→mesh {hd:.3} voxel");
+    assert!(hd < 0.1, "Hausdorff {hd} voxel");
+}
+
 /// The report's case through the scene pipeline: a box face at x = 0.75 on a lattice from
 /// −1.05 with spacing 0.0125. Marching cubes gives no duplicate vertices and no degenerate
 /// triangles, and stays watertight after merging coincident vertices.

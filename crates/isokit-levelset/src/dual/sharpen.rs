@@ -46,18 +46,29 @@
 //!   triangle they replace and the exact surface, as `beyond::folds` tests) or are
 //!   degenerate, where its new vertex lies within [`APART`] of a cell of another vertex near
 //!   it (merging coincident vertices would pinch the mesh there), or where its triangles
-//!   cross another triangle (exactly, [`crate::intersect`]).
+//!   cross another triangle (exactly, [`crate::intersect`]);
+//! - a change taken back is tried again in the next round (a change beside it may have been
+//!   what folded or crossed it), and otherwise once it is taken back twice: such a mesh
+//!   edge is not split again, its ends move onto the feature instead (as where no split
+//!   point exists: a vertex on one face a fraction of a cell from a sharp edge, whose edge's
+//!   split point falls behind the edge's next vertex and crosses its triangle); such a
+//!   vertex moves onto the edge or corner of the faces around it instead of the nearest
+//!   face, and where that too is taken back twice, onto the nearest face again.
 //!
 //! Edges and triangles are looked at only around vertices of mesh edges whose two triangles
 //! meet at more than [`CREASE_DEGREES`], so smooth parts cost the triangles' normals and one
 //! field value per vertex (for the vertices off the surface); up to [`ROUNDS`] rounds change
-//! what the round before changed (every later round only around those changes). A change
-//! blocked in its round by another that is then taken back is not tried again. Measured on
-//! two boxes, one rotated 30° (`isokit-scene`'s `tests/dual.rs`): Hausdorff distance from
-//! the surface 0.27 voxel without these steps, 0.066 with the splits alone, 0.037 with the
-//! moves too (7 changes among 16,626 triangles); at resolution 128 two vertices clamped 0.14
-//! and 0.09 cell inside the surface and one 0.1 cell from a corner left 0.14 voxel before
-//! they were moved.
+//! what the round before changed or took back (every later round only around those). A
+//! change blocked in its round by another that is then taken back is not tried again.
+//! Measured on two boxes, one rotated 30° (`isokit-scene`'s `tests/dual.rs`): Hausdorff
+//! distance from the surface 0.27 voxel without these steps, 0.066 with the splits alone,
+//! 0.037 with the moves too (7 changes among 16,626 triangles); at resolution 128 two
+//! vertices clamped 0.14 and 0.09 cell inside the surface and one 0.1 cell from a corner left
+//! 0.14 voxel before they were moved. On random scenes of two boxes (a random rotation;
+//! union, difference or intersection; `tests/peers/bench_random_boxes.py`), trying
+//! taken-back changes again and otherwise brought 7 of 20 closer to the exact surface (one
+//! from 0.29 to 0.09 voxel) and none farther; what is left there lies at features finer than
+//! a cell (wedges, shallow creases, facets a cell or less across).
 
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::{Field, Job};
@@ -82,7 +93,7 @@ const APART: f64 = 0.05;
 /// How far (in cells) a vertex may move onto a corner or edge its edges miss.
 const SNAP: f64 = 0.75;
 /// Rounds: a round changes each triangle at most once.
-const ROUNDS: usize = 4;
+const ROUNDS: usize = 8;
 /// Where the faces are read, as fractions of the way in from a vertex: just in, else a
 /// quarter of the way (where a vertex on an edge or corner of the surface sees either face).
 const PROBES: [f64; 2] = [0.02, 0.25];
@@ -143,6 +154,24 @@ struct Split {
     added: Vec<usize>,
     new: Vec<(usize, [u32; 3])>,
     vertex: Option<u32>,
+    /// What it changed, to try otherwise where it is taken back.
+    tried: Option<Tried>,
+}
+
+/// A change tried: the split of a mesh edge (by key), the move of a vertex onto the nearest
+/// face, or onto an edge or corner of the surface.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum Tried {
+    Edge(u64),
+    Move(u32),
+    Snap(u32),
+}
+
+/// Where a vertex moves: onto the nearest face, or onto an edge or corner of the surface.
+#[derive(Clone, Copy, PartialEq)]
+enum Onto {
+    Face,
+    Feature,
 }
 
 /// What a change cuts: a mesh edge (its two triangles become four), or a triangle (three);
@@ -153,7 +182,7 @@ struct Split {
 enum Cut {
     Edge(Edge),
     Face(u32),
-    Vertex(u32, Vec<u32>),
+    Vertex(u32, Vec<u32>, Onto),
     Flip(Edge),
 }
 
@@ -172,18 +201,48 @@ pub(super) fn split_chamfers(
     let mut changed = Changed::default();
     // After the first round, only where the last round changed: the new triangles' vertices.
     let mut focus: Option<Vec<bool>> = None;
+    // Changes taken back once (tried again: a change next to it may have been what folded
+    // it), and twice: a mesh edge whose split crossed or folded twice has its ends moved
+    // onto the feature instead, a vertex whose move onto the nearest face did moves onto the
+    // edge or corner of the faces around it.
+    let mut once: HashSet<Tried> = HashSet::new();
+    let mut blocked: HashSet<Tried> = HashSet::new();
     for _ in 0..ROUNDS {
         job.check()?;
-        let found = candidates(positions, triangles, focus.as_deref(), surface, keep);
+        let mut found = candidates(
+            positions,
+            triangles,
+            focus.as_deref(),
+            surface,
+            keep,
+            &blocked,
+        );
+        // Changes taken back before go after the others (their depth orders them only among
+        // themselves), so one that keeps folding does not keep its neighbours from changing.
+        for (cut, _, depth) in &mut found {
+            if cut.tried().is_some_and(|k| once.contains(&k)) {
+                *depth *= 1e-6;
+            }
+        }
         if found.is_empty() {
             break;
         }
         let splits = apply(positions, triangles, found);
-        let kept = check(positions, triangles, splits, surface);
-        if kept.is_empty() {
+        let (kept, back) = check(positions, triangles, splits, surface);
+        let fresh: Vec<Tried> = back
+            .into_iter()
+            .filter(|&k| once.insert(k) || blocked.insert(k))
+            .collect();
+        if kept.is_empty() && fresh.is_empty() {
             break;
         }
         let mut f = vec![false; positions.len()];
+        for k in fresh {
+            match k {
+                Tried::Edge(k) => [(k >> 32) as u32, k as u32].map(|v| f[v as usize] = true),
+                Tried::Move(v) | Tried::Snap(v) => [v; 2].map(|v| f[v as usize] = true),
+            };
+        }
         for (vertices, moved) in &kept {
             if *moved {
                 changed.moves += 1;
@@ -197,6 +256,18 @@ pub(super) fn split_chamfers(
         focus = Some(f);
     }
     Ok(changed)
+}
+
+impl Cut {
+    /// What a change of this kind is remembered by where it is taken back.
+    fn tried(&self) -> Option<Tried> {
+        match self {
+            Cut::Edge(e) => Some(Tried::Edge(key(e.a, e.b))),
+            Cut::Vertex(u, _, Onto::Face) => Some(Tried::Move(*u)),
+            Cut::Vertex(u, _, Onto::Feature) => Some(Tried::Snap(*u)),
+            _ => None,
+        }
+    }
 }
 
 /// An interior mesh edge: its ends and its two triangles (the first has the edge as
@@ -277,6 +348,7 @@ fn candidates(
     focus: Option<&[bool]>,
     sf: Surface,
     keep: &[bool],
+    blocked: &HashSet<Tried>,
 ) -> Vec<(Cut, Vec3, f64)> {
     let pos = |v: u32| positions[v as usize].as_dvec3();
     let in_focus = |v: u32| focus.is_none_or(|f| f[v as usize]);
@@ -314,6 +386,9 @@ fn candidates(
     let splits: Vec<Option<DVec3>> = deep
         .par_iter()
         .map(|(e, _)| {
+            if blocked.contains(&Tried::Edge(key(e.a, e.b))) {
+                return None;
+            }
             PROBES
                 .iter()
                 .find_map(|&probe| split_point(sf, pos(e.a), pos(e.b), probe))
@@ -361,14 +436,23 @@ fn candidates(
     // off); the splits of the next round then put their edges to the other face on the
     // sharp edge. Every vertex in focus is looked at, creased or not: the triangles around
     // a vertex off the surface can lie flat.
-    let off_surface: Vec<(u32, DVec3, f64)> = (0..positions.len() as u32)
+    let off: Vec<(u32, f64)> = (0..positions.len() as u32)
         .into_par_iter()
         .filter(|&v| movable(v))
-        .filter_map(|v| {
-            let depth = sf.off(pos(v)).abs();
-            if depth.is_nan() || depth <= VERTEX_OFF * sf.h {
-                return None;
-            }
+        .map(|v| (v, sf.off(pos(v)).abs()))
+        .filter(|&(_, depth)| depth > VERTEX_OFF * sf.h)
+        .collect();
+    // A vertex whose move onto the nearest face was taken back twice goes onto the edge or
+    // corner of the faces around it instead (with the vertices next to a feature their
+    // edges miss); where that too was taken back twice, onto the nearest face again (a
+    // change beside it may since have made room).
+    let (stuck, off): (Vec<_>, Vec<_>) = off.into_iter().partition(|&(v, _)| {
+        blocked.contains(&Tried::Move(v)) && !blocked.contains(&Tried::Snap(v))
+    });
+    unsplit.extend(stuck);
+    let off_surface: Vec<(u32, DVec3, f64)> = off
+        .into_par_iter()
+        .filter_map(|(v, depth)| {
             super::newton_onto(sf.field, sf.iso, pos(v), sf.h, ON_SURFACE)
                 .filter(|s| s.distance(pos(v)) <= 2.0 * depth + ON_SURFACE * sf.h)
                 .map(|s| (v, s, depth))
@@ -376,7 +460,8 @@ fn candidates(
         .collect();
     let moving: HashSet<u32> = off_surface.iter().map(|m| m.0).collect();
     // The vertices next to a corner or edge their deep edges miss, deepest edge first.
-    unsplit.retain(|&(v, _)| movable(v) && !moving.contains(&v));
+    unsplit
+        .retain(|&(v, _)| movable(v) && !moving.contains(&v) && !blocked.contains(&Tried::Snap(v)));
     unsplit.sort_by(|x, y| x.0.cmp(&y.0).then(y.1.total_cmp(&x.1)));
     unsplit.dedup_by_key(|x| x.0);
     let mut around: HashMap<u32, Vec<u32>> = moving
@@ -411,9 +496,13 @@ fn candidates(
             vertex_point(sf, pos(v), &ring, depth).map(|s| (v, s, depth))
         })
         .collect();
-    found.extend(off_surface.into_iter().chain(snapped).map(|(v, s, depth)| {
+    let onto = off_surface
+        .into_iter()
+        .map(|m| (m, Onto::Face))
+        .chain(snapped.into_iter().map(|m| (m, Onto::Feature)));
+    found.extend(onto.map(|((v, s, depth), onto)| {
         let list = around.remove(&v).unwrap_or_default();
-        (Cut::Vertex(v, list), s.as_vec3(), depth)
+        (Cut::Vertex(v, list, onto), s.as_vec3(), depth)
     }));
     found
 }
@@ -574,7 +663,7 @@ fn apply(
         let tris = match &cut {
             Cut::Edge(e) | Cut::Flip(e) => e.tris.to_vec(),
             Cut::Face(t) => vec![*t],
-            Cut::Vertex(_, around) => around.clone(),
+            Cut::Vertex(_, around, _) => around.clone(),
         };
         if tris.is_empty() || tris.iter().any(|&t| used[t as usize]) {
             continue;
@@ -585,6 +674,7 @@ fn apply(
                 continue;
             }
         }
+        let tried = cut.tried();
         let v = positions.len() as u32;
         let vertex = (!matches!(cut, Cut::Flip(_))).then(|| {
             positions.push(s);
@@ -619,7 +709,7 @@ fn apply(
                     ([c, a, v], old[0].1),
                 ]
             }
-            Cut::Vertex(u, _) => old
+            Cut::Vertex(u, ..) => old
                 .iter()
                 .map(|&(_, t)| (t.map(|w| if w == u { v } else { w }), t))
                 .collect(),
@@ -650,6 +740,7 @@ fn apply(
             added,
             new,
             vertex,
+            tried,
         });
     }
     splits
@@ -666,14 +757,14 @@ fn third(t: [u32; 3], a: u32, b: u32) -> u32 {
 /// Takes back the changes whose triangles fold, whose new vertex lies within [`APART`] of a
 /// vertex near it (merging coincident vertices would pinch the mesh there), or whose
 /// triangles cross others. Returns, per change that stands, its triangles' vertices and
-/// whether it was a vertex move. Taken-back changes leave their vertex unused (dropped when
+/// whether it was a vertex move, and the edge splits and vertex moves taken back. Taken-back changes leave their vertex unused (dropped when
 /// the mesh is compacted) and their added triangles as copies that [`take_back`] removes.
 fn check(
     positions: &[Vec3],
     triangles: &mut Vec<[u32; 3]>,
     splits: Vec<Split>,
     sf: Surface,
-) -> Vec<(Vec<u32>, bool)> {
+) -> (Vec<(Vec<u32>, bool)>, Vec<Tried>) {
     // Folded (`beyond::folds`: facing against the triangle it replaces and the exact
     // surface), or degenerate.
     let folds = |s: &Split| {
@@ -743,7 +834,7 @@ fn check(
         })
         .collect();
     take_back(triangles, &back);
-    kept
+    (kept, back.iter().filter_map(|s| s.tried).collect())
 }
 
 /// The new vertices among the triangles `around` with another vertex within `apart`.
