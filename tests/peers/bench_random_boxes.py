@@ -15,8 +15,10 @@ to the mesh, and the largest distance from the mesh's vertices to the exact surf
 (two binaries of isokit, one before a change, compare in one run):
 
     cargo build --release --bin isokit
-    python tests/peers/bench_random_boxes.py --res 64 --scenes 15 \\
-        dual=target/release/isokit:dual mc=target/release/isokit:mc
+    cp target/release/isokit /tmp/isokit-before   # (then build the change)
+    python tests/peers/bench_random_boxes.py --res 64 --scenes 20 \\
+        before=/tmp/isokit-before:dual after=target/release/isokit:dual \\
+        mc=target/release/isokit:mc
 
 Needs numpy, libigl and manifold3d (tests/peers/requirements.txt).
 """
@@ -99,6 +101,8 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--general", action="store_true")
     args = ap.parse_args()
+    if any("=" not in r or ":" not in r.split("=", 1)[1] for r in args.runs):
+        ap.error("each run is LABEL=EXE:MESHER, e.g. dual=target/release/isokit:dual")
     runs = [(lab, *spec.rsplit(":", 1)) for lab, spec in (r.split("=", 1) for r in args.runs)]
     rng = np.random.default_rng(args.seed)
     tmp = pathlib.Path(tempfile.mkdtemp())
@@ -108,6 +112,7 @@ def main():
     for i, (op, axis, deg, move) in enumerate(scenes(rng, args.scenes, args.general)):
         EV, EF = exact(op, axis, deg, move)
         if len(EF) == 0:
+            print(f"| {i} | {op} {deg:.0f}° | (empty: skipped) |")
             continue
         P = probe_points(rng, EV, EF)
         scene = tmp / f"s{i}.json"
@@ -120,7 +125,9 @@ def main():
             out = tmp / "o.obj"
             r = subprocess.run([exe, "scene", str(scene), "-o", str(out), "--stats",
                                 "--res", str(args.res), "--mesher", mesher],
-                               capture_output=True, text=True, check=True)
+                               capture_output=True, text=True)
+            if r.returncode != 0:
+                sys.exit(f"{lab} on scene {i}: {r.stderr.strip()}")
             h = json.loads(r.stdout)["spacing"]
             V, F = read_obj(out)
             d_surface, _, _ = igl.point_mesh_squared_distance(P, V, F)

@@ -310,7 +310,7 @@ fn random_two_box_scenes_are_closer_than_marching_cubes() {
         duals.len()
     );
     // Measured: median 0.034 voxel (marching cubes 0.786), 6 of 9 within 0.2 voxel; the
-    // others 0.19–0.42 where a wedge, a shallow crease or a small facet is finer than a cell.
+    // others 0.25–0.42 where a wedge, a shallow crease or a small facet is finer than a cell.
     assert!(
         duals[duals.len() / 2] < 0.1,
         "median {}",

@@ -47,28 +47,32 @@
 //!   degenerate, where its new vertex lies within [`APART`] of a cell of another vertex near
 //!   it (merging coincident vertices would pinch the mesh there), or where its triangles
 //!   cross another triangle (exactly, [`crate::intersect`]);
-//! - a change taken back is tried again in the next round (a change beside it may have been
-//!   what folded or crossed it), and otherwise once it is taken back twice: such a mesh
-//!   edge is not split again, its ends move onto the feature instead (as where no split
-//!   point exists: a vertex on one face a fraction of a cell from a sharp edge, whose edge's
-//!   split point falls behind the edge's next vertex and crosses its triangle); such a
-//!   vertex moves onto the edge or corner of the faces around it instead of the nearest
-//!   face, and where that too is taken back twice, onto the nearest face again.
+//! - a mesh edge's split or a vertex's move that is taken back is tried again in the next
+//!   round (a change beside it may have been what folded or crossed it; two changes that
+//!   cross each other are both taken back and meet again), and otherwise once it is taken
+//!   back twice: such a mesh edge is not split again, its ends move onto the feature instead
+//!   (an end more than [`VERTEX_OFF`] off the surface onto the nearest face first; as where
+//!   no split point exists: a vertex on one face a fraction of a cell from a sharp edge,
+//!   whose edge's split point falls behind the edge's next vertex and crosses its
+//!   triangle); such a vertex moves onto the edge or corner of the faces around it instead
+//!   of the nearest face, and where that too is taken back twice, onto the nearest face
+//!   again.
 //!
 //! Edges and triangles are looked at only around vertices of mesh edges whose two triangles
 //! meet at more than [`CREASE_DEGREES`], so smooth parts cost the triangles' normals and one
 //! field value per vertex (for the vertices off the surface); up to [`ROUNDS`] rounds change
 //! what the round before changed or took back (every later round only around those). A
-//! change blocked in its round by another that is then taken back is not tried again.
-//! Measured on two boxes, one rotated 30° (`isokit-scene`'s `tests/dual.rs`): Hausdorff
-//! distance from the surface 0.27 voxel without these steps, 0.066 with the splits alone,
-//! 0.037 with the moves too (7 changes among 16,626 triangles); at resolution 128 two
-//! vertices clamped 0.14 and 0.09 cell inside the surface and one 0.1 cell from a corner left
-//! 0.14 voxel before they were moved. On random scenes of two boxes (a random rotation;
-//! union, difference or intersection; `tests/peers/bench_random_boxes.py`), trying
-//! taken-back changes again and otherwise brought 7 of 20 closer to the exact surface (one
-//! from 0.29 to 0.09 voxel) and none farther; what is left there lies at features finer than
-//! a cell (wedges, shallow creases, facets a cell or less across).
+//! change blocked in its round by another (a triangle already changed) is looked at again
+//! only where a change beside it stood or was taken back. Measured on two boxes, one
+//! rotated 30° (`isokit-scene`'s `tests/dual.rs`): Hausdorff distance from the surface 0.27
+//! voxel without these steps, 0.066 with the splits alone, 0.037 with the moves too (7
+//! changes among 16,626 triangles); at resolution 128 two vertices clamped 0.14 and 0.09 cell
+//! inside the surface and one 0.1 cell from a corner left 0.14 voxel before they were moved.
+//! On random scenes of two boxes (a random rotation; union, difference or intersection;
+//! `tests/peers/bench_random_boxes.py`), trying taken-back changes again and otherwise
+//! brought 6 of 20 closer to the exact surface (one from 0.29 to 0.09 voxel) and none
+//! farther, and the vertices of 2 closer; what is left there lies at features finer than a
+//! cell (wedges, shallow creases, facets a cell or less across).
 
 use glam::{DMat3, DVec3, Vec3};
 use isokit_field::{Field, Job};
@@ -199,7 +203,8 @@ pub(super) fn split_chamfers(
     job: &Job,
 ) -> Result<Changed, MeshingError> {
     let mut changed = Changed::default();
-    // After the first round, only where the last round changed: the new triangles' vertices.
+    // After the first round, only where the last round changed (the new triangles' vertices)
+    // or took a change back (its vertices).
     let mut focus: Option<Vec<bool>> = None;
     // Changes taken back once (tried again: a change next to it may have been what folded
     // it), and twice: a mesh edge whose split crossed or folded twice has its ends moved
@@ -217,8 +222,9 @@ pub(super) fn split_chamfers(
             keep,
             &blocked,
         );
-        // Changes taken back before go after the others (their depth orders them only among
-        // themselves), so one that keeps folding does not keep its neighbours from changing.
+        // Changes taken back before go after the others of their kind (moves, flips, splits;
+        // their depth orders them only among themselves), so one that keeps folding does not
+        // keep its neighbours from changing.
         for (cut, _, depth) in &mut found {
             if cut.tried().is_some_and(|k| once.contains(&k)) {
                 *depth *= 1e-6;
@@ -445,7 +451,8 @@ fn candidates(
     // A vertex whose move onto the nearest face was taken back twice goes onto the edge or
     // corner of the faces around it instead (with the vertices next to a feature their
     // edges miss); where that too was taken back twice, onto the nearest face again (a
-    // change beside it may since have made room).
+    // change beside it may since have made room). Its own depth is the bound its snapped
+    // edges must halve.
     let (stuck, off): (Vec<_>, Vec<_>) = off.into_iter().partition(|&(v, _)| {
         blocked.contains(&Tried::Move(v)) && !blocked.contains(&Tried::Snap(v))
     });
@@ -757,8 +764,9 @@ fn third(t: [u32; 3], a: u32, b: u32) -> u32 {
 /// Takes back the changes whose triangles fold, whose new vertex lies within [`APART`] of a
 /// vertex near it (merging coincident vertices would pinch the mesh there), or whose
 /// triangles cross others. Returns, per change that stands, its triangles' vertices and
-/// whether it was a vertex move, and the edge splits and vertex moves taken back. Taken-back changes leave their vertex unused (dropped when
-/// the mesh is compacted) and their added triangles as copies that [`take_back`] removes.
+/// whether it was a vertex move, and the edge splits and vertex moves taken back. Taken-back
+/// changes leave their vertex unused (dropped when the mesh is compacted) and their added
+/// triangles as copies that [`take_back`] removes.
 fn check(
     positions: &[Vec3],
     triangles: &mut Vec<[u32; 3]>,
