@@ -7,10 +7,11 @@ use isokit_scene::Mesher;
 use serde_json::{Value, json};
 use std::path::Path;
 
-/// `--mesher` on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+/// `--mesher` on the command line (marching cubes where it is not given).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MesherArg {
     /// Marching cubes.
+    #[default]
     Mc,
     /// Dual contouring with Hermite data.
     Dual,
@@ -47,7 +48,7 @@ pub struct MesherOpts {
 impl MesherOpts {
     /// The mesher: `--mesher`, or marching cubes.
     pub fn kind(&self) -> MesherArg {
-        self.mesher.unwrap_or(MesherArg::Mc)
+        self.mesher.unwrap_or_default()
     }
 
     /// `--error`, checked: only with `--mesher dual`, finite and positive.

@@ -63,6 +63,16 @@ fn surface_points(s: &Scene, n: usize, seed: u64) -> Vec<Vec3> {
     out
 }
 
+/// Closed (watertight), consistently oriented and without degenerate triangles; `what` names
+/// the mesh in the failure.
+fn assert_closed(m: &TriMesh, what: &str) {
+    let v = m.validate();
+    assert!(
+        v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
+        "{what}: {v}"
+    );
+}
+
 /// Largest distance from the points to the mesh (one-sided Hausdorff, surface to mesh).
 fn hausdorff_to(points: &[Vec3], m: &TriMesh) -> f64 {
     let sdf = MeshSdf::new(
@@ -281,11 +291,7 @@ fn random_two_box_scenes_are_closer_than_marching_cubes() {
         ));
         let (dual, h) = mesh(&s, 48, Mesher::Dual);
         let (mc, _) = mesh(&s, 48, Mesher::Mc);
-        let v = dual.validate();
-        assert!(
-            v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
-            "case {case} ({op}): {v}"
-        );
+        assert_closed(&dual, &format!("case {case} ({op})"));
         let x = self_intersections(&dual);
         assert_eq!(x.count, 0, "case {case} ({op}): crossing pairs");
         let points = surface_points(&s, 20_000, case as u64);
@@ -392,11 +398,7 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
             continue;
         }
         meshed += 1;
-        let v = mc.validate();
-        assert!(
-            v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
-            "case {case} mc: {v}\n{tree}"
-        );
+        assert_closed(&mc, &format!("case {case} mc\n{tree}"));
         let x = self_intersections(&mc);
         assert!(
             x.pairs.is_empty(),
@@ -404,11 +406,7 @@ fn random_csg_trees_mesh_closed_and_dual_folds_are_counted() {
             x.pairs.len()
         );
         let (dual, st) = mesh_with_stats(&s, 40, Mesher::Dual);
-        let v = dual.validate();
-        assert!(
-            v.watertight && v.consistently_oriented && v.degenerate_triangles == 0,
-            "case {case} dual: {v}\n{tree}"
-        );
+        assert_closed(&dual, &format!("case {case} dual\n{tree}"));
         let x = self_intersections(&dual);
         trees_with += (x.count > 0) as usize;
         pairs += x.count;

@@ -10,7 +10,6 @@ pub use args::Args;
 pub use bench::{BenchArgs, bench};
 
 use super::check_output;
-use super::mesher_args::MesherArg;
 use anyhow::{Result, bail};
 use isokit_io::Volume;
 use isokit_octree::{
@@ -107,7 +106,7 @@ pub fn run(a: Args) -> Result<()> {
                 &tree,
                 &*inp.field,
                 export_level,
-                a.mesher.unwrap_or(MesherArg::Mc),
+                a.mesher.unwrap_or_default(),
                 mesh_error,
                 o,
             )?);

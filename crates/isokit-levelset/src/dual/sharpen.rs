@@ -244,10 +244,13 @@ pub(super) fn split_chamfers(
         }
         let mut f = vec![false; positions.len()];
         for k in fresh {
-            match k {
-                Tried::Edge(k) => [(k >> 32) as u32, k as u32].map(|v| f[v as usize] = true),
-                Tried::Move(v) | Tried::Snap(v) => [v; 2].map(|v| f[v as usize] = true),
+            let ends = match k {
+                Tried::Edge(k) => [(k >> 32) as u32, k as u32],
+                Tried::Move(v) | Tried::Snap(v) => [v, v],
             };
+            for v in ends {
+                f[v as usize] = true;
+            }
         }
         for (vertices, moved) in &kept {
             if *moved {
