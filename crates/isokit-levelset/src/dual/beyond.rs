@@ -28,7 +28,8 @@
 //! change, the vertices of the quads still flagged go to their loops' mass points of
 //! crossings (the vertex of surface nets, inside the cell, moved onto the exact surface: the
 //! sharp feature is given up there for a mesh that does not fold; a vertex on a sharp
-//! feature only where its quad crosses another, [`Smooth::sharp`]), where every quad they
+//! feature first only where its quad crosses another, and when nothing else is left also
+//! where it faces the wrong way, [`Smooth::sharp`]), where every quad they
 //! could cross is tested. When nothing flagged can change any
 //! more the result stands; when changes are still pending after `ROUNDS` rounds, or more
 //! crossings are found than listed, every vertex goes back to its first place in its cell
@@ -73,9 +74,10 @@ pub(super) struct Moved {
 pub(super) struct Smooth {
     pub(super) at: Vec3,
     /// The vertex is on a sharp feature (an edge or corner of planes more than
-    /// `SHARP_DEGREES` apart, not clamped off it): it goes to `at` only where its quads cross
-    /// others, not where they merely face the wrong way (a sliver at a corner, where several
-    /// cells' vertices meet on the corner point).
+    /// `SHARP_DEGREES` apart, not clamped off it): it goes to `at` where its quads cross
+    /// others, and where they merely face the wrong way (a sliver at a corner, where several
+    /// cells' vertices meet on the corner point) only when nothing else is left to change
+    /// (thin walls twisted across the lattice: `vase.json` at resolution 128).
     pub(super) sharp: bool,
 }
 
@@ -295,13 +297,13 @@ pub(super) fn unfold(
         }
         // What a flagged quad can still change: a moved vertex to move again or send back,
         // or, where every quad it could cross is tested, a split to try or to settle.
-        let can_smooth = |q: usize, v: u32, smooth: &[Option<Smooth>]| {
-            smooth[v as usize].is_some_and(|s| crossing[q] || !s.sharp)
+        let can_smooth = |q: usize, v: u32, smooth: &[Option<Smooth>], sharp: bool| {
+            smooth[v as usize].is_some_and(|s| crossing[q] || sharp || !s.sharp)
         };
         let can_change = |q: usize, is_moved: &[bool], state: &[u8], smooth: &[Option<Smooth>]| {
             quads[q]
                 .iter()
-                .any(|&v| is_moved[v as usize] || can_smooth(q, v, smooth))
+                .any(|&v| is_moved[v as usize] || can_smooth(q, v, smooth, true))
                 || (flippable[q] && state[q] < 2)
         };
         let pending = flagged
@@ -362,13 +364,17 @@ pub(super) fn unfold(
             }
             changed |= sent_back;
         }
-        if !changed {
-            // Nothing else left to try: the stuck quads' vertices go to their mass points of
-            // crossings (the vertex of surface nets, inside the cell, which gives up the
-            // sharp feature for a mesh that does not fold).
-            for q in stuck {
+        // Nothing else left to try: the stuck quads' vertices go to their mass points of
+        // crossings (the vertex of surface nets, inside the cell, which gives up the sharp
+        // feature for a mesh that does not fold); vertices on a sharp feature only where
+        // their quads cross, or last where nothing else is left.
+        for sharp in [false, true] {
+            if changed {
+                break;
+            }
+            for &q in &stuck {
                 for &v in &quads[q] {
-                    if can_smooth(q, v, &smooth) {
+                    if can_smooth(q, v, &smooth, sharp) {
                         let s = smooth[v as usize].take().expect("checked");
                         smoothed.push((v, positions[v as usize]));
                         positions[v as usize] = onto(v, s.at);

@@ -77,8 +77,9 @@
 //! vertex near them). The folds are
 //! checked and undone (`beyond`: moved vertices sent back, quads split along their other
 //! diagonal, and last the vertices of quads still flagged sent to their mass points of
-//! crossings, which gives up the feature there; a vertex on a sharp feature only where its
-//! quad crosses another); what remains is counted in
+//! crossings, which gives up the feature there; a vertex on a sharp feature first only where
+//! its quad crosses another, and when nothing else is left also where it faces the wrong
+//! way); what remains is counted in
 //! [`DualStats::folded_triangles`]. This is a check, not a construction: where the rounds
 //! run out everything is taken back, and crossings would remain. Measured (`isokit-scene`'s
 //! `tests/dual.rs` and `tests/scene_cli.rs`): no intersecting pair on 14 random CSG trees at
@@ -86,7 +87,7 @@
 //! alone), on the shipped scenes (`demo.json`, a faceted trefoil mesh blended into a sphere,
 //! 88 pairs without the checks) and on a box, a box minus a cylinder and two boxes (one
 //! rotated 30°); no degenerate triangle; on the shipped scenes no triangle facing the wrong
-//! way (18 of 50,200 on the random trees, where thin capsules and tori are not resolved).
+//! way (16 of 50,248 on the random trees, where thin capsules and tori are not resolved).
 //! Crossings refined on the field are exact to about f32 rounding; normals are the field's
 //! gradient (analytic or finite differences). Vertices are not shared across cells, so a
 //! vertex of one component never serves another.
