@@ -349,6 +349,57 @@ fn a_mesh_edge_whose_split_crosses_has_its_end_moved_onto_the_sharp_edge() {
     assert!(hd < 0.1, "Hausdorff {hd} voxel");
 }
 
+/// The largest angle between the normals of two triangles that share an edge, in degrees
+/// (180: folded flat back onto each other).
+fn largest_fold_degrees(m: &TriMesh) -> f64 {
+    let normal = |t: &[u32; 3]| {
+        let p = t.map(|v| m.positions[v as usize].as_dvec3());
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+    };
+    let mut by_edge = std::collections::HashMap::new();
+    let mut worst = 0.0f64;
+    for t in &m.triangles {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            match by_edge.remove(&(b, a)) {
+                Some(n) => {
+                    let c: DVec3 = normal(t);
+                    worst = worst.max(c.dot(n).clamp(-1.0, 1.0).acos().to_degrees());
+                }
+                None => {
+                    by_edge.insert((a, b), normal(t));
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// A cylinder rotated about a general axis (its rims at a general angle to the lattice):
+/// three cells' vertices on a rim next to each other made a sliver lying on the cap, folded
+/// back against the side (neighbouring normals up to 180° apart, where every edge of the
+/// cylinder is 90°), and the split nearer the surface kept it; the quad takes its other
+/// diagonal there.
+#[test]
+fn rims_of_a_rotated_cylinder_have_no_folded_slivers() {
+    let s = scene(
+        r#"{"shape": {"transform": {"rotate": {"axis": [1, 0, 0], "degrees": 20},
+            "of": {"cylinder": {"a": [0, 0, 0], "b": [0, 0, 0.6], "radius": 0.3}}}}}"#,
+    );
+    for res in [48, 64] {
+        let (dual, _) = mesh(&s, res, Mesher::Dual);
+        assert_closed(&dual, "rotated cylinder");
+        let worst = largest_fold_degrees(&dual);
+        eprintln!(
+            "rotated cylinder at {res}: largest angle between neighbouring normals {worst:.1}°"
+        );
+        assert!(
+            worst < 120.0,
+            "res {res}: neighbouring normals {worst:.1}° apart"
+        );
+    }
+}
+
 /// The report's case through the scene pipeline: a box face at x = 0.75 on a lattice from
 /// −1.05 with spacing 0.0125. Marching cubes gives no duplicate vertices and no degenerate
 /// triangles, and stays watertight after merging coincident vertices.

@@ -155,7 +155,11 @@ fn split(q: [u32; 4], positions: &[Vec3], first: Option<[u32; 2]>, state: u8) ->
 /// by a fraction of a cell. For the quads free to take either diagonal (`flippable`) with a
 /// vertex on a sharp feature (`feature`), and an exact field, the split whose triangles'
 /// centroids and diagonal's midpoint lie nearer the surface is taken, where it halves the
-/// shorter split's largest distance.
+/// shorter split's largest distance; but where the split so chosen holds a sliver
+/// ([`SLIVER`]: three vertices nearly in a line along a sharp edge, lying on one face, which
+/// folds back against the other face where the edge curves) and the other split's thinnest
+/// triangle is more than twice as thick and lies no more than 1% of the longer diagonal
+/// farther from the surface, the other is taken.
 pub(super) fn first_diagonals(
     quads: &[[u32; 4]],
     positions: &[Vec3],
@@ -185,9 +189,48 @@ pub(super) fn first_diagonals(
             }
             let shorter = split(q, positions, None, 0);
             let other = split(q, positions, None, 1);
-            (off(other) < 0.5 * off(shorter)).then(|| diagonal(&other))
+            let (near_s, near_o) = (off(shorter), off(other));
+            let (pick, alt, near_p, near_a) = if near_o < 0.5 * near_s {
+                (other, shorter, near_o, near_s)
+            } else {
+                (shorter, other, near_s, near_o)
+            };
+            // Three vertices on a sharp edge make a sliver lying on one face (on the
+            // surface, so the nearer split), folded back against the other face where the
+            // edge curves: the split without it, where that lies about as near.
+            let scale = [diagonal(&shorter), diagonal(&other)]
+                .iter()
+                .map(|d| positions[d[0] as usize].distance(positions[d[1] as usize]))
+                .fold(0.0f32, f32::max);
+            let (thin_p, thin_a) = (thinness(pick, positions), thinness(alt, positions));
+            let chosen =
+                if thin_p < SLIVER && thin_a > 2.0 * thin_p && near_a <= near_p + 0.01 * scale {
+                    alt
+                } else {
+                    pick
+                };
+            (diagonal(&chosen) != diagonal(&shorter)).then(|| diagonal(&chosen))
         })
         .collect()
+}
+
+/// Below this ratio of twice a triangle's area to its longest side squared (its height
+/// over its base), a triangle is a sliver for [`first_diagonals`].
+const SLIVER: f32 = 0.05;
+
+/// The smaller of the two triangles' ratios of twice the area to the longest side squared.
+fn thinness(t: [[u32; 3]; 2], positions: &[Vec3]) -> f32 {
+    t.iter()
+        .map(|t| {
+            let p = t.map(|v| positions[v as usize]);
+            let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
+            let long = [(0, 1), (1, 2), (2, 0)]
+                .iter()
+                .map(|&(a, b)| p[a].distance_squared(p[b]))
+                .fold(0.0f32, f32::max);
+            if long > 0.0 { area2 / long } else { 0.0 }
+        })
+        .fold(f32::INFINITY, f32::min)
 }
 
 /// Whether the triangle `p` folds: degenerate (as `TriMesh::validate` counts them), or facing
