@@ -816,6 +816,11 @@ fn octree_meshes_its_surface() {
         &small_box(&["-o", &p("x.obj"), "--mesh-error", "0.1"]),
         "--mesh-error applies to --mesher dual",
     );
+    // A negative bound written as a separate argument reaches the check (not the parser).
+    assert_clear_error(
+        &small_box(&["-o", &p("x.obj"), "--error", "-1"]),
+        "must be finite and non-negative",
+    );
     // A mesh level beyond a grid's size is refused before the tree is built.
     for level in ["11", "21"] {
         assert_clear_error(

@@ -20,7 +20,7 @@ pub struct Args {
     pub min_level: Option<u32>,
     /// Error bound in world units: half for the cells' trilinear reconstruction at their test
     /// points, half for hanging nodes [default: a tenth of a finest cell].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub error: Option<f32>,
     /// Extra levels of test points per cell (for small features of general fields), 0 to 4.
     #[arg(long, default_value_t = 0)]
