@@ -216,10 +216,10 @@ pub(super) fn first_diagonals(
 
 /// Below this ratio of twice a triangle's area to its longest side squared (its height
 /// over its base), a triangle is a sliver for [`first_diagonals`].
-const SLIVER: f32 = 0.05;
+pub(super) const SLIVER: f32 = 0.05;
 
 /// The smaller of the two triangles' ratios of twice the area to the longest side squared.
-fn thinness(t: [[u32; 3]; 2], positions: &[Vec3]) -> f32 {
+pub(super) fn thinness(t: [[u32; 3]; 2], positions: &[Vec3]) -> f32 {
     t.iter()
         .map(|t| {
             let p = t.map(|v| positions[v as usize]);

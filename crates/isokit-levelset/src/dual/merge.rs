@@ -518,13 +518,33 @@ fn polygons(
             } else {
                 let t = match diagonal {
                     Some(&d) => super::beyond::split_along(poly, d),
-                    None => super::split_quad(poly, positions),
+                    None => merged_split(poly, positions),
                 };
                 out.extend(t.map(|t| (t, normal, poly)));
             }
         }
     }
     (out, repeated)
+}
+
+/// A merged quad's split: the shorter diagonal, unless its split holds a sliver (three
+/// vertices nearly in a line along a sharp edge, [`super::beyond::SLIVER`]) and the other
+/// split's thinnest triangle is more than twice as thick (as the uniform mesh's first
+/// splits choose, `beyond::first_diagonals`).
+fn merged_split(poly: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
+    let shorter = super::split_quad(poly, positions);
+    let [a, b, c, d] = poly;
+    let other = if shorter[0] == [a, b, c] {
+        [[a, b, d], [b, c, d]]
+    } else {
+        [[a, b, c], [a, c, d]]
+    };
+    let thin = |t| super::beyond::thinness(t, positions);
+    if thin(shorter) < super::beyond::SLIVER && thin(other) > 2.0 * thin(shorter) {
+        other
+    } else {
+        shorter
+    }
 }
 
 /// The polygon (3 or 4 vertices) rotated to start at its smallest vertex, in the
