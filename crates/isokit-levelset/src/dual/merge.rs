@@ -527,10 +527,12 @@ fn polygons(
     (out, repeated)
 }
 
-/// A merged quad's split: the shorter diagonal, unless its split holds a sliver (three
-/// vertices nearly in a line along a sharp edge, [`super::beyond::SLIVER`]) and the other
-/// split's thinnest triangle is more than twice as thick (as the uniform mesh's first
-/// splits choose, `beyond::first_diagonals`).
+/// The split of a quad that the uniform mesh's checks did not set (merged quads, and fine
+/// quads left on their shorter diagonal): the shorter diagonal, unless its split holds a
+/// sliver (three vertices nearly in a line along a sharp edge, [`super::beyond::SLIVER`])
+/// and the other split's thinnest triangle is more than twice as thick (by shape alone; the
+/// uniform mesh's `beyond::first_diagonals` also weighs the distance to the surface). The
+/// merge's checks below test the result as they test every polygon.
 fn merged_split(poly: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
     let shorter = super::split_quad(poly, positions);
     let [a, b, c, d] = poly;
