@@ -134,7 +134,12 @@ pub(super) fn split_along(q: [u32; 4], d: [u32; 2]) -> [[u32; 3]; 2] {
 
 /// How a quad is split: along its first diagonal (0: `first`, or the shorter one), the
 /// other one (1), or the first for good after the other did not help (2).
-fn split(q: [u32; 4], positions: &[Vec3], first: Option<[u32; 2]>, state: u8) -> [[u32; 3]; 2] {
+pub(super) fn split(
+    q: [u32; 4],
+    positions: &[Vec3],
+    first: Option<[u32; 2]>,
+    state: u8,
+) -> [[u32; 3]; 2] {
     let [a, b, c, d] = q;
     let first = match first {
         Some(diag) => split_along(q, diag),
@@ -155,10 +160,8 @@ fn split(q: [u32; 4], positions: &[Vec3], first: Option<[u32; 2]>, state: u8) ->
 /// by a fraction of a cell. For the quads free to take either diagonal (`flippable`) with a
 /// vertex on a sharp feature (`feature`), and an exact field, the split whose triangles'
 /// centroids and diagonal's midpoint lie nearer the surface is taken, where it halves the
-/// shorter split's largest distance; but where the split so chosen holds a sliver
-/// ([`SLIVER`]: three vertices nearly in a line along a sharp edge, lying on one face, which
-/// folds back against the other face where the edge curves) and the other split's thinnest
-/// triangle is more than twice as thick and lies no more than 1% of the longer diagonal
+/// shorter split's largest distance; but where the split so chosen holds a sliver and the
+/// other does not ([`unless_sliver`]) and lies no more than 1% of the longer diagonal
 /// farther from the surface, the other is taken.
 pub(super) fn first_diagonals(
     quads: &[[u32; 4]],
@@ -202,24 +205,39 @@ pub(super) fn first_diagonals(
                 .iter()
                 .map(|d| positions[d[0] as usize].distance(positions[d[1] as usize]))
                 .fold(0.0f32, f32::max);
-            let (thin_p, thin_a) = (thinness(pick, positions), thinness(alt, positions));
-            let chosen =
-                if thin_p < SLIVER && thin_a > 2.0 * thin_p && near_a <= near_p + 0.01 * scale {
-                    alt
-                } else {
-                    pick
-                };
+            let chosen = if near_a <= near_p + 0.01 * scale {
+                unless_sliver(pick, alt, positions)
+            } else {
+                pick
+            };
             (diagonal(&chosen) != diagonal(&shorter)).then(|| diagonal(&chosen))
         })
         .collect()
 }
 
 /// Below this ratio of twice a triangle's area to its longest side squared (its height
-/// over its base), a triangle is a sliver for [`first_diagonals`].
-pub(super) const SLIVER: f32 = 0.05;
+/// over its base), a triangle is a sliver for [`unless_sliver`].
+const SLIVER: f32 = 0.05;
+
+/// The split `pick`, or `alt` where `pick` holds a sliver (three vertices nearly in a line
+/// along a sharp edge, [`SLIVER`]) and `alt`'s thinnest triangle is more than twice as
+/// thick: such a sliver lies on one face and folds back against the other where the edge
+/// curves.
+pub(super) fn unless_sliver(
+    pick: [[u32; 3]; 2],
+    alt: [[u32; 3]; 2],
+    positions: &[Vec3],
+) -> [[u32; 3]; 2] {
+    let (thin_p, thin_a) = (thinness(pick, positions), thinness(alt, positions));
+    if thin_p < SLIVER && thin_a > 2.0 * thin_p {
+        alt
+    } else {
+        pick
+    }
+}
 
 /// The smaller of the two triangles' ratios of twice the area to the longest side squared.
-pub(super) fn thinness(t: [[u32; 3]; 2], positions: &[Vec3]) -> f32 {
+fn thinness(t: [[u32; 3]; 2], positions: &[Vec3]) -> f32 {
     t.iter()
         .map(|t| {
             let p = t.map(|v| positions[v as usize]);

@@ -529,24 +529,12 @@ fn polygons(
 
 /// The split of a quad that the uniform mesh's checks did not set (merged quads, and fine
 /// quads left on their shorter diagonal): the shorter diagonal, unless its split holds a
-/// sliver (three vertices nearly in a line along a sharp edge, [`super::beyond::SLIVER`])
-/// and the other split's thinnest triangle is more than twice as thick (by shape alone; the
-/// uniform mesh's `beyond::first_diagonals` also weighs the distance to the surface). The
-/// merge's checks below test the result as they test every polygon.
+/// sliver and the other does not (`beyond::unless_sliver`, by shape alone; the uniform
+/// mesh's `beyond::first_diagonals` also weighs the distance to the surface). The merge's
+/// checks below test the result as they test every polygon.
 fn merged_split(poly: [u32; 4], positions: &[Vec3]) -> [[u32; 3]; 2] {
-    let shorter = super::split_quad(poly, positions);
-    let [a, b, c, d] = poly;
-    let other = if shorter[0] == [a, b, c] {
-        [[a, b, d], [b, c, d]]
-    } else {
-        [[a, b, c], [a, c, d]]
-    };
-    let thin = |t| super::beyond::thinness(t, positions);
-    if thin(shorter) < super::beyond::SLIVER && thin(other) > 2.0 * thin(shorter) {
-        other
-    } else {
-        shorter
-    }
+    let split = |state| super::beyond::split(poly, positions, None, state);
+    super::beyond::unless_sliver(split(0), split(1), positions)
 }
 
 /// The polygon (3 or 4 vertices) rotated to start at its smallest vertex, in the
