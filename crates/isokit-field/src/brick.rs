@@ -52,8 +52,10 @@ pub struct BrickGrid {
     /// Index into `infos` per brick position, `u32::MAX` when absent.
     index: Vec<u32>,
     infos: Vec<BrickInfo>,
-    /// Brick samples, `(brick + 2 apron)^3` per brick, x fastest, in `infos` order.
-    pool: Vec<f32>,
+    /// Brick samples, `(brick + 2 apron)^3` per brick, x fastest, in `infos` order. Shared
+    /// by clones (a sampled grid is read, not written): a renderer's volume and a live
+    /// viewer's memory of the last sampling hold the same samples.
+    pool: std::sync::Arc<Vec<f32>>,
     evaluated: u64,
     reused: usize,
 }
@@ -159,7 +161,7 @@ impl BrickGrid {
             brick_dims,
             index: vec![ABSENT; n],
             infos: Vec::new(),
-            pool: Vec::new(),
+            pool: std::sync::Arc::new(Vec::new()),
             evaluated: 0,
             reused: 0,
         })
@@ -653,7 +655,7 @@ impl BrickGrid {
         let [a, b, c] = info.coord.map(|v| v as usize);
         self.index[a + bx * (b + by * c)] = self.infos.len() as u32;
         self.infos.push(info);
-        self.pool.extend_from_slice(&data);
+        std::sync::Arc::make_mut(&mut self.pool).extend_from_slice(&data);
     }
 
     /// Samples of the virtual grid along x, y, z.
