@@ -127,7 +127,9 @@ pub use isokit_field::curvature::Inside;
 pub use kernel::{GSample, Uniforms};
 pub use raycast::render::{
     CachePolicy, Filter, Frame, MultiView, RefineMethod, RenderOptions, RenderStats, Search,
-    camera_uniforms, estimate_gradient_scale, render, render_multiview, render_view, uniforms,
+    camera_uniforms, estimate_gradient_scale, render, render_multiview, render_reusing,
+    render_view, uniforms,
 };
+pub use raycast::reuse::{KeptFrame, changed_blocks};
 pub use shade::{Image, Light, Shading, ShadingMode, shade};
 pub use volume::{Combine, Layout, Volume, VolumeData};

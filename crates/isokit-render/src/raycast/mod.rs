@@ -5,10 +5,13 @@
 //!   the CPU's passes (rayon over pixels);
 //! - [`gpu`]: the kernel's host code (assembly, buffers, the pass loop on the GPU), public
 //!   through [`crate::gpu`];
+//! - [`reuse`]: the pixels of a kept frame that an edit of the field left as they were
+//!   (CPU only);
 //! - [`start`]: where each ray's walk may start, the active blocks projected onto tiles of
 //!   the image (CPU only; the image is the same with or without it).
 
 pub mod cpu;
 pub(crate) mod gpu;
 pub(crate) mod render;
+pub(crate) mod reuse;
 pub mod start;

@@ -5,6 +5,7 @@ use crate::kernel::{
     self, COMBINE_NONE, FILTER_TRICUBIC, FILTER_TRILINEAR, FLAG_CAPS, FLAG_CURVATURE, FLAG_SECANT,
     FLAG_SKIP_EMPTY, FLAG_SPHERE, GSample, ID_CAP, PixelResult, Resume, TraceData, Uniforms,
 };
+use crate::raycast::reuse::{KeptFrame, Reuse};
 use crate::{BrickCache, GBuffer, RenderError, StartRaster, Volume, check_image_size};
 use glam::IVec3;
 use isokit_field::curvature::Inside;
@@ -470,7 +471,7 @@ pub fn render_multiview(
     mv: &MultiView,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, None)?;
-    trace_frame(volume, cache, camera, u, opts)
+    trace_frame(volume, cache, camera, u, opts, None)
 }
 
 /// One view of a multi-view display rendered alone (every pixel from that view's eye): the
@@ -484,7 +485,7 @@ pub fn render_view(
     view: u32,
 ) -> Result<Frame, RenderError> {
     let u = mv.uniforms(volume, camera, opts, Some(view))?;
-    trace_frame(volume, cache, camera, u, opts)
+    trace_frame(volume, cache, camera, u, opts, None)
 }
 
 /// What one rendering did.
@@ -524,6 +525,9 @@ pub struct RenderStats {
     /// (a difference of neighbouring samples steeper than `L · spacing`): sphere tracing
     /// steps by their measured bounds instead. 0 without a given bound.
     pub lipschitz_refuted: usize,
+    /// Rays whose pixel was taken from a kept frame ([`render_reusing`]); their samples
+    /// are counted as that frame traced them.
+    pub rays_reused: u64,
     /// Wall-clock seconds of the frame (cache updates and tracing).
     pub seconds: f64,
 }
@@ -568,7 +572,24 @@ pub fn render(
     opts: &RenderOptions,
 ) -> Result<Frame, RenderError> {
     let u = uniforms(volume, camera, opts)?;
-    trace_frame(volume, cache, camera, u, opts)
+    trace_frame(volume, cache, camera, u, opts, None)
+}
+
+/// [`render`], taking from `kept` (the last frame, of an earlier version of the field) every
+/// pixel whose ray meets no changed block and tracing only the others
+/// ([`crate::KeptFrame`]): the same image bit for bit, faster after an edit that changed a
+/// part of the field. With other uniforms (camera, size, isovalue, knobs), another lattice,
+/// or a cache too small for the active bricks, every pixel is traced.
+/// [`RenderStats::rays_reused`] counts the pixels taken.
+pub fn render_reusing(
+    volume: &Volume,
+    cache: &mut BrickCache,
+    camera: &Camera,
+    opts: &RenderOptions,
+    kept: Option<&KeptFrame>,
+) -> Result<Frame, RenderError> {
+    let u = uniforms(volume, camera, opts)?;
+    trace_frame(volume, cache, camera, u, opts, kept)
 }
 
 /// The host's first steps of a frame, shared by the CPU and GPU twins: which bricks hold an
@@ -787,6 +808,7 @@ pub(crate) fn frame_stats(
         passes,
         bricks_downsampled: pre.downsampled,
         lipschitz_refuted: 0,
+        rays_reused: 0,
         seconds,
     }
 }
@@ -798,6 +820,7 @@ fn trace_frame(
     camera: &Camera,
     u: Uniforms,
     opts: &RenderOptions,
+    kept: Option<&KeptFrame>,
 ) -> Result<Frame, RenderError> {
     let t0 = Instant::now();
     let policy = opts.cache_policy;
@@ -812,6 +835,11 @@ fn trace_frame(
     // stores stay the same.
     cache.block_info(volume, ranges, &u);
     let refuted = lipschitz_refuted(&u, ranges, cache.current_block_info());
+    // Pixels of the kept frame, where its samples stay resident: a downsampled assignment
+    // traces other samples.
+    let reuse = kept
+        .filter(|_| pre.ranges.is_none())
+        .and_then(|k| Reuse::new(k, volume, &u));
     let start = opts
         .start_raster
         .then(|| StartRaster::build(&u, ranges, cache.current_block_info()))
@@ -820,13 +848,13 @@ fn trace_frame(
     // 3–4. Passes. The first traces every ray, each writing its own pixel; later ones the
     // rays that waited for a brick.
     let n = w * h;
-    let mut pixels = Vec::with_capacity(n);
-    let mut samples = Vec::with_capacity(n);
+    let mut pixels = vec![GSample::default(); n];
+    let mut samples = vec![0u32; n];
     let requests: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
     let used: Vec<AtomicU32> = (0..n_bricks).map(|_| AtomicU32::new(0)).collect();
     let waiting = std::sync::Mutex::new(Vec::new());
     let mut passes = 1u32;
-    {
+    let reused: u64 = {
         let data = TraceData {
             pool: cache.pool(),
             reference: cache.reference(),
@@ -836,23 +864,38 @@ fn trace_frame(
             used: &used,
             start: start.as_ref(),
         };
-        (0..n as u32)
-            .into_par_iter()
-            .with_min_len(64)
-            .map(|i| {
-                let (p, sub) = (i / u.subpixels, i % u.subpixels);
-                let (px, py) = (p % u.width, p / u.width);
-                match kernel::trace_pixel(&u, &data, px, py, sub, None) {
-                    PixelResult::Done { sample, samples } => (sample, samples),
-                    PixelResult::Suspended { resume, samples } => {
-                        let mut list = waiting.lock().unwrap_or_else(|e| e.into_inner());
-                        list.push((i, Some(resume)));
-                        (GSample::default(), samples)
-                    }
+        // Runs of rays per task; each counts the pixels it took from the kept frame.
+        const RUN: usize = 64;
+        pixels
+            .par_chunks_mut(RUN)
+            .zip(samples.par_chunks_mut(RUN))
+            .enumerate()
+            .map(|(run, (pixels, samples))| {
+                let mut taken = 0u64;
+                for (k, (pixel, count)) in pixels.iter_mut().zip(samples).enumerate() {
+                    let i = (run * RUN + k) as u32;
+                    let (p, sub) = (i / u.subpixels, i % u.subpixels);
+                    let (px, py) = (p % u.width, p / u.width);
+                    let kept = reuse.as_ref().and_then(|r| r.pixel(&u, i as usize, px, py));
+                    (*pixel, *count) = match kept {
+                        Some(k) => {
+                            taken += 1;
+                            k
+                        }
+                        None => match kernel::trace_pixel(&u, &data, px, py, sub, None) {
+                            PixelResult::Done { sample, samples } => (sample, samples),
+                            PixelResult::Suspended { resume, samples } => {
+                                let mut list = waiting.lock().unwrap_or_else(|e| e.into_inner());
+                                list.push((i, Some(resume)));
+                                (GSample::default(), samples)
+                            }
+                        },
+                    };
                 }
+                taken
             })
-            .unzip_into_vecs(&mut pixels, &mut samples);
-    }
+            .sum()
+    };
     let mut pending: Vec<(u32, Option<Resume>)> =
         waiting.into_inner().unwrap_or_else(|e| e.into_inner());
     pending.sort_unstable_by_key(|&(i, _)| i);
@@ -917,6 +960,7 @@ fn trace_frame(
     );
     let stats = RenderStats {
         lipschitz_refuted: refuted,
+        rays_reused: reused,
         ..stats
     };
     Ok(Frame {

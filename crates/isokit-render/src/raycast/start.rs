@@ -46,6 +46,29 @@ impl StartRaster {
         if u.flags & super::cpu::FLAG_SKIP_EMPTY == 0 || u.views > 1 || u.subpixels != 1 {
             return None;
         }
+        let caps = u.flags & super::cpu::FLAG_CAPS != 0;
+        Some(Self::raster(u, caps, |idx, boundary| {
+            // With caps, a ray entering the volume in a block inside the solid hits there:
+            // such blocks on the volume's faces count too, where every ray enters through a
+            // face (see `misses_final`).
+            block_is_active(u, block_info, block_range, idx)
+                || (caps && boundary && range_inside(u, block_range[idx]))
+        }))
+    }
+
+    /// The raster of the blocks `blocks` marks (by [`crate::kernel::block_index`]) for the
+    /// camera of `u`: per tile, the smallest ray parameter at which a ray of the tile can
+    /// reach one of them (`+∞`: none can); `None` for several views or subpixels.
+    pub fn of_blocks(u: &Uniforms, blocks: &[bool]) -> Option<Self> {
+        if u.views > 1 || u.subpixels != 1 {
+            return None;
+        }
+        Some(Self::raster(u, false, |idx, _| blocks[idx]))
+    }
+
+    /// The raster of the blocks for which `include(index, on the volume's faces)` holds;
+    /// `caps`: whether rays test their first block for lying inside the solid.
+    fn raster(u: &Uniforms, caps: bool, include: impl Fn(usize, bool) -> bool) -> Self {
         let t = Self::TILE;
         let (tiles_x, tiles_y) = (u.width.div_ceil(t), u.height.div_ceil(t));
         let mut near = vec![f32::INFINITY; tiles_x as usize * tiles_y as usize];
@@ -65,7 +88,6 @@ impl StartRaster {
         // blocks are among the boundary blocks rastered here, so a tile that no box covers
         // holds only misses; otherwise (an eye inside the box, orthographic rays starting
         // inside it) the first block is tested as the walk does it.
-        let caps = u.flags & super::cpu::FLAG_CAPS != 0;
         let outside = if u.ortho == 0 {
             (0..3).any(|a| eye[a] < 0.0 || eye[a] > top[a])
         } else {
@@ -90,14 +112,9 @@ impl StartRaster {
             for y in 0..by {
                 for x in 0..bx {
                     let idx = x + bx * (y + by * z);
-                    let active = block_is_active(u, block_info, block_range, idx);
-                    // With caps, a ray entering the volume in a block inside the solid hits
-                    // there: such blocks on the volume's faces count too, where every ray
-                    // enters through a face (see `misses_final`).
                     let boundary =
                         x == 0 || y == 0 || z == 0 || x + 1 == bx || y + 1 == by || z + 1 == bz;
-                    let cap = caps && boundary && range_inside(u, block_range[idx]);
-                    if !(active || cap) {
+                    if !include(idx, boundary) {
                         continue;
                     }
                     let lo = Vec3::new(x as f32, y as f32, z as f32) * b;
@@ -132,11 +149,11 @@ impl StartRaster {
                 }
             }
         }
-        Some(Self {
+        Self {
             tiles_x,
             near,
             misses_final,
-        })
+        }
     }
 
     /// True when a pixel whose [`StartRaster::near`] is `+∞` misses: caps are off, or every
