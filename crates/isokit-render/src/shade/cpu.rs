@@ -264,8 +264,9 @@ impl Image {
     /// 8-bit sRGB RGBA bytes (alpha linear).
     pub fn to_rgba8(&self) -> Vec<u8> {
         self.pixels
-            .iter()
-            .flat_map(|p| {
+            .par_iter()
+            .with_min_len(4096)
+            .flat_map_iter(|p| {
                 [
                     isokit_io::linear_to_srgb8(p[0]),
                     isokit_io::linear_to_srgb8(p[1]),
