@@ -11,11 +11,15 @@ pub use isokit_render::setup::ProjectionKind;
 use isokit_render::setup::camera_from;
 use isokit_render::shade::default_curvature_scale;
 use isokit_render::{
-    BrickCache, GBuffer, Image, Layout, Light, MultiView, RenderError, RenderOptions, Shading,
-    ShadingMode, Uniforms, Volume, check_image_size, estimate_gradient_scale, supersample,
+    BrickCache, GBuffer, Image, KeptFrame, Layout, Light, MultiView, RenderError, RenderOptions,
+    Shading, ShadingMode, Uniforms, Volume, check_image_size, estimate_gradient_scale, supersample,
 };
 use serde::Serialize;
 use std::time::Instant;
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
 
 /// The scene's camera, or when it has none a camera framing `bounds` from the front upper
 /// right (45° field of view). An orthographic camera with `ortho_height` shows that many
@@ -225,6 +229,10 @@ pub struct FrameStats {
     pub prepare_seconds: f64,
     /// Seconds of ray casting.
     pub trace_seconds: f64,
+    /// Rays whose pixel was taken from the frame kept before an edit
+    /// ([`Renderer::render_prepared_keeping`]); absent from the JSON when none was.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub rays_reused: u64,
     /// Trace seconds of further frames of the same camera with the brick cache kept (warm),
     /// where the caller rendered them (`isokit render --warm-frames`); empty otherwise.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -528,7 +536,33 @@ impl Renderer {
 
     /// Ray casts and shades a prepared target; `name` names it in errors.
     pub fn render_prepared(&mut self, p: &Prepared<'_>, name: &str) -> Result<Frame, SceneError> {
-        self.render_view_of(p, None, name)
+        self.render_view_of(p, None, name, None)
+    }
+
+    /// [`Renderer::render_prepared`] for live editing: on the CPU twin, the pixels of
+    /// `kept` (the frame before an edit of the field) whose rays cannot reach a changed
+    /// block are taken as they were and only the others traced
+    /// ([`isokit_render::render_reusing`]: the same image bit for bit); then `kept` holds
+    /// this frame. On the GPU, for multi-view targets and with supersampling, the frame is
+    /// traced in full and `kept` emptied.
+    pub fn render_prepared_keeping(
+        &mut self,
+        p: &Prepared<'_>,
+        name: &str,
+        kept: &mut Option<KeptFrame>,
+    ) -> Result<Frame, SceneError> {
+        self.render_view_of(p, None, name, Some(kept))
+    }
+
+    /// True when [`Renderer::render_prepared_keeping`] of `p` can take pixels from `kept`:
+    /// the CPU twin, one ray per pixel, a single view, and the same uniforms (camera, image
+    /// size, isovalue, knobs and lattice).
+    pub fn can_reuse(&self, p: &Prepared<'_>, kept: &KeptFrame) -> bool {
+        self.gpu.is_none()
+            && p.multiview.is_none()
+            && p.grid == 1
+            && isokit_render::uniforms(&p.volume, &p.camera, &p.options)
+                .is_ok_and(|u| u == *kept.uniforms())
     }
 
     /// One view `k` of a prepared multi-view target, rendered alone.
@@ -538,7 +572,7 @@ impl Renderer {
         k: u32,
         name: &str,
     ) -> Result<Frame, SceneError> {
-        self.render_view_of(p, Some(k), name)
+        self.render_view_of(p, Some(k), name, None)
     }
 
     /// Every view of a prepared multi-view target, each rendered alone (what the display
@@ -558,6 +592,7 @@ impl Renderer {
         p: &Prepared<'_>,
         view: Option<u32>,
         name: &str,
+        mut kept: Option<&mut Option<KeptFrame>>,
     ) -> Result<Frame, SceneError> {
         let err = |e: RenderError| SceneError::new(name, "", e.to_string());
         let key = (p.volume.id(), p.cache_bytes);
@@ -596,9 +631,17 @@ impl Renderer {
             (Some(mv), None, Some(g)) => g.render_multiview(v, c, o, mv),
             (Some(mv), None, None) => isokit_render::render_multiview(v, cache, c, o, mv),
             (None, _, Some(g)) => g.render(v, c, o),
+            (None, _, None) if k == 1 && kept.is_some() => {
+                let earlier = kept.as_deref().and_then(Option::as_ref);
+                isokit_render::render_reusing(v, cache, c, o, earlier)
+            }
             (None, _, None) => isokit_render::render(v, cache, c, o),
         }
         .map_err(err)?;
+        if let Some(slot) = kept.as_mut() {
+            **slot = (self.gpu.is_none() && p.multiview.is_none() && k == 1)
+                .then(|| KeptFrame::new(v, &frame, slot.take()));
+        }
         let t1 = Instant::now();
         let image = match self.gpu.as_ref() {
             Some(g) => g.shade(&frame.gbuffer, &frame.uniforms, &p.shading),
@@ -673,6 +716,7 @@ impl Renderer {
             bricks_downsampled: st.bricks_downsampled,
             prepare_seconds: p.prepare_seconds,
             trace_seconds: st.seconds,
+            rays_reused: st.rays_reused,
             warm_trace_seconds: Vec::new(),
             shade_seconds,
             backend: self.backend(),
