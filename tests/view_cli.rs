@@ -190,6 +190,11 @@ fn the_first_frame_equals_render_and_an_edit_evaluates_fewer_bricks() {
         "the edit evaluated {eb} bricks, a full evaluation {ea}"
     );
     assert!(b["reused_bricks"].as_u64().unwrap() > 0);
+    // The finished frame traced only the rays that can reach the grown sphere: those of the
+    // box and the other sphere were taken from the first frame.
+    let rays = b["width"].as_u64().unwrap() * b["height"].as_u64().unwrap();
+    let taken = b["reused_rays"].as_u64().unwrap();
+    assert!(taken > 0 && taken < rays, "{taken} of {rays} rays taken");
     // Same lattice, so the edited frame equals a fresh rendering of the edited scene.
     render(&scene, &reference);
     assert_shows(&shot, &reference, "edited frame against isokit render");

@@ -40,8 +40,9 @@ pub struct Args {
     /// Merge file events closer together than this (one save writes several times).
     #[arg(long, default_value_t = 16, value_name = "MS")]
     pub quiet_ms: u64,
-    /// Sample every edit in full instead of reusing the bricks it cannot have changed (the
-    /// baseline the reuse is measured against).
+    /// Sample every edit in full instead of reusing the bricks it cannot have changed, and
+    /// trace every ray of its frame instead of taking those it cannot have changed from the
+    /// frame before (the baseline the reuse is measured against).
     #[arg(long)]
     pub no_reuse: bool,
 }

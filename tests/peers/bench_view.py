@@ -5,8 +5,9 @@ with a sphere), saves edits to it (a primitive's radius; the mesh's transform; a
 and reads, from the viewer's events file, the latency of the first frame each edit
 produced (a half-size draft where the finished frame is slow) and of the finished frame
 (`latency_ms`: from the file event to the frame presented). The same edits are run
-with `--no-reuse` (every edit sampled in full, then rendered): the baseline of a full
-re-evaluation and re-render, in the same run. With xdotool, the window is also dragged to
+with `--no-reuse` (every edit sampled in full, then every ray traced): the baseline of a full
+re-evaluation and re-render, in the same run. "rays reused" is the share of the finished
+frame's rays taken from the frame before the edit (the rest were traced). With xdotool, the window is also dragged to
 orbit and the camera frames counted.
 
 Needs an X server: DISPLAY, or Xvfb (started here). Standard library only.
@@ -90,7 +91,7 @@ def run(isokit, mesh, kind, n, size, reuse, work):
         args.append("--no-reuse")
     proc = subprocess.Popen(args, stderr=subprocess.PIPE)
     wait_finals(ev, 1)
-    lat, first, evaluated, reused, frame, phases = [], [], [], [], [], []
+    lat, first, evaluated, reused, frame, phases, rays = [], [], [], [], [], [], []
     for i, e in enumerate(edits(kind, n)):
         time.sleep(0.25)
         seen = len([x for x in events(ev) if x.get("event") == "frame"])
@@ -103,8 +104,9 @@ def run(isokit, mesh, kind, n, size, reuse, work):
         reused.append(f["reused_bricks"])
         frame.append(f["frame_ms"])
         phases.append([f.get(k, 0.0) for k in ("load_ms", "sample_ms", "prepare_ms")])
+        rays.append(100.0 * f.get("reused_rays", 0) / (f["width"] * f["height"]))
     proc.wait(timeout=60)
-    return lat, first, evaluated, reused, frame, phases
+    return lat, first, evaluated, reused, frame, phases, rays
 
 
 def orbit(isokit, mesh, size, work, seconds=4.0):
@@ -158,21 +160,22 @@ def main():
             work = Path(d)
             for kind in ["radius", "mesh transform", "new node"]:
                 for reuse in [True, False]:
-                    lat, fi, ev, re, fr, ph = run(a.isokit, mesh, kind, a.edits, a.size, reuse,
+                    lat, fi, ev, re, fr, ph, ry = run(a.isokit, mesh, kind, a.edits, a.size, reuse,
                                                   work)
                     rows.append((kind, "reuse" if reuse else "full (--no-reuse)",
                                  statistics.median(fi), p95(fi),
                                  statistics.median(lat), p95(lat), statistics.median(ev),
-                                 statistics.median(re), statistics.median(fr),
+                                 statistics.median(re), statistics.median(ry),
+                                 statistics.median(fr),
                                  *[statistics.median(p[i] for p in ph) for i in range(3)]))
             orb = orbit(a.isokit, mesh, a.size, work)
     finally:
         if xvfb:
             xvfb.terminate()
     print(f"| edit ({a.edits} each, {a.size}², CPU) | sampling | first frame median ms | p95 ms "
-          "| finished frame median ms | p95 ms | bricks evaluated | reused | frame ms | load ms "
-          "| sample ms | prepare ms |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| finished frame median ms | p95 ms | bricks evaluated | reused | rays reused % "
+          "| frame ms | load ms | sample ms | prepare ms |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         print(f"| {r[0]} | {r[1]} | " + " | ".join(f"{x:.0f}" for x in r[2:]) + " |")
     if orb:

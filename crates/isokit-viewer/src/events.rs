@@ -39,6 +39,9 @@ pub(crate) struct FrameEvent {
     pub frame_ms: f64,
     pub evaluated_bricks: usize,
     pub reused_bricks: usize,
+    /// Rays of a finished frame whose pixels were taken from the frame before the edit
+    /// (the others were traced).
+    pub reused_rays: u64,
     pub bricks_loaded: u64,
     pub dense_fraction: f64,
     /// For the frame that follows a (re)load: milliseconds compiling the scene, sampling its
@@ -98,6 +101,7 @@ impl EventLog {
             "frame_ms": f.frame_ms,
             "evaluated_bricks": f.evaluated_bricks,
             "reused_bricks": f.reused_bricks,
+            "reused_rays": f.reused_rays,
             "bricks_loaded": f.bricks_loaded,
             "dense_fraction": f.dense_fraction,
             "load_ms": f.load_ms,

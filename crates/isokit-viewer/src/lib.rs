@@ -12,7 +12,9 @@
 //! - a watcher thread turns file events into edits, merged over a short quiet period;
 //! - a worker thread compiles the scene (keeping built kd-trees, clouds and volumes across
 //!   edits in an [`isokit_scene::SourceCache`]), samples its band reusing the bricks an
-//!   edit cannot have changed, and ray casts on the CPU twin or the GPU.
+//!   edit cannot have changed, and ray casts on the CPU twin or the GPU; on the CPU, the
+//!   finished frame after an edit traces only the rays that can reach a changed block and
+//!   takes the others from the frame before ([`isokit_render::render_reusing`]).
 //!
 //! Scripts and tests drive it headless with [`ViewOptions::events`] (one JSON object per
 //! frame and per error), [`ViewOptions::screenshot`] and the exit conditions.
@@ -57,7 +59,8 @@ pub struct ViewOptions {
     /// writes of one save and saves in quick succession).
     pub quiet_ms: u64,
     /// Take the bricks an edit cannot have changed from the previous sampling (the default);
-    /// `false` samples every edit in full (the baseline the reuse is measured against).
+    /// `false` samples every edit in full and traces every ray of its frame (the baseline
+    /// the reuse is measured against).
     pub reuse: bool,
 }
 

@@ -6,7 +6,7 @@ use crate::events::{FrameEvent, Reason};
 use crate::orbit::Orbit;
 use isokit_field::{Job, Projection};
 use isokit_gpu::BackendChoice;
-use isokit_render::{Layout, ShadingMode, Volume};
+use isokit_render::{KeptFrame, Layout, ShadingMode, Volume};
 use isokit_scene::{
     CameraSpec, Frame, Prepared, ProjectionKind, RenderSettings, RenderTarget, Renderer, Scene,
     SceneError, SceneFormat, SourceCache, camera_for,
@@ -147,6 +147,8 @@ struct Worker<F: Fn(Reply)> {
     last_frame_ms: f64,
     /// Milliseconds of the last full-resolution sampling.
     last_sample_ms: f64,
+    /// The last finished frame of a scene, for the next edit's to take pixels from.
+    kept: Option<KeptFrame>,
     send: F,
     slot: CancelSlot,
     rx: Receiver<Request>,
@@ -189,6 +191,7 @@ pub(crate) fn run(
         phases: (0.0, 0.0),
         last_frame_ms: 0.0,
         last_sample_ms: 0.0,
+        kept: None,
         send,
         slot,
         rx,
@@ -323,6 +326,7 @@ impl<F: Fn(Reply)> Worker<F> {
                 frame_ms: 1e3 * (st.trace_seconds + st.shade_seconds),
                 evaluated_bricks: evaluated,
                 reused_bricks: reused,
+                reused_rays: st.rays_reused,
                 bricks_loaded: st.bricks_loaded,
                 dense_fraction: dense,
                 load_ms,
@@ -340,17 +344,8 @@ impl<F: Fn(Reply)> Worker<F> {
         });
     }
 
-    /// Renders `p` for `req` from its camera; errors are reported.
-    /// `reused`: when the frame's volume was just sampled, how many of its bricks were
-    /// taken from the previous sampling; `None` for a frame of an earlier sampling.
-    fn render(
-        &mut self,
-        p: &mut Prepared<'_>,
-        req: &Request,
-        final_: bool,
-        reused: Option<usize>,
-    ) -> bool {
-        let name = self.input.display().to_string();
+    /// Points `p` at `req`'s camera (at its size) and applies its shading knobs.
+    fn aim(&self, p: &mut Prepared<'_>, req: &Request) -> Result<(), SceneError> {
         let (w, h) = size_of(req);
         let c = p.camera();
         let camera = match &req.orbit {
@@ -374,8 +369,8 @@ impl<F: Fn(Reply)> Worker<F> {
         match camera {
             Some(Ok(c)) => p.set_camera(c),
             Some(Err(e)) => {
-                self.error(&SceneError::new(&name, "camera", e), req.reason);
-                return false;
+                let name = self.input.display().to_string();
+                return Err(SceneError::new(&name, "camera", e));
             }
             None => {}
         }
@@ -385,7 +380,47 @@ impl<F: Fn(Reply)> Worker<F> {
         if let Some(iso) = req.knobs.iso {
             p.set_iso(iso);
         }
-        match self.renderer.render_prepared(p, &name) {
+        Ok(())
+    }
+
+    /// True when the finished frame of `req` can take the rays an edit left unchanged from
+    /// the frame kept before it (the CPU twin, the same camera and knobs): it then comes
+    /// sooner than a draft and the finished frame after it would.
+    fn final_can_reuse(&mut self, p: &mut Prepared<'_>, req: &Request) -> bool {
+        let Some(kept) = self.kept.take() else {
+            return false;
+        };
+        let can = self.aim(p, req).is_ok() && self.renderer.can_reuse(p, &kept);
+        self.kept = Some(kept);
+        can
+    }
+
+    /// Renders `p` for `req` from its camera; errors are reported.
+    /// `reused`: when the frame's volume was just sampled, how many of its bricks were
+    /// taken from the previous sampling; `None` for a frame of an earlier sampling.
+    /// Finished frames of scenes are kept for the next edit's, which traces again only the
+    /// rays the edit can change ([`Renderer::render_prepared_keeping`]).
+    fn render(
+        &mut self,
+        p: &mut Prepared<'_>,
+        req: &Request,
+        final_: bool,
+        reused: Option<usize>,
+    ) -> bool {
+        if let Err(e) = self.aim(p, req) {
+            self.error(&e, req.reason);
+            return false;
+        }
+        let name = self.input.display().to_string();
+        let rendered = if final_ && !req.draft && self.kind == InputKind::Scene && self.reuse {
+            let mut kept = self.kept.take();
+            let r = self.renderer.render_prepared_keeping(p, &name, &mut kept);
+            self.kept = kept;
+            r
+        } else {
+            self.renderer.render_prepared(p, &name)
+        };
+        match rendered {
             Ok(frame) => {
                 self.send_frame(&frame, req, final_, reused);
                 true
@@ -503,12 +538,14 @@ impl<F: Fn(Reply)> Worker<F> {
             return pending;
         }
         // A draft first (half the image) when a finished frame takes longer than the frame
-        // budget and no coarse frame was shown: the edit's first pixels come sooner, the
+        // budget, no coarse frame was shown and the finished frame cannot take the rays the
+        // edit left unchanged from the last one: the edit's first pixels come sooner, the
         // finished frame right after.
         if !coarse
             && req.reason >= Reason::Edit
             && !req.draft
             && self.last_frame_ms > DRAFT_ABOVE_MS
+            && !self.final_can_reuse(&mut p, &req)
         {
             let draft = Request { draft: true, ..req };
             self.render(&mut p, &draft, false, Some(reused));
@@ -692,6 +729,7 @@ impl<F: Fn(Reply)> Worker<F> {
                             frame_ms: 1e3 * t.elapsed().as_secs_f64(),
                             evaluated_bricks: 0,
                             reused_bricks: 0,
+                            reused_rays: 0,
                             bricks_loaded: 0,
                             dense_fraction: 0.0,
                             load_ms: 0.0,
