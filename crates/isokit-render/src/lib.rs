@@ -131,5 +131,5 @@ pub use raycast::render::{
     render_view, uniforms,
 };
 pub use raycast::reuse::{KeptFrame, changed_blocks};
-pub use shade::{Image, Light, Shading, ShadingMode, shade};
+pub use shade::{Image, Light, Shading, ShadingMode, shade, shade_reusing};
 pub use volume::{Combine, Layout, Volume, VolumeData};

@@ -528,6 +528,90 @@ pub(crate) fn check_gbuffer(gbuffer: &GBuffer, u: &Uniforms) -> Result<(), Rende
     Ok(())
 }
 
+/// [`shade`], taking from `kept` (the frame before an edit, [`crate::render_reusing`]) the
+/// colour of every pixel whose G-buffer sample is the kept one's bit for bit, where that
+/// frame had the same uniforms and shading: a pixel's colour depends on nothing else
+/// (every mode but [`ShadingMode::Flow`], whose line integrals read the neighbours).
+pub fn shade_reusing(
+    gbuffer: &GBuffer,
+    u: &Uniforms,
+    sh: &Shading,
+    kept: Option<&crate::KeptFrame>,
+) -> Result<Image, RenderError> {
+    let prior = kept
+        .filter(|_| sh.mode != ShadingMode::Flow && u.subpixels <= 1)
+        .and_then(|k| k.image_for(u, sh))
+        .filter(|(p, _)| p.len() == gbuffer.pixels().len());
+    let Some((before, image)) = prior else {
+        return shade(gbuffer, u, sh);
+    };
+    sh.check()?;
+    check_gbuffer(gbuffer, u)?;
+    let lights = sh.lights_or_default(u);
+    let pixels = gbuffer
+        .pixels()
+        .par_iter()
+        .zip(before)
+        .zip(&image.pixels)
+        .enumerate()
+        .map(|(i, ((s, b), &c))| {
+            if same_bits(s, b) {
+                return c;
+            }
+            colour_of(u, s, i as u32 % u.width, i as u32 / u.width, 0, sh, &lights)
+        })
+        .collect();
+    Ok(Image {
+        width: u.width,
+        height: u.height,
+        pixels,
+    })
+}
+
+/// The colour of ray `(px, py, sub)` of a frame with uniforms `u` (all but
+/// [`ShadingMode::Flow`]'s modulation): [`shade_pixel`] with the ray's direction and the
+/// pixel's footprint at the hit.
+fn colour_of(
+    u: &Uniforms,
+    s: &GSample,
+    px: u32,
+    py: u32,
+    sub: u32,
+    sh: &Shading,
+    lights: &[Light],
+) -> [f32; 4] {
+    let pixel_angle = 2.0 * u.half_height / u.height as f32;
+    let v = kernel::subpixel_ray(u, px, py, sub).1;
+    let footprint = if u.ortho != 0 {
+        pixel_angle
+    } else {
+        pixel_angle * s.depth
+    };
+    shade_pixel(s, v, footprint, sh, lights)
+}
+
+/// True when two G-buffer samples are the same bit for bit.
+fn same_bits(a: &GSample, b: &GSample) -> bool {
+    let f = |s: &GSample| {
+        [
+            s.position.x,
+            s.position.y,
+            s.position.z,
+            s.depth,
+            s.normal.x,
+            s.normal.y,
+            s.normal.z,
+            s.k1,
+            s.k2,
+            s.dir1.x,
+            s.dir1.y,
+            s.dir1.z,
+        ]
+        .map(f32::to_bits)
+    };
+    a.id == b.id && f(a) == f(b)
+}
+
 /// Shades a G-buffer traced with uniforms `u` (the camera) into an image, in parallel. For
 /// a multi-view G-buffer ([`crate::render_multiview`], 3 subpixels per pixel) each channel
 /// of a pixel comes from its own subpixel's sample, seen from that subpixel's view. The
@@ -543,16 +627,7 @@ pub fn shade(gbuffer: &GBuffer, u: &Uniforms, sh: &Shading) -> Result<Image, Ren
     } else {
         None
     };
-    let pixel_angle = 2.0 * u.half_height / u.height as f32;
-    let color = |s: &GSample, px: u32, py: u32, sub: u32| {
-        let v = kernel::subpixel_ray(u, px, py, sub).1;
-        let footprint = if u.ortho != 0 {
-            pixel_angle
-        } else {
-            pixel_angle * s.depth
-        };
-        shade_pixel(s, v, footprint, sh, &lights)
-    };
+    let color = |s: &GSample, px: u32, py: u32, sub: u32| colour_of(u, s, px, py, sub, sh, &lights);
     let px_of = |i: usize| (i as u32 % u.width, i as u32 / u.width);
     let pixels = if subs == 1 {
         gbuffer
