@@ -444,14 +444,25 @@ fn block_scan(
     dims: [usize; 3],
     block_dims: [usize; 3],
 ) -> Vec<BlockScan> {
-    let n_blocks = block_dims.iter().product::<usize>();
+    let all: Vec<usize> = (0..block_dims.iter().product::<usize>()).collect();
+    block_scan_of(data, layout, dims, block_dims, &all)
+}
+
+/// [`block_scan`] of the blocks `blocks` (linear indices), in their order.
+fn block_scan_of(
+    data: &VolumeData,
+    layout: Layout,
+    dims: [usize; 3],
+    block_dims: [usize; 3],
+    blocks: &[usize],
+) -> Vec<BlockScan> {
     let b = layout.block as i32;
     let [bx, by, _] = block_dims;
     let top = IVec3::new(dims[0] as i32, dims[1] as i32, dims[2] as i32) - 1;
-    (0..n_blocks)
-        .into_par_iter()
+    blocks
+        .par_iter()
         .with_min_len(bx)
-        .map_init(Vec::new, |buf, n| {
+        .map_init(Vec::new, |buf, &n| {
             let c = IVec3::new(
                 (n % bx) as i32,
                 ((n / bx) % by) as i32,
@@ -561,6 +572,9 @@ pub struct Volume {
     /// The second field of on-the-fly CSG or morphing, if any.
     operand: Option<Operand>,
     id: u64,
+    /// The id of the volume this one was built after ([`Volume::new_after`]) and the blocks
+    /// whose support differs from it.
+    changes: Option<(u64, std::sync::Arc<Vec<bool>>)>,
 }
 
 impl Volume {
@@ -605,6 +619,19 @@ impl Volume {
     /// A volume over either kind of samples; computes the block min/max (one pass over the
     /// samples, in parallel).
     pub fn new(data: VolumeData, layout: Layout) -> Result<Self, RenderError> {
+        Self::new_after(data, layout, None)
+    }
+
+    /// [`Volume::new`] for a new version of `before`'s field: where both share the
+    /// lattice and layout and neither combines a second field, the samples are compared
+    /// first ([`crate::changed_blocks`]) and only the blocks whose support changed are
+    /// scanned, the others keep `before`'s ranges and slopes (the same values a scan gives);
+    /// the changed blocks are kept for [`crate::render_reusing`] after `before`'s frame.
+    pub fn new_after(
+        data: VolumeData,
+        layout: Layout,
+        before: Option<&Volume>,
+    ) -> Result<Self, RenderError> {
         layout.check()?;
         let dims = data.dims();
         if dims.iter().any(|&d| d < 2) {
@@ -625,11 +652,29 @@ impl Volume {
                 why: "too many blocks for 32-bit indices; use larger blocks",
             });
         }
-        let (block_range, block_slope): (Vec<_>, Vec<_>) =
-            block_scan(&data, layout, dims, block_dims)
+        let changes = before
+            .filter(|v| v.operand.is_none() && v.layout == layout)
+            .and_then(|v| {
+                let c = crate::raycast::reuse::changed_between(&v.data, &data, layout)?;
+                Some((v, c))
+            });
+        let (block_range, block_slope): (Vec<_>, Vec<_>) = match &changes {
+            Some((v, changed)) => {
+                let todo: Vec<usize> = (0..n_blocks).filter(|&n| changed[n]).collect();
+                let (mut ranges, mut slopes) = (v.block_range.clone(), v.block_slope.clone());
+                for (n, s) in todo
+                    .iter()
+                    .zip(block_scan_of(&data, layout, dims, block_dims, &todo))
+                {
+                    (ranges[*n], slopes[*n]) = (s.range, s.slope);
+                }
+                (ranges, slopes)
+            }
+            None => block_scan(&data, layout, dims, block_dims)
                 .into_iter()
                 .map(|s| (s.range, s.slope))
-                .unzip();
+                .unzip(),
+        };
         let range =
             block_range
                 .iter()
@@ -649,7 +694,17 @@ impl Volume {
             range,
             operand: None,
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            changes: changes.map(|(v, c)| (v.id, std::sync::Arc::new(c))),
         })
+    }
+
+    /// The blocks whose support holds samples other than those of the volume with id `id`,
+    /// where this volume was built after it ([`Volume::new_after`]).
+    pub(crate) fn changes_after(&self, id: u64) -> Option<&[bool]> {
+        match &self.changes {
+            Some((before, c)) if *before == id => Some(c),
+            _ => None,
+        }
     }
 
     /// This volume with a second field `b` on the same lattice (same dimensions, origin and
@@ -707,6 +762,7 @@ impl Volume {
         });
         // Another pool layout: caches must reload.
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.changes = None;
         Ok(self)
     }
 

@@ -6,8 +6,8 @@
 use glam::Vec3;
 use isokit_field::{BrickGrid, Camera, Grid};
 use isokit_render::{
-    BrickCache, Frame, KeptFrame, Layout, RenderOptions, Volume, changed_blocks, render,
-    render_reusing,
+    BrickCache, Frame, KeptFrame, Layout, RenderOptions, Shading, ShadingMode, Volume, VolumeData,
+    changed_blocks, render, render_reusing, shade, shade_reusing,
 };
 
 mod common;
@@ -161,4 +161,87 @@ fn nothing_is_reused_across_cameras_or_isovalues() {
         f.gbuffer.pixels(),
         render(&new, &mut cache, &a, &iso).unwrap().gbuffer.pixels()
     );
+}
+
+#[test]
+fn the_kept_image_gives_the_colours_of_unchanged_pixels_and_only_those() {
+    let (old, new) = (band(&spheres(0.25)), band(&spheres(0.28)));
+    let o = RenderOptions {
+        curvature: true,
+        ..RenderOptions::default()
+    };
+    for (cn, cam) in cameras(64, 48) {
+        for mode in [
+            ShadingMode::Phong,
+            ShadingMode::Curvature,
+            ShadingMode::Silhouette,
+            ShadingMode::Flow,
+        ] {
+            let sh = Shading {
+                mode,
+                ..Shading::default()
+            };
+            let before = frame(&old, &cam, &o, None);
+            let mut kept = KeptFrame::new(&old, &before, None);
+            kept.keep_image(&shade(&before.gbuffer, &before.uniforms, &sh).unwrap(), &sh);
+            let after = frame(&new, &cam, &o, Some(&kept));
+            let full = shade(&after.gbuffer, &after.uniforms, &sh).unwrap();
+            let again = shade_reusing(&after.gbuffer, &after.uniforms, &sh, Some(&kept)).unwrap();
+            assert_eq!(again, full, "{cn}, {}", mode.name());
+            // Another shading: nothing is taken.
+            let other = Shading {
+                ambient: 0.3,
+                ..sh.clone()
+            };
+            let full = shade(&after.gbuffer, &after.uniforms, &other).unwrap();
+            let again =
+                shade_reusing(&after.gbuffer, &after.uniforms, &other, Some(&kept)).unwrap();
+            assert_eq!(again, full, "{cn}, {}, other shading", mode.name());
+        }
+    }
+}
+
+#[test]
+fn a_volume_built_after_another_scans_only_its_changed_blocks_and_equals_a_fresh_one() {
+    let (before, after) = (spheres(0.25), spheres(0.28));
+    let h = before.spacing();
+    let grids = |g: &Grid| BrickGrid::from_grid(g, 8, 1, 3.0 * h, 4.0 * h).unwrap();
+    let old = band(&before);
+    let fresh = band(&after);
+    let built = Volume::new_after(
+        VolumeData::Band(grids(&after)),
+        Layout::default(),
+        Some(&old),
+    )
+    .unwrap();
+    assert_eq!(built.block_ranges(), fresh.block_ranges());
+    assert_eq!(built.block_slopes(), fresh.block_slopes());
+    // The changes it recorded are those a comparison finds, and some blocks kept theirs.
+    let recorded = changed_blocks(&old, &built).unwrap();
+    assert_eq!(Some(recorded.clone()), changed_blocks(&old, &fresh));
+    let n = recorded.iter().filter(|&&c| c).count();
+    assert!(n > 0 && n < recorded.len(), "{n} of {}", recorded.len());
+    // And the frame after the old one's is the fresh volume's, bit for bit.
+    let o = RenderOptions::default();
+    for (cn, cam) in cameras(57, 41) {
+        let kept = KeptFrame::new(&old, &frame(&old, &cam, &o, None), None);
+        let again = frame(&built, &cam, &o, Some(&kept));
+        assert_eq!(
+            again.gbuffer.pixels(),
+            frame(&fresh, &cam, &o, None).gbuffer.pixels(),
+            "{cn}"
+        );
+        assert!(again.stats.rays_reused > 0, "{cn}");
+    }
+    // Another layout or a combined volume: a full scan, nothing recorded.
+    let other = Volume::new_after(
+        VolumeData::Band(grids(&after)),
+        Layout {
+            block: 4,
+            brick: 32,
+        },
+        Some(&old),
+    )
+    .unwrap();
+    assert!(changed_blocks(&old, &other).is_none());
 }

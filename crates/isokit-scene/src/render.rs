@@ -12,7 +12,8 @@ use isokit_render::setup::camera_from;
 use isokit_render::shade::default_curvature_scale;
 use isokit_render::{
     BrickCache, GBuffer, Image, KeptFrame, Layout, Light, MultiView, RenderError, RenderOptions,
-    Shading, ShadingMode, Uniforms, Volume, check_image_size, estimate_gradient_scale, supersample,
+    Shading, ShadingMode, Uniforms, Volume, VolumeData, check_image_size, estimate_gradient_scale,
+    supersample,
 };
 use serde::Serialize;
 use std::time::Instant;
@@ -409,6 +410,19 @@ impl Renderer {
         settings: &RenderSettings,
         job: &Job,
     ) -> Result<Prepared<'a>, SceneError> {
+        self.prepare_after(target, settings, job, None)
+    }
+
+    /// [`Renderer::prepare`] for the frame after `kept` (live editing): a scene's volume is
+    /// built after the kept one ([`Volume::new_after`]: only the blocks whose samples
+    /// changed are scanned, and [`Renderer::render_prepared_keeping`] finds them there).
+    pub fn prepare_after<'a>(
+        &self,
+        target: RenderTarget<'a>,
+        settings: &RenderSettings,
+        job: &Job,
+        kept: Option<&KeptFrame>,
+    ) -> Result<Prepared<'a>, SceneError> {
         let t0 = Instant::now();
         let err = |e: RenderError| SceneError::new(target_name(target), "", e.to_string());
         let mut notes = Vec::new();
@@ -431,7 +445,12 @@ impl Renderer {
                         stats.band
                     ));
                 }
-                let volume = Volume::from_brick_grid(band, Layout::default()).map_err(err)?;
+                let volume = Volume::new_after(
+                    VolumeData::Band(band),
+                    Layout::default(),
+                    kept.map(KeptFrame::volume),
+                )
+                .map_err(err)?;
                 let f = scene.settings();
                 (
                     std::borrow::Cow::Owned(volume),
@@ -625,29 +644,35 @@ impl Renderer {
             .transpose()
             .map_err(|e| err(e.into()))?;
         let c = wide.as_ref().unwrap_or(&p.camera);
+        // The frame before an edit, where this frame may take pixels from it (CPU twin).
+        let earlier = kept
+            .as_deref()
+            .and_then(Option::as_ref)
+            .filter(|_| self.gpu.is_none() && p.multiview.is_none() && k == 1);
         let frame = match (&p.multiview, view, self.gpu.as_mut()) {
             (Some(mv), Some(k), Some(g)) => g.render_view(v, c, o, mv, k),
             (Some(mv), Some(k), None) => isokit_render::render_view(v, cache, c, o, mv, k),
             (Some(mv), None, Some(g)) => g.render_multiview(v, c, o, mv),
             (Some(mv), None, None) => isokit_render::render_multiview(v, cache, c, o, mv),
             (None, _, Some(g)) => g.render(v, c, o),
-            (None, _, None) if k == 1 && kept.is_some() => {
-                let earlier = kept.as_deref().and_then(Option::as_ref);
-                isokit_render::render_reusing(v, cache, c, o, earlier)
-            }
-            (None, _, None) => isokit_render::render(v, cache, c, o),
+            (None, _, None) => isokit_render::render_reusing(v, cache, c, o, earlier),
         }
         .map_err(err)?;
-        if let Some(slot) = kept.as_mut() {
-            **slot = (self.gpu.is_none() && p.multiview.is_none() && k == 1)
-                .then(|| KeptFrame::new(v, &frame, slot.take()));
-        }
         let t1 = Instant::now();
         let image = match self.gpu.as_ref() {
             Some(g) => g.shade(&frame.gbuffer, &frame.uniforms, &p.shading),
-            None => isokit_render::shade(&frame.gbuffer, &frame.uniforms, &p.shading),
+            None => {
+                isokit_render::shade_reusing(&frame.gbuffer, &frame.uniforms, &p.shading, earlier)
+            }
         }
         .map_err(err)?;
+        if let Some(slot) = kept.as_mut() {
+            **slot = (self.gpu.is_none() && p.multiview.is_none() && k == 1).then(|| {
+                let mut f = KeptFrame::new(v, &frame, slot.take());
+                f.keep_image(&image, &p.shading);
+                f
+            });
+        }
         let (image, parts) = match p.scene {
             Some(scene) if !scene.parts().is_empty() && frame.uniforms.subpixels <= 1 => {
                 colour_parts(

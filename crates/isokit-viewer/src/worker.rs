@@ -522,10 +522,12 @@ impl<F: Fn(Reply)> Worker<F> {
             // Shared, not copied: the renderer's volume is built from it below.
             self.previous = Some(sampled.clone());
         }
-        let mut p = match self
-            .renderer
-            .prepare(RenderTarget::Sampled(&scene, &sampled), &s, &job)
-        {
+        let mut p = match self.renderer.prepare_after(
+            RenderTarget::Sampled(&scene, &sampled),
+            &s,
+            &job,
+            self.kept.as_ref(),
+        ) {
             Ok(p) => p,
             Err(_) if job.is_cancelled() => return self.newest_after_cancel(req),
             Err(e) => {

@@ -11,7 +11,7 @@
 //! holds the same samples, bit for bit, gives the same pixel: it is copied, not traced.
 
 use crate::kernel::{self, GSample, Uniforms};
-use crate::{Frame, GBuffer, StartRaster, Volume};
+use crate::{Frame, GBuffer, Image, Layout, Shading, StartRaster, Volume, VolumeData};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -26,6 +26,8 @@ pub struct KeptFrame {
     volume: Volume,
     uniforms: Uniforms,
     gbuffer: GBuffer,
+    /// The shaded image and the shading it was made with, once kept.
+    image: Option<(Image, Shading)>,
 }
 
 impl KeptFrame {
@@ -40,6 +42,27 @@ impl KeptFrame {
             volume,
             uniforms: frame.uniforms,
             gbuffer: frame.gbuffer.clone(),
+            image: None,
+        }
+    }
+
+    /// Keeps the frame's shaded image too, made with `shading` ([`crate::shade_reusing`]).
+    pub fn keep_image(&mut self, image: &Image, shading: &Shading) {
+        self.image = Some((image.clone(), shading.clone()));
+    }
+
+    /// The kept G-buffer's pixels and image, where they were traced with uniforms `u` and
+    /// shaded with `shading`.
+    pub(crate) fn image_for(
+        &self,
+        u: &Uniforms,
+        shading: &Shading,
+    ) -> Option<(&[GSample], &Image)> {
+        match &self.image {
+            Some((image, sh)) if self.uniforms == *u && sh == shading => {
+                Some((self.gbuffer.pixels(), image))
+            }
+            _ => None,
         }
     }
 
@@ -59,18 +82,32 @@ impl KeptFrame {
 /// bit for bit; `None` when the two volumes do not share a lattice and layout, or either
 /// combines a second field (then every block counts as changed).
 pub fn changed_blocks(before: &Volume, after: &Volume) -> Option<Vec<bool>> {
+    if before.layout() != after.layout() || before.combine().is_some() || after.combine().is_some()
+    {
+        return None;
+    }
+    if let Some(c) = after.changes_after(before.id()) {
+        return Some(c.to_vec());
+    }
+    changed_between(before.data(), after.data(), after.layout())
+}
+
+/// [`changed_blocks`] of two volumes' samples under `layout`; `None` when they do not share
+/// a lattice.
+pub(crate) fn changed_between(
+    before: &VolumeData,
+    after: &VolumeData,
+    layout: Layout,
+) -> Option<Vec<bool>> {
     if before.dims() != after.dims()
-        || before.layout() != after.layout()
         || before.origin() != after.origin()
         || before.spacing().to_bits() != after.spacing().to_bits()
-        || before.combine().is_some()
-        || after.combine().is_some()
     {
         return None;
     }
     let dims = after.dims();
-    let bd = after.block_dims();
-    let b = after.layout().block as i64;
+    let b = layout.block as i64;
+    let bd = dims.map(|d| (d - 1).div_ceil(layout.block));
     let nx = dims[0];
     // Blocks `c` whose support holds sample `s`: `c·b − 1 ≤ s ≤ c·b + b + 1`, so from
     // `ceil((s − b − 1) / b)` to `floor((s + 1) / b)`.
@@ -88,8 +125,8 @@ pub fn changed_blocks(before: &Volume, after: &Volume) -> Option<Vec<bool>> {
             |(ra, rb), z| {
                 let mut marked = Vec::new();
                 for y in 0..dims[1] {
-                    before.data().read_row(0, y as i32, z as i32, ra);
-                    after.data().read_row(0, y as i32, z as i32, rb);
+                    before.read_row(0, y as i32, z as i32, ra);
+                    after.read_row(0, y as i32, z as i32, rb);
                     let mut x = 0;
                     while x < nx {
                         if ra[x].to_bits() == rb[x].to_bits() {
