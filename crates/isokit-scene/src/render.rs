@@ -167,6 +167,9 @@ pub struct RenderSettings {
     /// [`Prepared::set_mode`]) instead of as [`RenderOptions::curvature`] says: for frames
     /// whose G-buffer is not kept (default false).
     pub curvature_follows_mode: bool,
+    /// Leave the thin-feature warning out of the frame's notes, for the caller to ask for
+    /// it after showing the frame ([`Renderer::thin_note`]; default false).
+    pub defer_thin_note: bool,
 }
 
 impl Default for RenderSettings {
@@ -187,6 +190,7 @@ impl Default for RenderSettings {
             resolution: None,
             samples: 1,
             curvature_follows_mode: false,
+            defer_thin_note: false,
         }
     }
 }
@@ -290,6 +294,8 @@ pub struct Prepared<'a> {
     grid: u32,
     /// [`RenderSettings::curvature_follows_mode`].
     curvature_follows_mode: bool,
+    /// [`RenderSettings::defer_thin_note`].
+    defer_thin_note: bool,
 }
 
 impl Prepared<'_> {
@@ -400,6 +406,14 @@ impl Renderer {
             Some(g) => format!("GPU ({})", g.describe()),
             None => "CPU".to_string(),
         }
+    }
+
+    /// The thin-feature warning of a frame of `p` (a curvature shading of a scene whose
+    /// visible surface lies within the filter's reach of a crease), where
+    /// [`RenderSettings::defer_thin_note`] left it out of the frame's notes: the live viewer
+    /// shows the frame first and the note after it.
+    pub fn thin_note(&self, p: &Prepared<'_>, frame: &Frame) -> Option<String> {
+        thin_note_of(p, &frame.gbuffer)
     }
 
     /// Resolves a target for rendering: samples a scene's band (reporting progress to
@@ -539,6 +553,7 @@ impl Renderer {
             prepare_seconds: t0.elapsed().as_secs_f64(),
             grid,
             curvature_follows_mode: settings.curvature_follows_mode,
+            defer_thin_note: settings.defer_thin_note,
         })
     }
 
@@ -699,16 +714,8 @@ impl Renderer {
         let shade_seconds = t1.elapsed().as_secs_f64();
         let st = &frame.stats;
         let mut notes = p.notes.clone();
-        if let (Some(scene), Some(sampling)) = (p.scene, &p.sampling)
-            && p.shading.mode.uses_curvature()
-            && p.options.filter == isokit_render::Filter::Tricubic
-            && let Some(n) = thin_feature_note(
-                scene,
-                &gbuffer,
-                p.volume.spacing(),
-                sampling,
-                p.shading.mode,
-            )
+        if !p.defer_thin_note
+            && let Some(n) = thin_note_of(p, &gbuffer)
         {
             notes.push(n);
         }
@@ -842,6 +849,15 @@ const THIN_FRACTION: f64 = 0.2;
 /// a crease at distance `s < r` on either side brings that side's value to `2s − r`
 /// (measured in units of the field's slope at the surface on that side, a quarter voxel
 /// deep, for fields that are not exact distances).
+/// [`thin_feature_note`] where it applies: scenes in a curvature shading, tricubic.
+fn thin_note_of(p: &Prepared<'_>, gbuffer: &GBuffer) -> Option<String> {
+    let (scene, sampling) = (p.scene?, p.sampling.as_ref()?);
+    if !p.shading.mode.uses_curvature() || p.options.filter != isokit_render::Filter::Tricubic {
+        return None;
+    }
+    thin_feature_note(scene, gbuffer, p.volume.spacing(), sampling, p.shading.mode)
+}
+
 fn thin_feature_note(
     scene: &Scene,
     g: &GBuffer,

@@ -222,3 +222,44 @@ fn curvatures_can_follow_the_shading_mode() {
     let p = r.prepare(RenderTarget::Scene(&scene), &kept, &job).unwrap();
     assert!(p.options().curvature);
 }
+
+#[test]
+fn the_thin_feature_note_can_come_after_the_frame() {
+    // A wall 0.04 thick sampled at 160 (the command's thin-wall test): curvature shading warns.
+    let text = r#"{"shape": {"difference": [
+        {"shell": {"thickness": 0.04, "of": {"rounded_box": {"half": [1.2, 0.2, 0.8], "radius": 0.05}}}},
+        {"box": {"half": [0.8, 0.8, 0.8], "center": [0.8, 0.8, 0.8]}}]},
+        "camera": {"eye": [2.5, 2.0, 3.0], "target": [0, 0, 0], "fov": 40},
+        "shading": {"mode": "curvature"},
+        "sampling": {"resolution": 160}}"#;
+    let scene = Scene::from_text(text, SceneFormat::Json, "t.json", ".".as_ref()).unwrap();
+    let thin = |notes: &[String]| {
+        notes
+            .iter()
+            .any(|n| n.contains("crease of the distance field"))
+    };
+    let mut r = Renderer::cpu();
+    let mut settings = RenderSettings {
+        width: 96,
+        height: 72,
+        ..RenderSettings::default()
+    };
+    let p = r
+        .prepare(RenderTarget::Scene(&scene), &settings, &Job::default())
+        .unwrap();
+    let now = r.render_prepared(&p, "t.json").unwrap();
+    assert!(thin(&now.notes), "{:?}", now.notes);
+    settings.defer_thin_note = true;
+    let p = r
+        .prepare(RenderTarget::Scene(&scene), &settings, &Job::default())
+        .unwrap();
+    let later = r.render_prepared(&p, "t.json").unwrap();
+    assert!(!thin(&later.notes), "{:?}", later.notes);
+    let note = r
+        .thin_note(&p, &later)
+        .expect("the note, asked for after the frame");
+    assert_eq!(
+        Some(&note),
+        now.notes.iter().find(|n| thin(std::slice::from_ref(n)))
+    );
+}

@@ -428,6 +428,10 @@ impl App {
                 }
             }
             Reply::Device(d) => self.device = d,
+            Reply::Note(n) => {
+                self.notes.push(n);
+                self.present();
+            }
         }
     }
 

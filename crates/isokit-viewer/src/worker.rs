@@ -126,6 +126,9 @@ pub(crate) enum Reply {
     },
     /// The renderer in use (for the panel).
     Device(String),
+    /// A note on the finished frame just sent, found after it was sent (the thin-feature
+    /// warning of curvature shadings: it evaluates the scene's tree).
+    Note(String),
 }
 
 /// The work of the load in progress, which the window cancels when a newer edit arrives.
@@ -295,6 +298,8 @@ impl<F: Fn(Reply)> Worker<F> {
             resolution,
             // Frames are shown, not kept: the Hessian only for the modes that read it.
             curvature_follows_mode: true,
+            // The frame first, the note after it (`Reply::Note`).
+            defer_thin_note: true,
             ..RenderSettings::default()
         }
     }
@@ -423,6 +428,9 @@ impl<F: Fn(Reply)> Worker<F> {
         match rendered {
             Ok(frame) => {
                 self.send_frame(&frame, req, final_, reused);
+                if final_ && let Some(n) = self.renderer.thin_note(p, &frame) {
+                    (self.send)(Reply::Note(n));
+                }
                 true
             }
             Err(e) => {
