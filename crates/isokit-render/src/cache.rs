@@ -297,6 +297,9 @@ impl BrickCache {
         if self.volume_id == volume.id() {
             return;
         }
+        if self.rebind(volume) {
+            return;
+        }
         self.volume_id = volume.id();
         self.brick_samples = volume.slot_samples();
         self.pool.clear();
@@ -311,6 +314,43 @@ impl BrickCache {
         self.mixed_sb.clear();
         self.generation += 1;
         self.detail = vec![f32::NAN; volume.brick_count()];
+    }
+
+    /// Binds the cache to `volume` keeping what it holds, where `volume` was built after the
+    /// bound one ([`Volume::new_after`]) and the samples live here: only the resident
+    /// bricks that hold a changed block are filled again (a brick's stored samples are the
+    /// union of its blocks' supports, so the others hold the same samples bit for bit). False
+    /// (nothing done) otherwise: a downsampled assignment, another layout, a pool elsewhere.
+    fn rebind(&mut self, volume: &Volume) -> bool {
+        let Some(changed) = volume.changes_after(self.volume_id) else {
+            return false;
+        };
+        if !self.host_samples
+            || self.is_mixed()
+            || self.brick_samples != volume.slot_samples()
+            || self.reference.len() != volume.brick_count()
+        {
+            return false;
+        }
+        let [bx, by, _] = volume.block_dims();
+        let per = volume.layout().blocks_per_brick();
+        let mut stale = vec![false; volume.brick_count()];
+        for n in (0..changed.len()).filter(|&n| changed[n]) {
+            let c = [n % bx, (n / bx) % by, n / (bx * by)].map(|v| v / per);
+            stale[volume.brick_index(c)] = true;
+        }
+        let b = self.brick_samples;
+        for (slot, &brick) in self.slot_brick.iter().enumerate() {
+            if stale[brick as usize] {
+                volume.fill_brick(brick as usize, &mut self.pool[slot * b..(slot + 1) * b]);
+                self.stats.loads += 1;
+            }
+        }
+        self.volume_id = volume.id();
+        // The slopes and ranges differ: what the kernel steps by is computed again.
+        self.generation += 1;
+        self.detail = vec![f32::NAN; volume.brick_count()];
+        true
     }
 
     /// True while the cache holds a downsampled assignment.

@@ -698,6 +698,12 @@ impl Volume {
         })
     }
 
+    /// The id of the volume this one was built after ([`Volume::new_after`]), where the
+    /// samples were compared.
+    pub fn built_after(&self) -> Option<u64> {
+        self.changes.as_ref().map(|c| c.0)
+    }
+
     /// The blocks whose support holds samples other than those of the volume with id `id`,
     /// where this volume was built after it ([`Volume::new_after`]).
     pub(crate) fn changes_after(&self, id: u64) -> Option<&[bool]> {

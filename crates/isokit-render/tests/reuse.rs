@@ -233,6 +233,20 @@ fn a_volume_built_after_another_scans_only_its_changed_blocks_and_equals_a_fresh
         );
         assert!(again.stats.rays_reused > 0, "{cn}");
     }
+    // One cache for both frames: it keeps the bricks without a changed block.
+    let cam = perspective(Vec3::new(1.9, 1.3, 3.6), 57, 41);
+    let mut cache = BrickCache::for_volume(&old);
+    let first = render(&old, &mut cache, &cam, &o).unwrap();
+    let kept = KeptFrame::new(&old, &first, None);
+    let again = render_reusing(&built, &mut cache, &cam, &o, Some(&kept)).unwrap();
+    let fresh_frame = frame(&fresh, &cam, &o, None);
+    assert_eq!(again.gbuffer.pixels(), fresh_frame.gbuffer.pixels());
+    assert!(
+        again.stats.bricks_loaded < fresh_frame.stats.bricks_loaded,
+        "{} bricks loaded again, {} into a new cache",
+        again.stats.bricks_loaded,
+        fresh_frame.stats.bricks_loaded
+    );
     // Another layout or a combined volume: a full scan, nothing recorded.
     let other = Volume::new_after(
         VolumeData::Band(grids(&after)),

@@ -631,7 +631,12 @@ impl Renderer {
         let err = |e: RenderError| SceneError::new(name, "", e.to_string());
         let key = (p.volume.id(), p.cache_bytes);
         let cache = match self.cpu_cache.take() {
-            Some((id, bytes, c)) if (id, bytes) == key => c,
+            // The cache of the volume this one was built after keeps its unchanged bricks.
+            Some((id, bytes, c))
+                if bytes == key.1 && (id == key.0 || p.volume.built_after() == Some(id)) =>
+            {
+                c
+            }
             _ => Box::new(match p.cache_bytes {
                 Some(b) => BrickCache::with_bytes(&p.volume, b).map_err(err)?,
                 None => BrickCache::for_volume(&p.volume),

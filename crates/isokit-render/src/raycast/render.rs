@@ -824,8 +824,10 @@ fn trace_frame(
 ) -> Result<Frame, RenderError> {
     let t0 = Instant::now();
     let policy = opts.cache_policy;
-    cache.bind(volume);
+    // Counted from before the binding: bricks a cache kept across an edit fills again
+    // there ([`BrickCache`]'s rebinding) are this frame's loads.
     let before = cache.stats();
+    cache.bind(volume);
     let (w, h) = (u.width as usize * u.subpixels as usize, u.height as usize);
     let n_bricks = volume.brick_count();
     let ranges = volume.trace_ranges(u.iso, u.inside_sign);
