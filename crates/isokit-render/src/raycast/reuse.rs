@@ -31,8 +31,9 @@ pub struct KeptFrame {
 }
 
 impl KeptFrame {
-    /// Keeps `frame`, traced from `volume`. The volume is copied (its samples are compared
-    /// with the next frame's volume), unless `earlier` already holds the same volume.
+    /// Keeps `frame`, traced from `volume`. The volume is kept (its samples are compared
+    /// with the next frame's): a band's samples are shared with it, a dense grid's copied,
+    /// unless `earlier` already holds the same volume.
     pub fn new(volume: &Volume, frame: &Frame, earlier: Option<KeptFrame>) -> Self {
         let volume = match earlier {
             Some(k) if k.volume.id() == volume.id() => k.volume,
