@@ -33,19 +33,6 @@ fn band(g: &Grid) -> Volume {
     .unwrap()
 }
 
-fn cameras(w: u32, h: u32) -> Vec<(&'static str, Camera)> {
-    vec![
-        ("far", perspective(Vec3::new(1.9, 1.3, 3.6), w, h)),
-        ("near", perspective(Vec3::new(0.4, 0.3, 1.6), w, h)),
-        ("inside", perspective(Vec3::new(0.15, -0.1, 0.85), w, h)),
-        ("axis", perspective(Vec3::new(0.0, 0.0, 3.0), w, h)),
-        (
-            "ortho",
-            orthographic(Vec3::new(2.0, 1.0, 2.5), Vec3::ZERO, 2.2, w, h),
-        ),
-    ]
-}
-
 fn frame(v: &Volume, cam: &Camera, o: &RenderOptions, kept: Option<&KeptFrame>) -> Frame {
     let mut cache = BrickCache::for_volume(v);
     render_reusing(v, &mut cache, cam, o, kept).unwrap()

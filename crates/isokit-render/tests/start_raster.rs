@@ -14,21 +14,6 @@ use isokit_render::{
 mod common;
 use common::*;
 
-/// Cameras that exercise the raster: far and near perspective views, an eye inside the
-/// volume (blocks beside and behind the eye's plane), a view along an axis, orthographic.
-fn cameras(w: u32, h: u32) -> Vec<(&'static str, Camera)> {
-    vec![
-        ("far", perspective(Vec3::new(1.9, 1.3, 3.6), w, h)),
-        ("near", perspective(Vec3::new(0.4, 0.3, 1.6), w, h)),
-        ("inside", perspective(Vec3::new(0.15, -0.1, 0.85), w, h)),
-        ("axis", perspective(Vec3::new(0.0, 0.0, 3.0), w, h)),
-        (
-            "ortho",
-            orthographic(Vec3::new(2.0, 1.0, 2.5), Vec3::ZERO, 2.2, w, h),
-        ),
-    ]
-}
-
 fn volumes() -> Vec<(&'static str, Volume)> {
     let (a, b) = csg_pair();
     vec![
