@@ -246,3 +246,35 @@ fn a_volume_built_after_another_scans_only_its_changed_blocks_and_equals_a_fresh
     .unwrap();
     assert!(changed_blocks(&old, &other).is_none());
 }
+
+#[test]
+fn small_caches_reuse_exactly_and_a_downsampled_frame_is_not_reused() {
+    use isokit_render::CachePolicy;
+    let (old, new) = (band(&spheres(0.25)), band(&spheres(0.28)));
+    let cam = perspective(Vec3::new(1.9, 1.3, 3.6), 61, 45);
+    let with = |v: &Volume, o: &RenderOptions, slots: usize, kept: Option<&KeptFrame>| {
+        let mut cache = BrickCache::new(v, slots).unwrap();
+        render_reusing(v, &mut cache, &cam, o, kept).unwrap()
+    };
+    let full = frame(&new, &cam, &RenderOptions::default(), None);
+    // Passes: a cache of 2 bricks renders the same image in several passes, and reuses.
+    let passes = RenderOptions::default();
+    let before = with(&old, &passes, 2, None);
+    assert!(before.stats.passes > 1, "{:?}", before.stats);
+    let kept = KeptFrame::new(&old, &before, None);
+    let again = with(&new, &passes, 2, Some(&kept));
+    assert_eq!(again.gbuffer.pixels(), full.gbuffer.pixels());
+    assert!(again.stats.rays_reused > 0);
+    // Downsample: the kept frame's half-resolution bricks are other samples; a full frame
+    // after it takes nothing from it.
+    let down = RenderOptions {
+        cache_policy: CachePolicy::Downsample,
+        ..RenderOptions::default()
+    };
+    let before = with(&old, &down, 2, None);
+    assert!(before.stats.bricks_downsampled > 0, "{:?}", before.stats);
+    let kept = KeptFrame::new(&old, &before, None);
+    let again = frame(&new, &cam, &down, Some(&kept));
+    assert_eq!(again.stats.rays_reused, 0);
+    assert_eq!(again.gbuffer.pixels(), full.gbuffer.pixels());
+}

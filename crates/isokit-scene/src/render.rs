@@ -840,6 +840,15 @@ const THIN_PROBES: usize = 1024;
 /// each edge).
 const THIN_FRACTION: f64 = 0.2;
 
+/// [`thin_feature_note`] where it applies: scenes in a curvature shading, tricubic.
+fn thin_note_of(p: &Prepared<'_>, gbuffer: &GBuffer) -> Option<String> {
+    let (scene, sampling) = (p.scene?, p.sampling.as_ref()?);
+    if !p.shading.mode.uses_curvature() || p.options.filter != isokit_render::Filter::Tricubic {
+        return None;
+    }
+    thin_feature_note(scene, gbuffer, p.volume.spacing(), sampling, p.shading.mode)
+}
+
 /// A warning when much of the visible surface of a scene lies within the reach of the
 /// tricubic filter (2 voxels) of a crease of its distance field — the medial surface of a
 /// wall or gap thinner than 4 voxels, where the field's gradient flips. The B-spline
@@ -854,15 +863,6 @@ const THIN_FRACTION: f64 = 0.2;
 /// a crease at distance `s < r` on either side brings that side's value to `2s − r`
 /// (measured in units of the field's slope at the surface on that side, a quarter voxel
 /// deep, for fields that are not exact distances).
-/// [`thin_feature_note`] where it applies: scenes in a curvature shading, tricubic.
-fn thin_note_of(p: &Prepared<'_>, gbuffer: &GBuffer) -> Option<String> {
-    let (scene, sampling) = (p.scene?, p.sampling.as_ref()?);
-    if !p.shading.mode.uses_curvature() || p.options.filter != isokit_render::Filter::Tricubic {
-        return None;
-    }
-    thin_feature_note(scene, gbuffer, p.volume.spacing(), sampling, p.shading.mode)
-}
-
 fn thin_feature_note(
     scene: &Scene,
     g: &GBuffer,

@@ -578,8 +578,10 @@ pub fn render(
 /// [`render`], taking from `kept` (the last frame, of an earlier version of the field) every
 /// pixel whose ray meets no changed block and tracing only the others
 /// ([`crate::KeptFrame`]): the same image bit for bit, faster after an edit that changed a
-/// part of the field. With other uniforms (camera, size, isovalue, knobs), another lattice,
-/// or a cache too small for the active bricks, every pixel is traced.
+/// part of the field. With other uniforms (camera, size, isovalue, knobs) or another
+/// lattice, and where either frame is traced from a downsampled assignment of the cache
+/// ([`CachePolicy::Downsample`] with too small a cache), every pixel is traced; a cache too
+/// small rendering in passes reuses as any other (the passes change no pixel).
 /// [`RenderStats::rays_reused`] counts the pixels taken.
 pub fn render_reusing(
     volume: &Volume,

@@ -15,8 +15,10 @@ use crate::{Frame, GBuffer, Image, Layout, Shading, StartRaster, Volume, VolumeD
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// How far (voxels) past its hit or cap a ray's samples may reach: far above rounding, and
-/// [`StartRaster`]'s distances carry their own margins (0.1 voxel and more).
+/// A margin (voxels) on a ray's stopping parameter, far above its rounding ([`StartRaster`]'s
+/// distances carry their own, 0.1 voxel and more). The samples of the crossing's bracket and
+/// its refinement may lie a step past the hit, but in the hit's block, which the ray
+/// entered before the hit: a block the raster's distance accounts for.
 const FACE_MARGIN: f32 = 1e-2;
 
 /// A finished frame kept for the next one ([`crate::render_reusing`]): the volume it
@@ -28,6 +30,10 @@ pub struct KeptFrame {
     gbuffer: GBuffer,
     /// The shaded image and the shading it was made with, once kept.
     image: Option<(Image, Shading)>,
+    /// The frame was traced from a downsampled assignment of the cache (bricks at half
+    /// resolution, their neighbours' hanging samples matched): other samples than the
+    /// volume's, so none of its pixels is taken.
+    downsampled: bool,
 }
 
 impl KeptFrame {
@@ -44,6 +50,7 @@ impl KeptFrame {
             uniforms: frame.uniforms,
             gbuffer: frame.gbuffer.clone(),
             image: None,
+            downsampled: frame.stats.bricks_downsampled > 0,
         }
     }
 
@@ -86,6 +93,9 @@ pub fn changed_blocks(before: &Volume, after: &Volume) -> Option<Vec<bool>> {
     if before.layout() != after.layout() || before.combine().is_some() || after.combine().is_some()
     {
         return None;
+    }
+    if before.id() == after.id() {
+        return Some(vec![false; after.block_ranges().len()]);
     }
     if let Some(c) = after.changes_after(before.id()) {
         return Some(c.to_vec());
@@ -169,9 +179,10 @@ pub(crate) struct Reuse<'k> {
 
 impl<'k> Reuse<'k> {
     /// The reuse of `kept` for a frame of `volume` with uniforms `u`; `None` when nothing
-    /// can be reused (other uniforms, another lattice, several views or subpixels).
+    /// can be reused (other uniforms, another lattice, several views or subpixels, a kept
+    /// frame traced from a downsampled cache).
     pub(crate) fn new(kept: &'k KeptFrame, volume: &Volume, u: &Uniforms) -> Option<Self> {
-        if kept.uniforms != *u {
+        if kept.uniforms != *u || kept.downsampled {
             return None;
         }
         let changed = changed_blocks(&kept.volume, volume)?;
@@ -192,12 +203,14 @@ impl<'k> Reuse<'k> {
         if near == f32::INFINITY {
             return Some((kept, self.samples[i]));
         }
-        let (ro, d) = kernel::pixel_ray(u, px, py);
-        let o = (ro - Vec3::from_array(u.origin)) / u.spacing;
         let t_stop = if kernel::is_surface_id(kept.id) {
-            let p = (kept.position - Vec3::from_array(u.origin)) / u.spacing;
-            (p - o).dot(d) + FACE_MARGIN
+            // The hit's parameter: its depth is `t · spacing` (the world position would
+            // round far from the origin).
+            kept.depth / u.spacing + FACE_MARGIN
         } else if kept.id == kernel::ID_CAP {
+            // Where the ray entered the volume.
+            let (ro, d) = kernel::pixel_ray(u, px, py);
+            let o = (ro - Vec3::from_array(u.origin)) / u.spacing;
             kernel::ray_box(u, o, d).map_or(f32::INFINITY, |b| b.0 + FACE_MARGIN)
         } else {
             f32::INFINITY
