@@ -492,20 +492,26 @@ impl BrickGrid {
                 }
                 let extra = Cell::new(0u64);
                 let mut data = vec![0.0; side * side * side];
-                b.fill_brick(c, &mut data, |i, j, k| virtual_at(i, j, k, &extra));
+                b.fill_from_cores(c, &mut data, &cores, |q| {
+                    extra.set(extra.get() + 1);
+                    field.value(pos(q))
+                });
                 // Min/max over the brick's cells: the stored samples where the apron holds
                 // them, else (apron 0: the next layer) the virtual grid itself, so that the
                 // bookkeeping equals `from_grid`'s on the same samples.
-                let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32))
-                    - IVec3::splat(apron as i32);
-                let info = b.info_from(c, |i, j, k| {
-                    let l = IVec3::new(i, j, k) - lo;
-                    if l.cmpge(IVec3::ZERO).all() && l.cmplt(IVec3::splat(side as i32)).all() {
-                        data[l.x as usize + side * (l.y as usize + side * l.z as usize)]
-                    } else {
-                        virtual_at(i, j, k, &extra)
-                    }
-                });
+                let info = if apron >= 1 {
+                    b.info_of_stored(c, &data)
+                } else {
+                    let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
+                    b.info_from(c, |i, j, k| {
+                        let l = IVec3::new(i, j, k) - lo;
+                        if l.cmpge(IVec3::ZERO).all() && l.cmplt(IVec3::splat(side as i32)).all() {
+                            data[l.x as usize + side * (l.y as usize + side * l.z as usize)]
+                        } else {
+                            virtual_at(i, j, k, &extra)
+                        }
+                    })
+                };
                 (info, data, extra.get())
             })
             .collect();
@@ -641,6 +647,74 @@ impl BrickGrid {
             );
             let g = lo + l;
             *v = at(g.x, g.y, g.z);
+        }
+    }
+
+    /// Fills brick `c`'s storage (apron included) from the virtual grid of a sampling in
+    /// progress, at indices clamped to the grid: a sample of a kept brick's core
+    /// (`cores[n]`, `brick³` samples with x fastest), else `eval` of the clamped index. The
+    /// same values as [`BrickGrid::fill_brick`] through such a lookup, with the index
+    /// arithmetic done once per axis rather than per sample.
+    fn fill_from_cores(
+        &self,
+        c: [u32; 3],
+        data: &mut [f32],
+        cores: &[Option<Vec<f32>>],
+        mut eval: impl FnMut(IVec3) -> f32,
+    ) {
+        let (brick, side) = (self.brick, self.brick + 2 * self.apron);
+        let mi = self.max_index();
+        // Per axis and local index: the clamped index, its brick and its offset there
+        // (`None` past the bricks, which a clamped index never reaches).
+        let axis = |a: usize| -> Vec<(i32, Option<usize>, usize)> {
+            let lo = (c[a] as usize * brick) as i32 - self.apron as i32;
+            (0..side as i32)
+                .map(|l| {
+                    let q = (lo + l).clamp(0, mi[a]);
+                    let b = q as usize / brick;
+                    (q, (b < self.brick_dims[a]).then_some(b), q as usize % brick)
+                })
+                .collect()
+        };
+        let (tx, ty, tz) = (axis(0), axis(1), axis(2));
+        let [bx, by, _] = self.brick_dims;
+        for (lz, &(qz, cz, rz)) in tz.iter().enumerate() {
+            for (ly, &(qy, cy, ry)) in ty.iter().enumerate() {
+                let row = &mut data[side * (ly + side * lz)..][..side];
+                let yz = cy.zip(cz).map(|(cy, cz)| bx * (cy + by * cz));
+                let off = brick * (ry + brick * rz);
+                for (o, &(qx, cx, rx)) in row.iter_mut().zip(&tx) {
+                    let core = yz.zip(cx).and_then(|(yz, cx)| cores[yz + cx].as_deref());
+                    *o = match core {
+                        Some(core) => core[rx + off],
+                        None => eval(IVec3::new(qx, qy, qz)),
+                    };
+                }
+            }
+        }
+    }
+
+    /// [`BrickGrid::info_from`] of brick `c` read from its storage `data` (apron included),
+    /// which holds every sample of its cells when the apron is at least 1.
+    fn info_of_stored(&self, c: [u32; 3], data: &[f32]) -> BrickInfo {
+        debug_assert!(self.apron >= 1);
+        let (side, a) = (self.brick + 2 * self.apron, self.apron);
+        let lo = c.map(|v| v as usize * self.brick);
+        let hi: [usize; 3] = std::array::from_fn(|x| (lo[x] + self.brick).min(self.dims[x] - 1));
+        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                let row = side * (j - lo[1] + a + side * (k - lo[2] + a));
+                for &v in &data[row + a..=row + a + hi[0] - lo[0]] {
+                    mn = mn.min(v);
+                    mx = mx.max(v);
+                }
+            }
+        }
+        BrickInfo {
+            coord: c,
+            min: mn,
+            max: mx,
         }
     }
 

@@ -143,8 +143,17 @@ impl<F: Field> Transformed<F> {
     }
 
     /// World point to the inner field's space: `R⁻¹(p − t) / s`, in f64.
+    ///
+    /// A translation alone (the most common transform, evaluated several times per sample
+    /// through the lower bounds) skips the rotation and the division: the identity's
+    /// quaternion product and a division by 1 give the same point (a zero's sign aside).
+    #[inline]
     pub fn to_local(&self, p: Vec3) -> DVec3 {
-        self.rotation.inverse() * (p.as_dvec3() - self.translation) / self.scale
+        let d = p.as_dvec3() - self.translation;
+        if self.scale == 1.0 && self.rotation == DQuat::IDENTITY {
+            return d;
+        }
+        self.rotation.inverse() * d / self.scale
     }
 
     /// Inner point to world space: `t + s · R(q)`, in f64.
@@ -181,10 +190,18 @@ impl<F: Field> Field for Transformed<F> {
         if lb.is_nan() { f32::NEG_INFINITY } else { lb }
     }
 
-    /// `s ·` the inner field clamped to `cap / s` at the local point.
+    /// `s ·` the inner field clamped to `cap / s` at the local point. The inner field's own
+    /// clamped value, without its lower-bound test first: [`crate::value_clamped`] of this
+    /// field has just made the same test (`s ·` the inner bound against `cap`), and without
+    /// it the inner field's clamped value is the same.
     fn value_clamped(&self, p: Vec3, cap: f32) -> f32 {
         let local_cap = (cap as f64 / self.scale) as f32;
-        let v = crate::value_clamped(&self.inner, self.to_local(p).as_vec3(), local_cap);
+        let q = self.to_local(p).as_vec3();
+        let v = if q.is_finite() {
+            self.inner.value_clamped(q, local_cap)
+        } else {
+            f32::NAN
+        };
         ((self.scale * v as f64) as f32).clamp(-cap, cap)
     }
 

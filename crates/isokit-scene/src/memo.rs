@@ -129,12 +129,17 @@ impl Table {
     #[inline]
     fn node(&self, p: Vec3) -> Option<(usize, usize)> {
         let u = (p - self.lattice.origin) * self.inv_spacing;
-        let r = u.round();
-        if !u.is_finite() || (u - r).abs().max_element() > TOLERANCE || r.min_element() < 0.0 {
+        // Below −1/2 (or NaN) no node is near; above, `u + 1/2` truncated is the nearest
+        // node (a conversion, where `round` is a call), and ties lie beyond the tolerance.
+        if !u.cmpge(Vec3::splat(-0.5)).all() {
+            return None;
+        }
+        let n = (u + 0.5).as_uvec3();
+        if (u - n.as_vec3()).abs().max_element() > TOLERANCE {
             return None;
         }
         let [nx, ny, nz] = self.lattice.dims;
-        let (i, j, k) = (r.x as usize, r.y as usize, r.z as usize);
+        let (i, j, k) = (n.x as usize, n.y as usize, n.z as usize);
         if i >= nx || j >= ny || k >= nz {
             return None;
         }

@@ -446,8 +446,16 @@ pub(crate) struct Clamped<'a> {
 }
 
 impl Field for Clamped<'_> {
+    /// The root's own clamped evaluation, without the root's lower-bound test first
+    /// ([`isokit_field::value_clamped`]): the sampler evaluates points near the surface,
+    /// where that test never prunes and costs a walk of the whole tree, while the
+    /// operands still test their own bounds. Both give `cap` where the bound is above it
+    /// (the clamped value is then `cap`), so the samples are the same.
     fn value(&self, p: Vec3) -> f32 {
-        self.scene.value_clamped(p, self.cap)
+        if !p.is_finite() {
+            return f32::NAN;
+        }
+        self.scene.field().value_clamped(p, self.cap)
     }
     fn bounds(&self) -> Aabb {
         self.scene.bounds()
