@@ -15,11 +15,18 @@
 //! it is evaluated with, before and after the edit, it is clamped to that cap both times and
 //! the node computes the same value bit for bit, so a brick farther than that cap (plus the
 //! box's slack) from every changed box samples the same values as before: it keeps its
-//! earlier decision and samples.
+//! earlier decision and samples. Within that reach of a box, the changed subtrees
+//! themselves (kept with the sampling) decide: a brick keeps its samples where, over the
+//! whole brick, the subtree's value before and after the edit lies beyond the cap on the
+//! same side (its value at the brick's centre less its slope bound times the brick's
+//! reach), both clamped to the same `±cap` (an operand added or removed only above: an
+//! absent operand acts as one far outside). A sphere's radius edited beside a mesh then
+//! samples again the shell where the sphere's surface moved, not its whole box.
 
 use crate::sample::Clamped;
 use crate::{NodeHash, Plan, SampleOptions, SampleStats, Scene, SceneError};
 use isokit_field::{Aabb, BrickGrid, DistanceBox, Field, Job, Reuse};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A sampling kept for the next one ([`Scene::sample_again`]).
@@ -30,6 +37,7 @@ pub struct Sampled {
     /// What it cost.
     pub stats: SampleStats,
     hashes: Vec<NodeHash>,
+    subtrees: Subtrees,
     plan: Plan,
     opts: SampleOptions,
     lipschitz: f32,
@@ -50,6 +58,26 @@ fn children(list: &[NodeHash], i: usize) -> Vec<usize> {
     out
 }
 
+/// Each node's compiled field, as [`Scene`] keeps them (in the order of its hashes).
+#[derive(Clone, Default)]
+struct Subtrees(Vec<Option<Arc<dyn Field>>>);
+
+impl std::fmt::Debug for Subtrees {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Subtrees({} nodes)", self.0.len())
+    }
+}
+
+/// A subtree that differs between two versions of a scene: its index in the old version's
+/// pre-order list and in the new one's (`None`: added or removed), and how much more than
+/// the root's cap it is evaluated with.
+#[derive(Clone, Copy, Debug)]
+struct Pair {
+    old: Option<usize>,
+    new: Option<usize>,
+    growth: f32,
+}
+
 /// A region an edit may have changed: a distance box, and how much more than the root's
 /// cap the changed subtree is evaluated with (the blends above it raise the cap).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,33 +93,40 @@ pub struct Changed {
 /// unions, intersections, differences and blends whose own parameters are unchanged; `None`
 /// when a changed subtree has no distance box (anything may have changed).
 pub fn changed_boxes(old: &[NodeHash], new: &[NodeHash]) -> Option<Vec<Changed>> {
-    let mut out = Vec::new();
+    boxes_of(old, new, &changed_pairs(old, new)?)
+}
+
+/// The subtrees that differ (see [`changed_boxes`]); `None` when either list is empty.
+fn changed_pairs(old: &[NodeHash], new: &[NodeHash]) -> Option<Vec<Pair>> {
     if old.is_empty() || new.is_empty() {
         return None;
     }
-    diff(old, 0, new, 0, 0.0, &mut out)?;
+    let mut out = Vec::new();
+    diff(old, 0, new, 0, 0.0, &mut out);
     Some(out)
 }
 
-fn diff(
-    old: &[NodeHash],
-    i: usize,
-    new: &[NodeHash],
-    j: usize,
-    growth: f32,
-    out: &mut Vec<Changed>,
-) -> Option<()> {
+/// The distance boxes of the two sides of every pair; `None` when one has none.
+fn boxes_of(old: &[NodeHash], new: &[NodeHash], pairs: &[Pair]) -> Option<Vec<Changed>> {
+    let mut out = Vec::new();
+    for p in pairs {
+        for (list, i) in [(old, p.old), (new, p.new)] {
+            if let Some(i) = i {
+                out.push(Changed {
+                    dbox: list[i].distance_box?,
+                    growth: p.growth,
+                });
+            }
+        }
+    }
+    Some(out)
+}
+
+fn diff(old: &[NodeHash], i: usize, new: &[NodeHash], j: usize, growth: f32, out: &mut Vec<Pair>) {
     let (a, b) = (&old[i], &new[j]);
     if a.hash == b.hash && a.node == b.node {
-        return Some(());
+        return;
     }
-    let whole = |h: &NodeHash, out: &mut Vec<Changed>| {
-        out.push(Changed {
-            dbox: h.distance_box?,
-            growth,
-        });
-        Some(())
-    };
     match (a.pass, b.pass) {
         // The same operation with the same parameters. A blend's growth depends on its
         // number of operands (its reach is one per fold), so an operand added or removed
@@ -111,24 +146,40 @@ fn diff(
             let (ca, cb) = (children(old, i), children(new, j));
             for k in 0..ca.len().max(cb.len()) {
                 match (ca.get(k), cb.get(k)) {
-                    (Some(&x), Some(&y)) => diff(old, x, new, y, g, out)?,
-                    (Some(&x), None) => out.push(Changed {
-                        dbox: old[x].distance_box?,
+                    (Some(&x), Some(&y)) => diff(old, x, new, y, g, out),
+                    (x, y) => out.push(Pair {
+                        old: x.copied(),
+                        new: y.copied(),
                         growth: g,
                     }),
-                    (None, Some(&y)) => out.push(Changed {
-                        dbox: new[y].distance_box?,
-                        growth: g,
-                    }),
-                    (None, None) => {}
                 }
             }
-            Some(())
         }
-        _ => {
-            whole(a, out)?;
-            whole(b, out)
-        }
+        _ => out.push(Pair {
+            old: Some(i),
+            new: Some(j),
+            growth,
+        }),
+    }
+}
+
+/// Which side of `±limit` subtree `f` lies on over the ball of radius `reach` around `p`
+/// (`1` above, `−1` below, `0` either or not known), from its value there and its slope
+/// bound.
+fn side(f: &dyn Field, p: glam::Vec3, reach: f32, limit: f32) -> i8 {
+    let l = f.lipschitz();
+    if !(l.is_finite() && l >= 0.0) {
+        return 0;
+    }
+    let spread = l * reach;
+    // Exact below the cap; at or beyond it, the value lies at least that far.
+    let v = isokit_field::value_clamped(f, p, limit + spread * 1.001 + f32::EPSILON * limit);
+    if v - spread > limit {
+        1
+    } else if v + spread < -limit {
+        -1
+    } else {
+        0
     }
 }
 
@@ -175,7 +226,10 @@ impl Scene {
                 && fits(p.plan, fresh)
         });
         let plan = usable.map_or(fresh, |p| p.plan);
-        let changed = usable.and_then(|p| changed_boxes(&p.hashes, self.hashes()));
+        let pairs = usable.and_then(|p| changed_pairs(&p.hashes, self.hashes()));
+        let changed = usable
+            .zip(pairs.as_ref())
+            .and_then(|(p, pairs)| boxes_of(&p.hashes, self.hashes(), pairs));
         let reach = 0.5 * ((plan.brick + 2 * opts.apron) as f32) * plan.spacing * 3f32.sqrt();
         // Just above what the sampler's brick test needs (see `BrickGrid::sample_field`).
         let cap = (plan.band + self.lipschitz() * reach) * 1.001 + plan.spacing;
@@ -190,14 +244,37 @@ impl Scene {
             plan.dims,
             usable.is_some(),
         );
-        // A brick is untouched when every changed subtree's value there lies above the cap
-        // it is evaluated with (so it is clamped to that cap before and after the edit).
+        // A brick is untouched when every changed subtree's value there lies beyond the cap
+        // it is evaluated with (so it is clamped to that cap before and after the edit):
+        // first by the subtrees' distance boxes, then by the subtrees themselves.
+        let limit = |growth: f32| (cap + growth) * 1.001 + plan.spacing;
+        // The field of node `i` of a version (`None`: no such operand; `Some(None)`: not
+        // known, which counts as changed).
+        let subtree = |list: &'_ [Option<Arc<dyn Field>>], i: Option<usize>| {
+            i.map(|i| list.get(i).and_then(|f| f.clone()))
+        };
+        let before: &[Option<Arc<dyn Field>>] = usable.map_or(&[], |p| &p.subtrees.0);
+        let unchanged_by = |b: &Aabb, pair: &Pair| -> bool {
+            let (p, reach) = (b.center(), 0.5 * (b.max - b.min).length());
+            let at = |f: Option<Option<Arc<dyn Field>>>| {
+                f.map(|f| f.map_or(0, |f| side(&*f, p, reach, limit(pair.growth))))
+            };
+            let a = at(subtree(before, pair.old));
+            let n = at(subtree(self.subtree_fields(), pair.new));
+            match (a, n) {
+                (Some(a), Some(n)) => a != 0 && a == n,
+                // An absent operand acts as one far outside.
+                (Some(s), None) | (None, Some(s)) => s == 1,
+                (None, None) => true,
+            }
+        };
         let test = |b: Aabb| {
             changed.as_ref().is_none_or(|list| {
-                list.iter().any(|c| {
-                    box_gap(&b, &c.dbox.aabb) - c.dbox.slack
-                        <= (cap + c.growth) * 1.001 + plan.spacing
-                })
+                list.iter()
+                    .any(|c| box_gap(&b, &c.dbox.aabb) - c.dbox.slack <= limit(c.growth))
+                    && !pairs
+                        .as_ref()
+                        .is_some_and(|pairs| pairs.iter().all(|pair| unchanged_by(&b, pair)))
             })
         };
         let reuse = match (usable, &changed) {
@@ -258,6 +335,7 @@ impl Scene {
             grid,
             stats,
             hashes: self.hashes().to_vec(),
+            subtrees: Subtrees(self.subtree_fields().to_vec()),
             plan,
             opts: *opts,
             lipschitz: self.lipschitz(),

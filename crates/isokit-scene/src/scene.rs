@@ -150,7 +150,7 @@ pub(crate) struct PrismMesh {
 pub struct Scene {
     file: SceneFile,
     name: String,
-    root: Box<dyn Field>,
+    root: Arc<dyn Field>,
     sources: Vec<SourceInfo>,
     pub(crate) prism_meshes: Vec<PrismMesh>,
     /// Memoized sources, and the cache's tables they use ([`crate::memo`]).
@@ -159,6 +159,9 @@ pub struct Scene {
     lipschitz: f32,
     dependencies: Vec<PathBuf>,
     hashes: Vec<NodeHash>,
+    /// Each node's compiled field, in the order of `hashes` (the sampling after an edit
+    /// evaluates the subtrees that changed).
+    subtrees: Vec<Option<Arc<dyn Field>>>,
     colors: Vec<ColorEntry>,
     parts: Vec<ColoredPart>,
 }
@@ -266,6 +269,7 @@ impl Scene {
             prism_meshes: Vec::new(),
             memos: Vec::new(),
             hashes: Vec::new(),
+            subtrees: Vec::new(),
             frame: Frame::WORLD,
             warped: None,
             colors: Vec::new(),
@@ -284,6 +288,7 @@ impl Scene {
                 .retain(&used);
         }
         let (sources, prism_meshes, hashes) = (b.sources, b.prism_meshes, b.hashes);
+        let subtrees = b.subtrees;
         let memos = b.memos;
         let colors = b.colors;
         let parts = colors
@@ -314,6 +319,7 @@ impl Scene {
             lipschitz,
             dependencies,
             hashes,
+            subtrees,
             colors,
             parts,
         })
@@ -398,6 +404,11 @@ impl Scene {
     /// whose nodes at the same path have the same hash compute the same field there.
     pub fn hashes(&self) -> &[NodeHash] {
         &self.hashes
+    }
+
+    /// Each node's compiled field, in the order of [`Scene::hashes`].
+    pub(crate) fn subtree_fields(&self) -> &[Option<Arc<dyn Field>>] {
+        &self.subtrees
     }
 
     /// The root's content hash.
@@ -534,7 +545,7 @@ pub(crate) enum Dim {
 
 /// A compiled node: its field, content hash and dimension.
 pub(crate) struct Compiled {
-    pub(crate) field: Box<dyn Field>,
+    pub(crate) field: Arc<dyn Field>,
     pub(crate) hash: u64,
     pub(crate) dim: Dim,
 }
@@ -543,7 +554,7 @@ impl Compiled {
     /// A solid's compiled node.
     pub(crate) fn solid(field: Box<dyn Field>, hash: u64) -> Self {
         Self {
-            field,
+            field: Arc::from(field),
             hash,
             dim: Dim::Three,
         }
@@ -572,6 +583,7 @@ pub(crate) struct Builder<'a> {
     prism_meshes: Vec<PrismMesh>,
     memos: Vec<crate::memo::MemoUse>,
     hashes: Vec<NodeHash>,
+    subtrees: Vec<Option<Arc<dyn Field>>>,
     frame: Frame,
     /// The first node above that is not a similarity (a deformation, a repetition, an
     /// affine map): prism bands need the mesh's frame to be one.
@@ -706,6 +718,7 @@ impl Builder<'_> {
             distance_box: None,
             pass: None,
         });
+        self.subtrees.push(None);
         // A coloured node: reserve its entry so that the entries stay in pre-order too.
         let entry = color.map(|c| {
             let parent = self.color_stack.last().copied();
@@ -737,9 +750,7 @@ impl Builder<'_> {
             Ok(mut c) => {
                 if let (Some(i), Some(rgb)) = (entry, color) {
                     // The coloured subtree is shared by the tree and the colour lookup.
-                    let shared: Arc<dyn Field> = Arc::from(c.field);
-                    self.colors[i].field = shared.clone();
-                    c.field = Box::new(shared);
+                    self.colors[i].field = c.field.clone();
                     c.hash = hash_of(|h| {
                         "color".hash(h);
                         f32_bits(h, &rgb);
@@ -751,6 +762,7 @@ impl Builder<'_> {
                 h.bounds = c.field.bounds();
                 h.distance_box = c.field.distance_box();
                 h.pass = self.pass.take();
+                self.subtrees[slot] = Some(c.field.clone());
                 Ok(c)
             }
             Err(e) => Err(e),
@@ -833,7 +845,7 @@ impl Builder<'_> {
                 });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
-                    field: Box::new(UnionN::new(fields).map_err(csg)?),
+                    field: Arc::new(UnionN::new(fields).map_err(csg)?),
                     hash,
                     dim,
                 }
@@ -849,7 +861,7 @@ impl Builder<'_> {
                 });
                 let fields = kids.into_iter().map(|k| k.field).collect();
                 Compiled {
-                    field: Box::new(IntersectionN::new(fields).map_err(csg)?),
+                    field: Arc::new(IntersectionN::new(fields).map_err(csg)?),
                     hash,
                     dim,
                 }
@@ -863,10 +875,10 @@ impl Builder<'_> {
                     own: hash_of(|h| "difference".hash(h)),
                     far_when_absent: true,
                 });
-                let mut fields: Vec<Box<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
+                let mut fields: Vec<Arc<dyn Field>> = kids.into_iter().map(|k| k.field).collect();
                 let base = fields.remove(0);
                 Compiled {
-                    field: Box::new(DifferenceN::new(base, fields)),
+                    field: Arc::new(DifferenceN::new(base, fields)),
                     hash,
                     dim,
                 }
@@ -876,7 +888,7 @@ impl Builder<'_> {
                 Compiled {
                     hash: combine("complement", &[], std::slice::from_ref(&c)),
                     dim: c.dim,
-                    field: Box::new(Complement::new(c.field)),
+                    field: Arc::new(Complement::new(c.field)),
                 }
             }
             Node::SmoothUnion(s) => self.smooth(s, &path, SmoothKind::Union)?,
@@ -904,7 +916,7 @@ impl Builder<'_> {
                 let field = LinearMorph::new(a.field, b.field, t)
                     .map_err(|e| self.err(&path, e.to_string()))?;
                 Compiled {
-                    field: Box::new(field),
+                    field: Arc::new(field),
                     hash,
                     dim,
                 }
@@ -959,7 +971,7 @@ impl Builder<'_> {
             }),
         });
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -984,7 +996,7 @@ impl Builder<'_> {
         });
         let field = Offset::new(c.field, by).map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim: c.dim,
         })
@@ -1011,7 +1023,7 @@ impl Builder<'_> {
         });
         let field = Shell::new(c.field, thickness).map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim: c.dim,
         })
@@ -1125,7 +1137,11 @@ impl Builder<'_> {
                     .map_err(|e| self.err(path, e.to_string()))?,
             )
         };
-        Ok(Compiled { field, hash, dim })
+        Ok(Compiled {
+            field: Arc::from(field),
+            hash,
+            dim,
+        })
     }
 
     fn mesh(&mut self, m: &MeshNode, path: String) -> Result<Compiled, SceneError> {

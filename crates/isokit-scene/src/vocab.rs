@@ -18,6 +18,7 @@ use isokit_levelset::deform::{Bend, Elongate, Taper, Twist};
 use isokit_levelset::profile::{Extrude, Revolve};
 use isokit_levelset::repeat::{CircularArray, Repeat};
 use std::hash::Hash;
+use std::sync::Arc;
 
 fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
@@ -38,7 +39,7 @@ impl Builder<'_> {
             });
             let field = self.counted(path.to_owned(), node.kind(), None, prof);
             return Ok(Some(Compiled {
-                field,
+                field: Arc::from(field),
                 hash,
                 dim: Dim::Two,
             }));
@@ -200,7 +201,7 @@ impl Builder<'_> {
         let field =
             Affine::mirror(c.field, normal, n.offset).map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -261,7 +262,7 @@ impl Builder<'_> {
         let dim = c.dim;
         let field = Affine::new(c.field, m, t).map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -292,7 +293,7 @@ impl Builder<'_> {
         let field = Repeat::infinite(c.field, Vec3::from(n.period))
             .map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -317,7 +318,7 @@ impl Builder<'_> {
         let field = Repeat::array(c.field, n.count, Vec3::from(n.spacing))
             .map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -350,7 +351,7 @@ impl Builder<'_> {
         let field = CircularArray::new(c.field, n.count, axis)
             .map_err(|e| self.err(path, e.to_string()))?;
         Ok(Compiled {
-            field: Box::new(field),
+            field: Arc::new(field),
             hash,
             dim,
         })
@@ -413,7 +414,11 @@ impl Builder<'_> {
         let field: Box<dyn Field> = Box::new(
             Elongate::new(c.field, Vec3::from(by)).map_err(|e| self.err(path, e.to_string()))?,
         );
-        Ok(Compiled { field, hash, dim })
+        Ok(Compiled {
+            field: Arc::from(field),
+            hash,
+            dim,
+        })
     }
 }
 

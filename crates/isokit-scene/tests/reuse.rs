@@ -28,8 +28,13 @@ fn part(r: f32, dx: f32, extra: &str) -> String {
 /// Samples `before`, then `after` reusing it, and checks the result against a fresh
 /// sampling of `after`; returns (bricks reused, evaluated fraction with reuse, fresh).
 fn edit(before: &str, after: &str) -> (usize, f64, f64) {
+    edit_at(before, after, 96)
+}
+
+/// [`edit`] on a lattice of `resolution` samples along its longest side.
+fn edit_at(before: &str, after: &str, resolution: usize) -> (usize, f64, f64) {
     let opts = SampleOptions {
-        resolution: 96,
+        resolution,
         ..Default::default()
     };
     let job = Job::default();
@@ -263,4 +268,44 @@ fn a_subtrahend_edit_matches_a_fresh_sampling() {
         )
     };
     assert!(edit(&bore(0.3), &bore(0.45)).0 > 0);
+}
+
+#[test]
+fn bricks_in_a_changed_subtrees_box_but_far_from_its_surface_are_reused() {
+    // A thin spherical shell around the whole lattice, whose box holds every brick, edited
+    // beside a box at the centre: the box's band lies inside the shell's box but far from
+    // its surface, where the shell's value, before and after, lies above the cap.
+    let s = |r: f32| {
+        format!(
+            r#"{{"union": [{{"shell": {{"thickness": 0.05, "of": {{"sphere": {{"radius": {r}}}}}}}}},
+                {{"box": {{"half": [0.4, 0.4, 0.4]}}}}]}}"#
+        )
+    };
+    let (reused, _, _) = edit(&s(2.4), &s(2.45));
+    // Every brick of the box's own band (the shell's box, which the distance boxes alone
+    // go by, holds them all).
+    let opts = SampleOptions {
+        resolution: 96,
+        ..Default::default()
+    };
+    let alone = scene(r#"{"box": {"half": [0.4, 0.4, 0.4]}}"#)
+        .sample_kept(&opts, &Job::default())
+        .unwrap()
+        .stats
+        .bricks_kept;
+    assert!(
+        reused >= alone,
+        "{reused} reused, the box alone has {alone}"
+    );
+    // The surface swept from outside a brick to inside it: those bricks change sides and
+    // are evaluated again (the band equal to a fresh sampling, checked by `edit`; a fine
+    // lattice, so that bricks lie beyond the cap on both sides of the sweep).
+    let ball = |r: f32| {
+        format!(
+            r#"{{"union": [{{"sphere": {{"radius": {r}, "center": [-1.0, 0, 0]}}}},
+                {{"box": {{"half": [0.3, 0.3, 0.3], "center": [1.6, 0, 0]}}}}]}}"#
+        )
+    };
+    assert!(edit_at(&ball(0.2), &ball(1.4), 256).0 > 0);
+    assert!(edit_at(&ball(1.4), &ball(0.2), 256).0 > 0);
 }
