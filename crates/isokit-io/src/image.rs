@@ -115,8 +115,58 @@ pub fn read_png_bytes(bytes: &[u8], name: &str) -> Result<(u32, u32, Vec<u8>), I
 }
 
 /// Encodes a linear value in `[0, 1]` as an 8-bit sRGB value (values outside are clamped,
-/// NaN becomes 0).
+/// NaN becomes 0): the sRGB curve (IEC 61966-2-1) rounded to the nearest code.
+///
+/// The curve is monotone, so the code of `v` is the number of codes' thresholds at or below
+/// it (the smallest linear value each code starts at, found once from the curve itself).
+/// A table over the float's top bits holds the code at the start of each run of 2¹⁶ floats
+/// and the one threshold inside it: a lookup and a comparison instead of a power per
+/// channel, and the same code bit for bit.
 pub fn linear_to_srgb8(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let run = srgb8_runs()[(v.to_bits() >> RUN_BITS) as usize];
+    match run.next {
+        Some(t) => run.code + u8::from(v >= t),
+        // Two thresholds or more in the run (none with 2¹⁶ floats; kept for safety).
+        None => srgb8_thresholds().partition_point(|&t| t <= v) as u8,
+    }
+}
+
+/// Floats per run of the table of [`linear_to_srgb8`]: `2^RUN_BITS`.
+const RUN_BITS: u32 = 16;
+
+/// A run of [`linear_to_srgb8`]'s table: the code of its first float and the threshold of
+/// the next code (`+∞` past the last code) where the run holds at most one threshold,
+/// `None` where it holds more.
+#[derive(Clone, Copy)]
+struct Run {
+    code: u8,
+    next: Option<f32>,
+}
+
+fn srgb8_runs() -> &'static [Run] {
+    static RUNS: std::sync::OnceLock<Vec<Run>> = std::sync::OnceLock::new();
+    RUNS.get_or_init(|| {
+        let t = srgb8_thresholds();
+        let one = 1f32.to_bits();
+        (0..=one >> RUN_BITS)
+            .map(|r| {
+                let first = f32::from_bits(r << RUN_BITS);
+                let last = f32::from_bits((((r + 1) << RUN_BITS) - 1).min(one));
+                let code = t.partition_point(|&x| x <= first);
+                let next = t.get(code).copied().unwrap_or(f32::INFINITY);
+                let single = t.get(code + 1).is_none_or(|&after| after > last);
+                Run {
+                    code: code as u8,
+                    next: single.then_some(next),
+                }
+            })
+            .collect()
+    })
+}
+
+/// [`linear_to_srgb8`] by the curve's formula.
+pub fn linear_to_srgb8_formula(v: f32) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let s = if v <= 0.003_130_8 {
         12.92 * v
@@ -124,6 +174,29 @@ pub fn linear_to_srgb8(v: f32) -> u8 {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+/// For each code `k` in 1..=255, the smallest `v` in `[0, 1]` that
+/// [`linear_to_srgb8_formula`] encodes as `k` or more (bisection over the bit patterns of
+/// non-negative floats, which order as the values do).
+fn srgb8_thresholds() -> &'static [f32; 255] {
+    static THRESHOLDS: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    THRESHOLDS.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let code = (i + 1) as u8;
+            // The formula gives 0 at 0 and 255 at 1.
+            let (mut lo, mut hi) = (0u32, 1f32.to_bits());
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if linear_to_srgb8_formula(f32::from_bits(mid)) >= code {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            f32::from_bits(hi)
+        })
+    })
 }
 
 /// Decodes an 8-bit sRGB value to linear in `[0, 1]`.

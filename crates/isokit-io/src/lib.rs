@@ -83,9 +83,9 @@ pub use atomic::{atomic_write, temporary_name};
 pub use error::IoError;
 pub use gltf_write::vertex_normals;
 pub use image::{
-    ExrCamera, ExrImage, ExrInfo, MAX_EXR_SAMPLES, encode_png, linear_to_srgb8, read_exr,
-    read_exr_bytes, read_exr_info, read_exr_info_bytes, read_png, read_png_bytes, srgb8_to_linear,
-    write_exr, write_exr_with_camera, write_png,
+    ExrCamera, ExrImage, ExrInfo, MAX_EXR_SAMPLES, encode_png, linear_to_srgb8,
+    linear_to_srgb8_formula, read_exr, read_exr_bytes, read_exr_info, read_exr_info_bytes,
+    read_png, read_png_bytes, srgb8_to_linear, write_exr, write_exr_with_camera, write_png,
 };
 pub use isokit_field::{DEGENERATE_REL_TOL, MeshReport, PointCloud, TriMesh, generate};
 pub use kind::{FileKind, detect_kind};

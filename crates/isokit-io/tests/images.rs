@@ -110,6 +110,48 @@ fn srgb_conversions() {
     }
 }
 
+/// The table-driven encoding is the formula's bit for bit: every float within 2¹³ ulps of
+/// each code's start (where a non-monotone formula or a wrong threshold would show), and a
+/// stride through all of `[0, 1]`.
+#[test]
+fn srgb_encoding_matches_the_formula() {
+    let check = |bits: u32| {
+        let v = f32::from_bits(bits);
+        assert_eq!(
+            linear_to_srgb8(v),
+            linear_to_srgb8_formula(v),
+            "v = {v:e} ({bits:#x})"
+        );
+    };
+    // Where the code changes along a coarse walk (a search of the test's own), then every
+    // float around there.
+    let mut last = 0;
+    for b in (0..=1f32.to_bits()).step_by(1 << 12) {
+        let code = linear_to_srgb8_formula(f32::from_bits(b));
+        if code != last {
+            for b in b.saturating_sub(1 << 13)..=(b + (1 << 12)).min(1f32.to_bits()) {
+                check(b);
+            }
+            last = code;
+        }
+    }
+    for b in (0..=1f32.to_bits()).step_by(997) {
+        check(b);
+    }
+    for v in [
+        f32::MIN_POSITIVE,
+        1e-30,
+        0.003_130_8,
+        0.04,
+        0.5,
+        0.999_999,
+        1.0,
+        f32::INFINITY,
+    ] {
+        check(v.to_bits());
+    }
+}
+
 #[test]
 fn exr_channels_read_back() {
     use exr::prelude::*;

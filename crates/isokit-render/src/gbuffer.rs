@@ -16,7 +16,7 @@ pub const GBUFFER_CHANNELS: [&str; 10] = [
 ///
 /// GPU layout (for the twin): the same data as four `rgba32float` textures,
 /// `(P.xyz, Z)`, `(N.xyz, A)`, `(K1, K2, id, samples)`, `(dir1.xyz, 0)`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct GBuffer {
     width: u32,
     height: u32,
@@ -25,6 +25,28 @@ pub struct GBuffer {
     /// Per pixel the fraction of its rays that hit ([`crate::supersample`]); `None`: one
     /// ray per pixel, 1 on hits and 0 on misses.
     coverage: Option<Vec<f32>>,
+}
+
+impl Clone for GBuffer {
+    fn clone(&self) -> Self {
+        Self {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.clone(),
+            samples: self.samples.clone(),
+            coverage: self.coverage.clone(),
+        }
+    }
+
+    /// Copies into the buffers `self` already has (a live viewer keeps a frame per edit:
+    /// no fresh pages to fault in where the sizes match).
+    fn clone_from(&mut self, source: &Self) {
+        self.width = source.width;
+        self.height = source.height;
+        self.pixels.clone_from(&source.pixels);
+        self.samples.clone_from(&source.samples);
+        self.coverage.clone_from(&source.coverage);
+    }
 }
 
 impl GBuffer {

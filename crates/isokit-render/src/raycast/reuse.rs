@@ -30,6 +30,8 @@ pub struct KeptFrame {
     gbuffer: GBuffer,
     /// The shaded image and the shading it was made with, once kept.
     image: Option<(Image, Shading)>,
+    /// The image buffer of the frame kept before, for [`KeptFrame::keep_image`] to copy into.
+    spare: Option<Image>,
     /// The frame was traced from a downsampled assignment of the cache (bricks at half
     /// resolution, their neighbours' hanging samples matched): other samples than the
     /// volume's, so none of its pixels is taken.
@@ -39,24 +41,44 @@ pub struct KeptFrame {
 impl KeptFrame {
     /// Keeps `frame`, traced from `volume`. The volume is kept (its samples are compared
     /// with the next frame's): a band's samples are shared with it, a dense grid's copied,
-    /// unless `earlier` already holds the same volume.
+    /// unless `earlier` already holds the same volume. The copies of the G-buffer (and of
+    /// the image, [`KeptFrame::keep_image`]) go into `earlier`'s buffers.
     pub fn new(volume: &Volume, frame: &Frame, earlier: Option<KeptFrame>) -> Self {
-        let volume = match earlier {
-            Some(k) if k.volume.id() == volume.id() => k.volume,
-            _ => volume.clone(),
-        };
-        Self {
-            volume,
-            uniforms: frame.uniforms,
-            gbuffer: frame.gbuffer.clone(),
-            image: None,
-            downsampled: frame.stats.bricks_downsampled > 0,
+        let downsampled = frame.stats.bricks_downsampled > 0;
+        match earlier {
+            Some(mut k) => {
+                if k.volume.id() != volume.id() {
+                    k.volume = volume.clone();
+                }
+                k.uniforms = frame.uniforms;
+                k.gbuffer.clone_from(&frame.gbuffer);
+                k.spare = k.image.take().map(|(i, _)| i).or(k.spare);
+                k.downsampled = downsampled;
+                k
+            }
+            None => Self {
+                volume: volume.clone(),
+                uniforms: frame.uniforms,
+                gbuffer: frame.gbuffer.clone(),
+                image: None,
+                spare: None,
+                downsampled,
+            },
         }
     }
 
     /// Keeps the frame's shaded image too, made with `shading` ([`crate::shade_reusing`]).
     pub fn keep_image(&mut self, image: &Image, shading: &Shading) {
-        self.image = Some((image.clone(), shading.clone()));
+        let kept = match self.spare.take() {
+            Some(mut i) => {
+                i.width = image.width;
+                i.height = image.height;
+                i.pixels.clone_from(&image.pixels);
+                i
+            }
+            None => image.clone(),
+        };
+        self.image = Some((kept, shading.clone()));
     }
 
     /// The kept G-buffer's pixels and image, where they were traced with uniforms `u` and

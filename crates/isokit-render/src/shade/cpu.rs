@@ -263,18 +263,21 @@ pub struct Image {
 impl Image {
     /// 8-bit sRGB RGBA bytes (alpha linear).
     pub fn to_rgba8(&self) -> Vec<u8> {
-        self.pixels
-            .par_iter()
-            .with_min_len(4096)
-            .flat_map_iter(|p| {
-                [
-                    isokit_io::linear_to_srgb8(p[0]),
-                    isokit_io::linear_to_srgb8(p[1]),
-                    isokit_io::linear_to_srgb8(p[2]),
-                    (p[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
-                ]
-            })
-            .collect()
+        const ROWS: usize = 4096;
+        let mut out = vec![0u8; 4 * self.pixels.len()];
+        out.par_chunks_mut(4 * ROWS)
+            .zip(self.pixels.par_chunks(ROWS))
+            .for_each(|(out, pixels)| {
+                for (o, p) in out.chunks_exact_mut(4).zip(pixels) {
+                    o.copy_from_slice(&[
+                        isokit_io::linear_to_srgb8(p[0]),
+                        isokit_io::linear_to_srgb8(p[1]),
+                        isokit_io::linear_to_srgb8(p[2]),
+                        (p[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+                    ]);
+                }
+            });
+        out
     }
 
     /// Writes an sRGB PNG (atomically).
