@@ -614,8 +614,7 @@ impl BrickGrid {
 
     /// Min/max over the brick's cells, reading the virtual grid through `at`.
     fn info_from(&self, c: [u32; 3], at: impl Fn(i32, i32, i32) -> f32) -> BrickInfo {
-        let lo = c.map(|v| v as usize * self.brick);
-        let hi: [usize; 3] = std::array::from_fn(|a| (lo[a] + self.brick).min(self.dims[a] - 1));
+        let (lo, hi) = self.cell_samples(c);
         let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
         for k in lo[2]..=hi[2] {
             for j in lo[1]..=hi[1] {
@@ -631,6 +630,14 @@ impl BrickGrid {
             min: mn,
             max: mx,
         }
+    }
+
+    /// The first and last samples (inclusive, per axis) of the cells of brick `c`: its own
+    /// and the next layer, within the grid.
+    fn cell_samples(&self, c: [u32; 3]) -> ([usize; 3], [usize; 3]) {
+        let lo = c.map(|v| v as usize * self.brick);
+        let hi = std::array::from_fn(|a| (lo[a] + self.brick).min(self.dims[a] - 1));
+        (lo, hi)
     }
 
     /// Fills a brick's storage (apron included) from the virtual grid through `at`, which
@@ -699,22 +706,21 @@ impl BrickGrid {
     fn info_of_stored(&self, c: [u32; 3], data: &[f32]) -> BrickInfo {
         debug_assert!(self.apron >= 1);
         let (side, a) = (self.brick + 2 * self.apron, self.apron);
-        let lo = c.map(|v| v as usize * self.brick);
-        let hi: [usize; 3] = std::array::from_fn(|x| (lo[x] + self.brick).min(self.dims[x] - 1));
-        let (mut mn, mut mx) = (f32::INFINITY, f32::NEG_INFINITY);
+        let (lo, hi) = self.cell_samples(c);
+        // Row by row of x, as the storage lies.
+        let mut range = (f32::INFINITY, f32::NEG_INFINITY);
         for k in lo[2]..=hi[2] {
             for j in lo[1]..=hi[1] {
-                let row = side * (j - lo[1] + a + side * (k - lo[2] + a));
-                for &v in &data[row + a..=row + a + hi[0] - lo[0]] {
-                    mn = mn.min(v);
-                    mx = mx.max(v);
-                }
+                let row = side * (j - lo[1] + a + side * (k - lo[2] + a)) + a;
+                range = data[row..=row + hi[0] - lo[0]]
+                    .iter()
+                    .fold(range, |(mn, mx), &v| (mn.min(v), mx.max(v)));
             }
         }
         BrickInfo {
             coord: c,
-            min: mn,
-            max: mx,
+            min: range.0,
+            max: range.1,
         }
     }
 
