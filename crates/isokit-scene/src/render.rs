@@ -592,11 +592,15 @@ impl Renderer {
     /// the CPU twin, one ray per pixel, a single view, and the same uniforms (camera, image
     /// size, isovalue, knobs and lattice).
     pub fn can_reuse(&self, p: &Prepared<'_>, kept: &KeptFrame) -> bool {
-        self.gpu.is_none()
-            && p.multiview.is_none()
-            && p.grid == 1
+        self.keeps_frames(p)
             && isokit_render::uniforms(&p.volume, &p.camera, &p.options)
                 .is_ok_and(|u| u == *kept.uniforms())
+    }
+
+    /// Whether frames of `p` can be kept and taken from ([`KeptFrame`]): the CPU twin, a
+    /// single view, one ray per pixel.
+    fn keeps_frames(&self, p: &Prepared<'_>) -> bool {
+        self.gpu.is_none() && p.multiview.is_none() && p.grid == 1
     }
 
     /// One view `k` of a prepared multi-view target, rendered alone.
@@ -642,6 +646,8 @@ impl Renderer {
                 None => BrickCache::for_volume(&p.volume),
             }),
         };
+        // Whether this frame may take pixels from the kept one and be kept.
+        let keeps = self.keeps_frames(p);
         let (_, _, cache) = self.cpu_cache.insert((key.0, key.1, cache));
         if let (Some(g), Some(b)) = (self.gpu.as_mut(), p.cache_bytes) {
             g.set_cache_bytes(b);
@@ -665,10 +671,7 @@ impl Renderer {
             .map_err(|e| err(e.into()))?;
         let c = wide.as_ref().unwrap_or(&p.camera);
         // The frame before an edit, where this frame may take pixels from it (CPU twin).
-        let earlier = kept
-            .as_deref()
-            .and_then(Option::as_ref)
-            .filter(|_| self.gpu.is_none() && p.multiview.is_none() && k == 1);
+        let earlier = kept.as_deref().and_then(Option::as_ref).filter(|_| keeps);
         let frame = match (&p.multiview, view, self.gpu.as_mut()) {
             (Some(mv), Some(k), Some(g)) => g.render_view(v, c, o, mv, k),
             (Some(mv), Some(k), None) => isokit_render::render_view(v, cache, c, o, mv, k),
@@ -687,7 +690,7 @@ impl Renderer {
         }
         .map_err(err)?;
         if let Some(slot) = kept.as_mut() {
-            **slot = (self.gpu.is_none() && p.multiview.is_none() && k == 1).then(|| {
+            **slot = keeps.then(|| {
                 let mut f = KeptFrame::new(v, &frame, slot.take());
                 f.keep_image(&image, &p.shading);
                 f
