@@ -37,7 +37,8 @@ pub struct Args {
     /// Exit after this many seconds.
     #[arg(long, value_name = "S")]
     pub exit_after_seconds: Option<f64>,
-    /// Merge file events closer together than this (one save writes several times).
+    /// Merge file events closer together than this (one save writes several times); a
+    /// quarter of it after an event that completes a save (closed after writing, renamed).
     #[arg(long, default_value_t = 16, value_name = "MS")]
     pub quiet_ms: u64,
     /// Sample every edit in full instead of reusing the bricks it cannot have changed, and

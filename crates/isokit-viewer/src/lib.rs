@@ -56,7 +56,8 @@ pub struct ViewOptions {
     /// Exit after this many seconds.
     pub exit_after_seconds: Option<f64>,
     /// How long file events must be quiet before an edit is rendered (merges the several
-    /// writes of one save and saves in quick succession).
+    /// writes of one save and saves in quick succession); a quarter of it after an event
+    /// that completes a save (the file closed after writing, or renamed into place).
     pub quiet_ms: u64,
     /// Take the bricks an edit cannot have changed from the previous sampling (the default);
     /// `false` samples every edit in full and traces every ray of its frame (the baseline
