@@ -6,6 +6,7 @@ ISOKIT_REQUIRE_DISPLAY=1 (CI), where that fails."""
 import json
 import os
 import struct
+import sys
 import time
 import zlib
 
@@ -104,6 +105,8 @@ def test_calling_view_again_updates_the_open_window(display, tmp_path):
     to_old = np.abs(got - read_png(old)).mean()
     assert to_new <= 1.0, to_new
     assert to_old > 4 * to_new, (to_old, to_new)
+    # The child removed the scene's folder when its window closed.
+    assert not os.path.exists(os.path.dirname(v.path))
     v.close()
     assert not os.path.exists(v.path)
 
@@ -111,3 +114,12 @@ def test_calling_view_again_updates_the_open_window(display, tmp_path):
 def test_view_refuses_what_is_not_a_shape(tmp_path):
     with pytest.raises(TypeError, match="Shape"):
         isokit.Viewer("not a shape")
+
+
+def test_view_without_a_display_raises_at_once(monkeypatch):
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the display variables are Linux's")
+    for k in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(k, raising=False)
+    with pytest.raises(OSError, match="no display"):
+        isokit.Viewer(part(0.3))

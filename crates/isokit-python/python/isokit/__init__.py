@@ -478,7 +478,12 @@ class Viewer:
     The shape is written as a scene file (in-memory sources beside it) that the window, the
     same one as ``isokit view``, watches: :meth:`update` rewrites the file and the window
     renders only what changed. The window runs in a child process (it needs a main thread of
-    its own) and stays open when the script ends, until it is closed.
+    its own) and stays open when the script ends, until it is closed; the scene file's folder
+    is removed when the window closes.
+
+    Raises ``OSError`` at once where there is no display to open a window on (on Linux
+    neither ``DISPLAY`` nor a Wayland display set); other failures to open the window end the
+    child process with its message on stderr (:meth:`wait` returns its non-zero status).
 
     >>> v = isokit.view(isokit.sphere(0.5))            # doctest: +SKIP
     >>> v.update(isokit.sphere(0.6) - isokit.box())    # doctest: +SKIP
@@ -493,6 +498,10 @@ class Viewer:
 
         if not isinstance(shape, Shape):
             raise TypeError(f"view shows a Shape, not {type(shape).__name__}")
+        if sys.platform.startswith("linux") and not any(
+                _os.environ.get(k) for k in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET")):
+            raise OSError("isokit.view: no display to open a window on (neither DISPLAY nor "
+                          "WAYLAND_DISPLAY is set; under CI use xvfb-run)")
         self._dir = tempfile.mkdtemp(prefix="isokit-view-")
         #: The scene file the window watches.
         self.path = _os.path.join(self._dir, "scene.json")
@@ -503,18 +512,24 @@ class Viewer:
             "screenshot": None if screenshot is None else _os.fspath(screenshot),
             "exit_after_frames": exit_after_frames, "exit_after_seconds": exit_after_seconds,
         }
-        code = ("import json, sys\n"
+        # The child removes the scene's folder when its window closes (also after the script
+        # that opened it has ended).
+        code = ("import json, os, shutil, sys\n"
                 "from isokit import _isokit\n"
+                "args = json.loads(sys.argv[1])\n"
                 "try:\n"
-                "    _isokit._view_main(**json.loads(sys.argv[1]))\n"
+                "    _isokit._view_main(**args)\n"
                 "except ValueError as e:\n"
-                "    sys.exit(f'isokit.view: {e}')\n")
+                "    sys.exit(f'isokit.view: {e}')\n"
+                "finally:\n"
+                "    shutil.rmtree(os.path.dirname(args['path']), ignore_errors=True)\n")
         #: The child process that shows the window.
         self.process = subprocess.Popen([sys.executable, "-c", code, json.dumps(args)])
 
     def _write(self, shape):
         if not isinstance(shape, Shape):
             raise TypeError(f"view shows a Shape, not {type(shape).__name__}")
+        _os.makedirs(self._dir, exist_ok=True)
         text = shape.to_json(save_sources_to=self._dir, relative_to=self._dir)
         tmp = self.path + ".tmp"
         with open(tmp, "w") as f:
@@ -556,8 +571,10 @@ def view(shape, *, width=512, height=512, backend="auto", events=None, screensho
 
     ``backend`` is ``"auto"``, ``"cpu"`` or ``"gpu"``; ``events`` (a ``.jsonl`` file),
     ``screenshot`` (a ``.png`` written on exit), ``exit_after_frames`` and
-    ``exit_after_seconds`` are the flags of ``isokit view``, for scripts and tests. Needs a
-    display (on Linux an X server; under CI ``xvfb-run``).
+    ``exit_after_seconds`` are the flags of ``isokit view``, for scripts and tests
+    (``exit_after_frames`` counts finished frames: the coarse frame an edit may show first
+    does not count, so a script that shows one edit and exits passes 2). Needs a display (on
+    Linux an X server; under CI ``xvfb-run``): raises ``OSError`` without one.
 
     >>> v = isokit.view(isokit.sphere(0.5))   # doctest: +SKIP
     >>> isokit.view(isokit.sphere(0.6))       # doctest: +SKIP  (the same window)
