@@ -163,6 +163,12 @@ fn diff(old: &[NodeHash], i: usize, new: &[NodeHash], j: usize, growth: f32, out
     }
 }
 
+/// The field of node `i` of a version (`None`: no such operand; `Some(None)`: not known,
+/// which counts as changed).
+fn subtree(list: &[Option<Arc<dyn Field>>], i: Option<usize>) -> Option<Option<&dyn Field>> {
+    i.map(|i| list.get(i).and_then(|f| f.as_deref()))
+}
+
 /// Which side of `±limit` subtree `f` lies on over the ball of radius `reach` around `p`
 /// (`1` above, `−1` below, `0` either or not known), from its value there and its slope
 /// bound.
@@ -248,16 +254,11 @@ impl Scene {
         // it is evaluated with (so it is clamped to that cap before and after the edit):
         // first by the subtrees' distance boxes, then by the subtrees themselves.
         let limit = |growth: f32| (cap + growth) * 1.001 + plan.spacing;
-        // The field of node `i` of a version (`None`: no such operand; `Some(None)`: not
-        // known, which counts as changed).
-        let subtree = |list: &'_ [Option<Arc<dyn Field>>], i: Option<usize>| {
-            i.map(|i| list.get(i).and_then(|f| f.clone()))
-        };
         let before: &[Option<Arc<dyn Field>>] = usable.map_or(&[], |p| &p.subtrees.0);
         let unchanged_by = |b: &Aabb, pair: &Pair| -> bool {
             let (p, reach) = (b.center(), 0.5 * (b.max - b.min).length());
-            let at = |f: Option<Option<Arc<dyn Field>>>| {
-                f.map(|f| f.map_or(0, |f| side(&*f, p, reach, limit(pair.growth))))
+            let at = |f: Option<Option<&dyn Field>>| {
+                f.map(|f| f.map_or(0, |f| side(f, p, reach, limit(pair.growth))))
             };
             let a = at(subtree(before, pair.old));
             let n = at(subtree(self.subtree_fields(), pair.new));

@@ -119,20 +119,30 @@ impl FileWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::mpsc::channel;
+    use std::sync::mpsc::{Receiver, channel};
 
-    #[test]
-    fn a_burst_of_writes_is_one_edit_and_a_recreated_file_is_followed() {
-        let dir = std::env::temp_dir().join(format!("isokit-watch-{}", std::process::id()));
+    /// A folder of its own holding `a.json`, and a watch of that file with `quiet` that
+    /// sends each edit's first event time and the time it fired.
+    fn watched(
+        tag: &str,
+        quiet: Duration,
+    ) -> (PathBuf, PathBuf, FileWatch, Receiver<(Instant, Instant)>) {
+        let dir = std::env::temp_dir().join(format!("isokit-watch-{tag}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let f = dir.join("a.json");
         std::fs::write(&f, "1").unwrap();
         let (tx, rx) = channel();
-        let mut w = FileWatch::new(Duration::from_millis(80), move |t| {
-            let _ = tx.send(t);
+        let mut w = FileWatch::new(quiet, move |t| {
+            let _ = tx.send((t, Instant::now()));
         })
         .unwrap();
         w.set_files(std::slice::from_ref(&f));
+        (dir, f, w, rx)
+    }
+
+    #[test]
+    fn a_burst_of_writes_is_one_edit_and_a_recreated_file_is_followed() {
+        let (dir, f, _w, rx) = watched("burst", Duration::from_millis(80));
         for i in 0..5 {
             std::fs::write(&f, format!("{i}")).unwrap();
             std::thread::sleep(Duration::from_millis(10));
@@ -154,17 +164,8 @@ mod tests {
 
     #[test]
     fn a_completed_save_waits_a_quarter_of_the_quiet_period() {
-        let dir = std::env::temp_dir().join(format!("isokit-watch-q-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("a.json");
-        std::fs::write(&f, "1").unwrap();
-        let (tx, rx) = channel();
         let quiet = Duration::from_millis(1200);
-        let mut w = FileWatch::new(quiet, move |t| {
-            let _ = tx.send((t, Instant::now()));
-        })
-        .unwrap();
-        w.set_files(std::slice::from_ref(&f));
+        let (dir, f, _w, rx) = watched("quiet", quiet);
         // Renamed into place (how most editors save), then written in place and closed.
         let tmp = dir.join("a.json.tmp");
         std::fs::write(&tmp, "2").unwrap();
