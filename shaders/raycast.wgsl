@@ -284,13 +284,15 @@ fn tricubic_taps(l: Located) -> f32 {
     let wy = bspline_weights(l.frac.y);
     let wz = bspline_weights(l.frac.z);
     let i0 = taps_origin(l);
-    var acc = vec4<f32>(0.0);
+    // Per slice k, then (s0 + s1) + (s2 + s3): the CPU twin's order (raycast/cpu.rs:
+    // value_sum).
+    var slice = array<vec4<f32>, 4>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     for (var k = 0u; k < 4u; k++) {
         for (var j = 0u; j < 4u; j++) {
-            acc += taps_row(i0, l.side, j, k) * (wy[j] * wz[k]);
+            slice[k] += taps_row(i0, l.side, j, k) * (wy[j] * wz[k]);
         }
     }
-    return dot4(acc, wx);
+    return dot4((slice[0] + slice[1]) + (slice[2] + slice[3]), wx);
 }
 
 struct GradHess {

@@ -38,7 +38,7 @@
 //! volume's box cuts the solid (CT data cut by the scan's field of view, or an isovalue at
 //! the data's extreme). The normal is the face's; curvatures are 0; the id is [`ID_CAP`].
 
-use glam::{IVec3, Mat3, Vec3, Vec4};
+use glam::{IVec3, Mat3, Mat4, Vec3, Vec4};
 use isokit_field::curvature::{DEFAULT_MIN_GRADIENT, Inside, curvature_with};
 use isokit_field::filter::TwoFetch;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -267,8 +267,9 @@ pub struct TraceData<'a> {
     pub requests: &'a [AtomicU32],
     /// Per brick: set to 1 when a ray sampled it in this pass (for LRU).
     pub used: &'a [AtomicU32],
-    /// Where each pixel's walk may start ([`crate::StartRaster`]): CPU only; `None` walks
-    /// from the box entry, as the WGSL twin does. The image is the same either way.
+    /// Where each pixel's walk may start and where it may end ([`crate::StartRaster`]): CPU
+    /// only; `None` walks from the box entry to its exit, as the WGSL twin does. The image is
+    /// the same either way.
     pub start: Option<&'a crate::StartRaster>,
 }
 
@@ -406,6 +407,7 @@ pub fn range_holds_iso(u: &Uniforms, range: [f32; 2]) -> bool {
 /// `t >= 0`: `(t_enter, t_exit, axis)` where `axis` is the axis of the face it enters through
 /// (3 when it starts inside the box), or `None` when it misses.
 pub fn ray_box(u: &Uniforms, o: Vec3, d: Vec3) -> Option<(f32, f32, u32)> {
+    let (o, d) = (o.to_array(), d.to_array());
     let mut t0 = 0.0f32;
     let mut t1 = f32::INFINITY;
     let mut axis = 3u32;
@@ -912,6 +914,43 @@ pub fn bspline4(a: f32) -> [f32; 4] {
     ]
 }
 
+/// [`bspline4`] of the three axes at once: lane `a` of the fraction `f` gives the weights of
+/// axis `a`, evaluated per lane with [`bspline4`]'s operations in its order (the same weights
+/// bit for bit), then transposed to one vector of four tap weights per axis, `(wx, wy, wz)`.
+#[inline]
+pub fn bspline4_xyz(f: Vec4) -> (Vec4, Vec4, Vec4) {
+    const SIXTH: f32 = 1.0 / 6.0;
+    let s = Vec4::splat;
+    let b = Vec4::ONE - f;
+    let a2 = f * f;
+    let a3 = a2 * f;
+    let w = Mat4::from_cols(
+        b * b * b * SIXTH,
+        (s(3.0) * a3 - s(6.0) * a2 + s(4.0)) * SIXTH,
+        (s(-3.0) * a3 + s(3.0) * a2 + s(3.0) * f + s(1.0)) * SIXTH,
+        a3 * SIXTH,
+    )
+    .transpose();
+    (w.x_axis, w.y_axis, w.z_axis)
+}
+
+/// [`bspline4_d1`] of the three axes at once, as [`bspline4_xyz`] evaluates [`bspline4`]:
+/// per lane in its order, then transposed to `(dx, dy, dz)`.
+#[inline]
+pub fn bspline4_d1_xyz(f: Vec4) -> (Vec4, Vec4, Vec4) {
+    let s = Vec4::splat;
+    let b = Vec4::ONE - f;
+    let a2 = f * f;
+    let w = Mat4::from_cols(
+        s(-0.5) * b * b,
+        s(0.5) * (s(3.0) * a2 - s(4.0) * f),
+        s(0.5) * (s(-3.0) * a2 + s(2.0) * f + s(1.0)),
+        s(0.5) * a2,
+    )
+    .transpose();
+    (w.x_axis, w.y_axis, w.z_axis)
+}
+
 /// Their first derivatives ([`isokit_field::filter::bspline_weights_d1`], ERRATA 3).
 #[inline]
 pub fn bspline4_d1(a: f32) -> [f32; 4] {
@@ -960,6 +999,45 @@ fn taps_row(w: &[f32], side: usize, j: usize, k: usize) -> Vec4 {
     Vec4::from_array(*r)
 }
 
+/// The stored side of the default layout's bricks (32 cells and the apron of 3;
+/// [`crate::Layout::brick_side`]).
+const DEFAULT_SIDE: usize = 35;
+
+/// The length of a [`taps_window`] in a brick of the default side.
+const DEFAULT_WINDOW: usize = 3 * DEFAULT_SIDE * DEFAULT_SIDE + 3 * DEFAULT_SIDE + 4;
+
+/// A [`taps_window`] of the default side as an array, so that its rows load with constant
+/// offsets and no bounds checks (a third fewer instructions per sample than [`taps_row`]).
+#[inline]
+fn default_window(w: &[f32]) -> &[f32; DEFAULT_WINDOW] {
+    match w.try_into() {
+        Ok(w) => w,
+        Err(_) => unreachable!("a window of the default side"),
+    }
+}
+
+/// Row `(j, k)` of a [`default_window`].
+#[inline(always)]
+fn default_row(w: &[f32; DEFAULT_WINDOW], j: usize, k: usize) -> Vec4 {
+    let o = DEFAULT_SIDE * (j + DEFAULT_SIDE * k);
+    Vec4::new(w[o], w[o + 1], w[o + 2], w[o + 3])
+}
+
+/// The value's sum over the 16 rows `row(j, k)`: each weighted by `wy[j] · wz[k]`, summed
+/// as vectors per slice `k` (`j` in order, from zero), the four slices as `(s0 + s1) +
+/// (s2 + s3)`, then dotted with `wx`. One order for every brick side and in the WGSL twin;
+/// four short chains of additions instead of one of sixteen, which the processor overlaps.
+#[inline(always)]
+fn value_sum(row: impl Fn(usize, usize) -> Vec4, wx: Vec4, wy: Vec4, wz: Vec4) -> f32 {
+    let mut slice = [Vec4::ZERO; 4];
+    for (k, acc) in slice.iter_mut().enumerate() {
+        for j in 0..4 {
+            *acc += row(j, k) * (wy[j] * wz[k]);
+        }
+    }
+    dot4((slice[0] + slice[1]) + (slice[2] + slice[3]), wx)
+}
+
 /// The tricubic B-spline at a located point by its 64 taps: the 16 rows of 4 samples
 /// (contiguous in the pool: one 4-wide load each) weighted by `wy · wz` and summed as
 /// vectors, then dotted with `wx`. The same field as the 8-fetch [`value_at`] (both are
@@ -967,65 +1045,30 @@ fn taps_row(w: &[f32], side: usize, j: usize, k: usize) -> Vec4 {
 /// search and the shading use it.
 #[inline]
 pub fn tricubic_taps(pool: &[f32], l: &Located) -> f32 {
-    let (wy, wz) = (bspline4(l.frac.y), bspline4(l.frac.z));
-    let wx = Vec4::from_array(bspline4(l.frac.x));
+    let (wx, wy, wz) = bspline4_xyz(l.frac.extend(0.0));
     let w = taps_window(pool, l);
     if l.side == DEFAULT_SIDE {
         return taps_value_default_side(w, wx, wy, wz);
     }
-    let mut acc = Vec4::ZERO;
-    for (k, &zk) in wz.iter().enumerate() {
-        for (j, &yj) in wy.iter().enumerate() {
-            acc += taps_row(w, l.side, j, k) * (yj * zk);
-        }
-    }
-    dot4(acc, wx)
+    value_sum(|j, k| taps_row(w, l.side, j, k), wx, wy, wz)
 }
 
-/// The stored side of the default layout's bricks (32 cells and the apron of 3;
-/// [`crate::Layout::brick_side`]).
-const DEFAULT_SIDE: usize = 35;
-
-/// [`tricubic_taps`]'s sum for bricks of the default side: the window as an array and the
-/// 16 row offsets as constants, so the loads need no bounds checks (a third fewer
-/// instructions per sample). The same sums in the same order.
+/// [`tricubic_taps`]'s sum for bricks of the default side ([`default_window`]).
 #[inline(never)]
-fn taps_value_default_side(w: &[f32], wx: Vec4, wy: [f32; 4], wz: [f32; 4]) -> f32 {
-    const S: usize = DEFAULT_SIDE;
-    let w: &[f32; 3 * S * S + 3 * S + 4] = match w.try_into() {
-        Ok(w) => w,
-        Err(_) => unreachable!("a window of the default side"),
-    };
-    let mut acc = Vec4::ZERO;
-    for (k, &zk) in wz.iter().enumerate() {
-        for (j, &yj) in wy.iter().enumerate() {
-            let o = S * (j + S * k);
-            acc += Vec4::new(w[o], w[o + 1], w[o + 2], w[o + 3]) * (yj * zk);
-        }
-    }
-    dot4(acc, wx)
+fn taps_value_default_side(w: &[f32], wx: Vec4, wy: Vec4, wz: Vec4) -> f32 {
+    let w = default_window(w);
+    value_sum(|j, k| default_row(w, j, k), wx, wy, wz)
 }
 
-/// Value and gradient (stored units) of the tricubic B-spline from the same 64 taps in one
-/// pass: three row sums, weighted `wy·wz`, `wy'·wz`, `wy·wz'`.
-#[inline]
-pub fn tricubic_taps_gradient(pool: &[f32], l: &Located) -> (f32, Vec3) {
-    let f = l.frac;
-    let (wy, wz, dy, dz) = (
-        bspline4(f.y),
-        bspline4(f.z),
-        bspline4_d1(f.y),
-        bspline4_d1(f.z),
-    );
-    let (wx, dx) = (
-        Vec4::from_array(bspline4(f.x)),
-        Vec4::from_array(bspline4_d1(f.x)),
-    );
-    let w = taps_window(pool, l);
+/// The value's and the gradient's sums over the 16 rows `row(j, k)` ([`value_sum`]'s
+/// order): three row sums, weighted `wy·wz`, `wy'·wz`, `wy·wz'`, dotted with `wx` or `wx'`.
+#[inline(always)]
+fn gradient_sum(row: impl Fn(usize, usize) -> Vec4, w: [Vec4; 3], dw: [Vec4; 3]) -> (f32, Vec3) {
+    let ([wx, wy, wz], [dx, dy, dz]) = (w, dw);
     let (mut a0, mut a1, mut a2) = (Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
     for k in 0..4 {
         for j in 0..4 {
-            let row = taps_row(w, l.side, j, k);
+            let row = row(j, k);
             a0 += row * (wy[j] * wz[k]);
             a1 += row * (dy[j] * wz[k]);
             a2 += row * (wy[j] * dz[k]);
@@ -1035,6 +1078,22 @@ pub fn tricubic_taps_gradient(pool: &[f32], l: &Located) -> (f32, Vec3) {
         dot4(a0, wx),
         Vec3::new(dot4(a0, dx), dot4(a1, wx), dot4(a2, wx)),
     )
+}
+
+/// Value and gradient (stored units) of the tricubic B-spline from the same 64 taps in one
+/// pass: three row sums, weighted `wy·wz`, `wy'·wz`, `wy·wz'`.
+#[inline]
+pub fn tricubic_taps_gradient(pool: &[f32], l: &Located) -> (f32, Vec3) {
+    let f = l.frac.extend(0.0);
+    let (wx, wy, wz) = bspline4_xyz(f);
+    let (dx, dy, dz) = bspline4_d1_xyz(f);
+    let (w3, d3) = ([wx, wy, wz], [dx, dy, dz]);
+    let w = taps_window(pool, l);
+    if l.side == DEFAULT_SIDE {
+        let w = default_window(w);
+        return gradient_sum(|j, k| default_row(w, j, k), w3, d3);
+    }
+    gradient_sum(|j, k| taps_row(w, l.side, j, k), w3, d3)
 }
 
 /// Value, gradient and Hessian (stored units) of the tricubic B-spline from the same 64
@@ -1131,6 +1190,52 @@ pub struct SegmentRay {
     pub t0: f32,
     /// `o + t0·d`.
     pub p0: Vec3,
+    /// The common case's sampler, where it applies ([`TapsRay`]).
+    taps: Option<TapsRay>,
+}
+
+/// What [`SegmentRay`] samples with in the common case (one field, the tricubic filter, a
+/// brick of the default side at full resolution): [`SegmentRay::locate_at`] and
+/// [`tricubic_taps`] fused, with the block's constants prepared as vectors. The point, the
+/// clamp, the cell and the fraction are computed four lanes at a time with the same
+/// operations as the scalar path, so every sample is the same bit for bit.
+#[derive(Clone, Copy, Debug)]
+struct TapsRay {
+    /// [`SegmentRay::p0`] and the direction, with a fourth lane of 0.
+    p0: Vec4,
+    /// See [`TapsRay::p0`].
+    d: Vec4,
+    /// The block's box as floats ([`SegmentRay::lo`], [`SegmentRay::hi`]).
+    lo: Vec4,
+    /// See [`TapsRay::lo`].
+    hi: Vec4,
+    /// The last cell a sample may use: `hi − 1`.
+    last: Vec4,
+    /// The grid coordinates of the taps window's first sample relative to its cell:
+    /// the stored brick's first sample plus one.
+    window: Vec4,
+    /// Index of the slot's first sample in the pool.
+    base: usize,
+}
+
+impl TapsRay {
+    /// The tricubic value at `p0 + (t − t0)·d`. Kept out of line: a leaf that needs no
+    /// saved registers.
+    #[inline(never)]
+    fn value(&self, pool: &[f32], t0: f32, t: f32) -> f32 {
+        const S: f32 = DEFAULT_SIDE as f32;
+        let p = self.p0 + Vec4::splat(t - t0) * self.d;
+        let q = p.max(self.lo).min(self.hi);
+        // q >= 0 (a NaN lane was replaced by `lo` above): the floor is the truncation
+        // [`locate`] takes, and the cell index is clamped from above only, as the lower
+        // clamp cannot bind.
+        let c = q.floor().min(self.last);
+        // Whole numbers below 2^24 in every product and sum: exact in any order.
+        let i0 = self.base + (c - self.window).dot(Vec4::new(1.0, S, S * S, 0.0)) as i32 as usize;
+        let (wx, wy, wz) = bspline4_xyz(q - c);
+        let w = default_window(&pool[i0..i0 + DEFAULT_WINDOW]);
+        value_sum(|j, k| default_row(w, j, k), wx, wy, wz)
+    }
 }
 
 impl SegmentRay {
@@ -1141,16 +1246,34 @@ impl SegmentRay {
         let b = u.block as i32;
         let top = IVec3::new(u.dims[0] as i32, u.dims[1] as i32, u.dims[2] as i32) - 1;
         let lo = cell * b;
+        let hi = (lo + IVec3::splat(b)).min(top);
+        let first = (cell >> blocks_per_brick_log2(u)) * u.brick as i32 - IVec3::ONE;
+        let p0 = o + t0 * d;
+        let side = u.brick_side as usize;
+        let taps = (slot & HALF_RESOLUTION == 0
+            && u.combine == COMBINE_NONE
+            && u.filter != FILTER_TRILINEAR
+            && side == DEFAULT_SIDE)
+            .then(|| TapsRay {
+                p0: p0.extend(0.0),
+                d: d.extend(0.0),
+                lo: lo.as_vec3().extend(0.0),
+                hi: hi.as_vec3().extend(0.0),
+                last: (hi - IVec3::ONE).as_vec3().extend(0.0),
+                window: (first + IVec3::ONE).as_vec3().extend(0.0),
+                base: slot as usize * side * side * side,
+            });
         Self {
             o,
             d,
             cell,
             slot,
             lo,
-            hi: (lo + IVec3::splat(b)).min(top),
-            first: (cell >> blocks_per_brick_log2(u)) * u.brick as i32 - IVec3::ONE,
+            hi,
+            first,
             t0,
-            p0: o + t0 * d,
+            p0,
+            taps,
         }
     }
 
@@ -1183,6 +1306,15 @@ impl SegmentRay {
     #[inline]
     fn residual_at(&self, u: &Uniforms, pool: &[f32], t: f32, samples: &mut u32) -> f32 {
         *samples += 1;
+        match &self.taps {
+            Some(taps) => residual(u, taps.value(pool, self.t0, t)),
+            None => self.residual_located(u, pool, t),
+        }
+    }
+
+    /// [`combined_residual`] at [`SegmentRay::locate_at`]: every case but [`TapsRay`]'s.
+    #[inline(never)]
+    fn residual_located(&self, u: &Uniforms, pool: &[f32], t: f32) -> f32 {
         let l = self.locate_at(u, t);
         combined_residual(u, pool, u.filter, &l)
     }
@@ -1386,7 +1518,7 @@ pub fn march_segment(
         Err(end) => return end,
     };
     // At most a block's diagonal (√3 · 32 voxels) times r0 (at most 64): fits in u32.
-    let m = (len * u.r0).ceil().max(1.0) as u32;
+    let m = ceil_u32(len * u.r0).max(1);
     let step = len / m as f32;
     for k in 1..=m {
         let tb = if k == m { t1 } else { t0 + k as f32 * step };
@@ -1478,7 +1610,7 @@ pub fn march_sphere(
         },
     };
     // Every step is at least `min_step` long (a bound on the loop, as in the shader).
-    let max_steps = ((t1 - t0) / min_step).ceil() as u32 + 1;
+    let max_steps = ceil_u32((t1 - t0) / min_step) + 1;
     for _ in 0..max_steps {
         // What the sample clears; nothing for an inside or NaN residual (NaN fails `>`).
         let sphere = r / slope;
@@ -1505,6 +1637,14 @@ pub fn march_sphere(
         (t, r) = (tn, rn);
     }
     (Segment::Empty, 0.0)
+}
+
+/// `x.ceil() as u32` for every `x` (NaN and below 0 give 0, above `u32::MAX` saturate),
+/// without the library call that `ceil` is on baseline x86-64.
+#[inline]
+pub fn ceil_u32(x: f32) -> u32 {
+    let c = x as u32;
+    c.saturating_add(u32::from((c as f32) < x))
 }
 
 /// The root of the linear interpolant between `(ta, ra)` and `(tb, rb)` (Eq. 6.4), or the
@@ -1672,11 +1812,13 @@ pub fn trace_pixel(
         samples,
     };
     let caps_on = u.flags & FLAG_CAPS != 0;
-    // The smallest parameter at which this ray can reach an active block (CPU only).
+    // The smallest parameter at which this ray can reach an active block, and the largest
+    // at which it can still be in one (CPU only).
     let (near, misses_final) = match (resume, data.start) {
         (None, Some(s)) => (s.near(px, py), s.misses_final()),
         _ => (f32::NEG_INFINITY, false),
     };
+    let far = data.start.map_or(f32::INFINITY, |s| s.far(px, py));
     if near == f32::INFINITY && misses_final {
         return miss(samples);
     }
@@ -1700,7 +1842,8 @@ pub fn trace_pixel(
         Some(r) => (IVec3::from_array(r.cell), r.t, r.first),
         None => {
             let p = o + t_enter * d;
-            let c = (p / u.block as f32).floor().as_ivec3();
+            // The truncation is the floor where it matters: below 0 both clamp to 0.
+            let c = (p / u.block as f32).as_ivec3();
             (c.clamp(IVec3::ZERO, bd - 1), t_enter, true)
         }
     };
@@ -1831,7 +1974,9 @@ pub fn trace_pixel(
             (t_out, axis, next)
         };
         let t1 = t_out.min(t_exit);
-        if t1 >= t_exit {
+        // Past `far` no active block lies on the ray (and only the first block is tested
+        // for a cap): a miss.
+        if t1 >= t_exit || t1 > far {
             break;
         }
         cell = next;
@@ -1871,13 +2016,152 @@ mod tests {
             let (wy, wz) = (bspline4(f.y), bspline4(f.z));
             let wx = Vec4::from_array(bspline4(f.x));
             let w = taps_window(&pool, &l);
-            let mut acc = Vec4::ZERO;
+            let mut slice = [Vec4::ZERO; 4];
             for (k, &zk) in wz.iter().enumerate() {
                 for (j, &yj) in wy.iter().enumerate() {
-                    acc += taps_row(w, side, j, k) * (yj * zk);
+                    slice[k] += taps_row(w, side, j, k) * (yj * zk);
                 }
             }
+            let acc = (slice[0] + slice[1]) + (slice[2] + slice[3]);
             assert_eq!(tricubic_taps(&pool, &l).to_bits(), dot4(acc, wx).to_bits());
+        }
+    }
+
+    /// The three axes' weights evaluated as vectors are [`bspline4`]'s and
+    /// [`bspline4_d1`]'s bit for bit, at fractions across the cell and at its ends.
+    #[test]
+    fn the_weights_of_three_axes_at_once_are_the_scalar_weights() {
+        let mut state = 0x5eed_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut fracs = vec![
+            [0.0, 1.0, 0.5],
+            [1.0, 0.0, f32::EPSILON],
+            [0.999_999_9, 1e-30, 0.25],
+        ];
+        fracs.extend((0..2000).map(|_| [next(), next(), next()]));
+        for f in fracs {
+            let v = Vec4::new(f[0], f[1], f[2], 0.0);
+            let (w, d) = (bspline4_xyz(v), bspline4_d1_xyz(v));
+            for (a, &fa) in f.iter().enumerate() {
+                let (wa, da) = ([w.0, w.1, w.2][a], [d.0, d.1, d.2][a]);
+                let bits = |x: Vec4| x.to_array().map(f32::to_bits);
+                assert_eq!(bits(wa), bspline4(fa).map(f32::to_bits), "weights at {fa}");
+                assert_eq!(
+                    bits(da),
+                    bspline4_d1(fa).map(f32::to_bits),
+                    "derivatives at {fa}"
+                );
+            }
+        }
+    }
+
+    /// The fused sample of a segment in the common case ([`TapsRay`]) is the residual of
+    /// [`SegmentRay::locate_at`] and [`combined_residual`] bit for bit: inside blocks, on
+    /// their faces, clamped from beyond them, in the grid's last (shorter) block, in another
+    /// slot, and for NaN parameters.
+    #[test]
+    fn the_fused_sample_is_locate_and_taps_bit_for_bit() {
+        let side = DEFAULT_SIDE;
+        let mut u: Uniforms = bytemuck::Zeroable::zeroed();
+        u.dims = [70, 70, 70];
+        u.block = 8;
+        u.brick = 32;
+        u.brick_side = side as u32;
+        u.filter = FILTER_TRICUBIC;
+        u.combine = COMBINE_NONE;
+        u.iso = 0.25;
+        u.inside_sign = -1.0;
+        let pool: Vec<f32> = (0..2 * side * side * side)
+            .map(|i| ((i * 7919) % 1013) as f32 * 0.01 - 3.0)
+            .collect();
+        let mut state = 0x1234_5678_u32;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let mut compared = 0;
+        for (cell, slot) in [
+            (IVec3::new(0, 0, 0), 0),
+            (IVec3::new(1, 2, 3), 1),
+            (IVec3::new(3, 0, 2), 0),
+            (IVec3::new(8, 8, 8), 1),
+            (IVec3::new(4, 7, 8), 0),
+        ] {
+            let center = (cell * 8).as_vec3() + 4.0;
+            for _ in 0..200 {
+                let d = (Vec3::new(next(), next(), next()) - 0.5).normalize_or(Vec3::X);
+                let o = center - 30.0 * d + (Vec3::new(next(), next(), next()) - 0.5) * 8.0;
+                let t0 = 20.0 + 8.0 * next();
+                let ray = SegmentRay::new(&u, o, d, cell, slot, t0);
+                let taps = ray.taps.expect("the common case takes the fused sample");
+                let mut ts: Vec<f32> = (0..12).map(|_| t0 + 24.0 * next() - 4.0).collect();
+                ts.extend([t0, f32::NAN]);
+                for t in ts {
+                    let l = ray.locate_at(&u, t);
+                    let want = combined_residual(&u, &pool, u.filter, &l);
+                    let got = residual(&u, taps.value(&pool, ray.t0, t));
+                    assert_eq!(got.to_bits(), want.to_bits(), "block {cell} at t {t}");
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 5 * 200 * 14);
+        // Not taken where it does not apply: the trilinear filter, a second field, a brick at
+        // half resolution.
+        let trilinear = Uniforms {
+            filter: FILTER_TRILINEAR,
+            ..u
+        };
+        let combined = Uniforms {
+            combine: COMBINE_UNION,
+            ..u
+        };
+        let (o, d) = (Vec3::ZERO, Vec3::X);
+        assert!(
+            SegmentRay::new(&trilinear, o, d, IVec3::ZERO, 0, 0.0)
+                .taps
+                .is_none()
+        );
+        assert!(
+            SegmentRay::new(&combined, o, d, IVec3::ZERO, 0, 0.0)
+                .taps
+                .is_none()
+        );
+        let half = HALF_RESOLUTION | 1;
+        assert!(
+            SegmentRay::new(&u, o, d, IVec3::ZERO, half, 0.0)
+                .taps
+                .is_none()
+        );
+    }
+
+    /// [`ceil_u32`] is `ceil` and the saturating cast, at the edges and across a range.
+    #[test]
+    fn the_integer_ceiling_is_ceil_and_the_cast() {
+        let mut xs = vec![
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            -0.0,
+            0.0,
+            -0.5,
+            -1.0,
+            f32::MIN_POSITIVE,
+            1.0,
+            1.0 + f32::EPSILON,
+            16_777_215.5,
+            16_777_216.0,
+            4_294_967_040.0,
+            4_294_967_296.0,
+            1e20,
+        ];
+        xs.extend((0..100_000).map(|i| i as f32 * 0.0137 - 20.0));
+        xs.extend((0..2000).map(|i| f32::from_bits(0x3f80_0000 + i * 997)));
+        for x in xs {
+            assert_eq!(ceil_u32(x), x.ceil() as u32, "at {x}");
         }
     }
 }

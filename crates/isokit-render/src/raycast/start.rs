@@ -11,6 +11,10 @@
 //! one of those boxes: no ray of a tile can meet an active block before that distance, and a
 //! tile that no box covers has no ray that meets one at all.
 //!
+//! The raster keeps per tile the largest such distance as well: past it no ray of the tile
+//! meets an active block, so the walk ends there as a miss instead of crossing the inactive
+//! blocks behind the surface to the volume's far side (the rays that pass the silhouette).
+//!
 //! The walk then starts at that distance in the block it lies in ([`crate::kernel::cell_at`]),
 //! found by the same plane crossings as the walk's own ([`crate::kernel::plane_t`]), so the
 //! active blocks are entered at the same ray parameters and sampled bit for bit as by the
@@ -28,6 +32,7 @@ use super::cpu::{Uniforms, block_is_active, range_inside};
 pub struct StartRaster {
     tiles_x: u32,
     near: Vec<f32>,
+    far: Vec<f32>,
     misses_final: bool,
 }
 
@@ -72,6 +77,7 @@ impl StartRaster {
         let t = Self::TILE;
         let (tiles_x, tiles_y) = (u.width.div_ceil(t), u.height.div_ceil(t));
         let mut near = vec![f32::INFINITY; tiles_x as usize * tiles_y as usize];
+        let mut far = vec![f32::NEG_INFINITY; near.len()];
         let eye = (Vec3::from_array(u.eye) - Vec3::from_array(u.origin)) / u.spacing;
         let right = Vec3::from_array(u.right);
         let up = Vec3::from_array(u.up);
@@ -119,9 +125,11 @@ impl StartRaster {
                     }
                     let lo = Vec3::new(x as f32, y as f32, z as f32) * b;
                     let hi = (lo + b).min(top);
-                    let (rect, dist) =
+                    let (rect, dist, dist_far) =
                         footprint(u.ortho != 0, u.spacing, eye, right, up, forward, lo, hi);
                     let t_lo = dist - Self::RELATIVE_MARGIN * dist.abs() - Self::ABSOLUTE_MARGIN;
+                    let t_hi =
+                        dist_far + Self::RELATIVE_MARGIN * dist_far.abs() + Self::ABSOLUTE_MARGIN;
                     let (x0, x1, y0, y1) = match rect {
                         Some([sx0, sx1, sy0, sy1]) => {
                             // Screen y grows downwards: sy1 (top) gives the smaller row.
@@ -141,9 +149,13 @@ impl StartRaster {
                         None => (0, tiles_x - 1, 0, tiles_y - 1),
                     };
                     for ty in y0..=y1 {
-                        let row = &mut near[(ty * tiles_x) as usize..][..tiles_x as usize];
-                        for v in &mut row[x0 as usize..=x1 as usize] {
+                        let row = (ty * tiles_x) as usize..;
+                        let cols = x0 as usize..=x1 as usize;
+                        for v in &mut near[row.clone()][cols.clone()] {
                             *v = v.min(t_lo);
+                        }
+                        for v in &mut far[row][cols] {
+                            *v = v.max(t_hi);
                         }
                     }
                 }
@@ -152,6 +164,7 @@ impl StartRaster {
         Self {
             tiles_x,
             near,
+            far,
             misses_final,
         }
     }
@@ -170,13 +183,22 @@ impl StartRaster {
         let t = Self::TILE;
         self.near[(py / t * self.tiles_x + px / t) as usize]
     }
+
+    /// The largest ray parameter at which a ray of pixel `(px, py)` can still be in an
+    /// active block (with caps, also a block inside the solid on the volume's faces; `−∞`:
+    /// none can): past it the ray meets none.
+    #[inline]
+    pub fn far(&self, px: u32, py: u32) -> f32 {
+        let t = Self::TILE;
+        self.far[(py / t * self.tiles_x + px / t) as usize]
+    }
 }
 
 /// The image-plane rectangle `[x0, x1, y0, y1]` (camera units: `x / z` and `y / z` in
 /// perspective, `x` and `y` in world units in orthographic projection) of the box `[lo, hi]`
 /// (grid coordinates, as `eye`; `spacing` converts) and the
-/// smallest ray parameter of a point of the box: its distance from the eye in perspective,
-/// its depth along `forward` orthographically. The rectangle is `None` (the whole image)
+/// smallest and largest ray parameters of a point of the box: its distances from the eye in
+/// perspective (the largest at a corner), its depths along `forward` orthographically. The rectangle is `None` (the whole image)
 /// where a corner of a perspective view lies at or near the eye's plane.
 #[expect(
     clippy::too_many_arguments,
@@ -191,14 +213,15 @@ fn footprint(
     forward: Vec3,
     lo: Vec3,
     hi: Vec3,
-) -> (Option<[f32; 4]>, f32) {
+) -> (Option<[f32; 4]>, f32, f32) {
     let mut rect = [
         f32::INFINITY,
         f32::NEG_INFINITY,
         f32::INFINITY,
         f32::NEG_INFINITY,
     ];
-    let (mut whole, mut z_min) = (false, f32::INFINITY);
+    let (mut whole, mut z_min, mut z_max, mut d_max) =
+        (false, f32::INFINITY, f32::NEG_INFINITY, 0f32);
     for c in 0..8 {
         let p = Vec3::new(
             if c & 1 == 0 { lo.x } else { hi.x },
@@ -208,6 +231,8 @@ fn footprint(
         let v = p - eye;
         let (x, y, z) = (v.dot(right), v.dot(up), v.dot(forward));
         z_min = z_min.min(z);
+        z_max = z_max.max(z);
+        d_max = d_max.max(v.length());
         let (sx, sy) = if ortho {
             // Orthographic image-plane offsets are world units; these are grid units.
             (x * spacing, y * spacing)
@@ -227,8 +252,8 @@ fn footprint(
     if ortho {
         // Orthographic rays start on the image plane through the eye and go along
         // `forward`: the parameter of a point is its depth.
-        return (Some(rect), z_min);
+        return (Some(rect), z_min, z_max);
     }
     let dist = (eye.clamp(lo, hi) - eye).length();
-    ((!whole).then_some(rect), dist)
+    ((!whole).then_some(rect), dist, d_max)
 }
