@@ -583,6 +583,10 @@ fn colour_of(
     sh: &Shading,
     lights: &[Light],
 ) -> [f32; 4] {
+    if !s.is_hit() {
+        // As `shade_pixel` colours it, without the ray it does not read.
+        return sh.background;
+    }
     let pixel_angle = 2.0 * u.half_height / u.height as f32;
     let v = kernel::subpixel_ray(u, px, py, sub).1;
     let footprint = if u.ortho != 0 {
