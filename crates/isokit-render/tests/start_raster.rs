@@ -133,6 +133,13 @@ fn the_start_raster_is_conservative() {
                             near <= t,
                             "{vn}, {cn}, caps {caps}: pixel ({px}, {py}) near {near} > {t}"
                         );
+                        // A surface lies in an active block: no farther than the raster's
+                        // far end, where the walk stops.
+                        let far = raster.far(px, py);
+                        assert!(
+                            s.id == kernel::ID_CAP || t <= far,
+                            "{vn}, {cn}, caps {caps}: pixel ({px}, {py}) far {far} < {t}"
+                        );
                     }
                     if near == f32::INFINITY && raster.misses_final() {
                         assert_eq!(s.id, ID_MISS, "{vn}, {cn}, caps {caps}: ({px}, {py})");

@@ -27,7 +27,8 @@ use glam::Vec3;
 use super::cpu::{Uniforms, block_is_active, range_inside};
 
 /// Per tile of the image, the smallest ray parameter (voxels) at which a ray of the tile can
-/// reach an active block: `+∞` when none can.
+/// reach an active block (`+∞` when none can), and the largest at which it can still be in
+/// one (`−∞` when none can).
 #[derive(Clone, Debug)]
 pub struct StartRaster {
     tiles_x: u32,
@@ -62,8 +63,8 @@ impl StartRaster {
     }
 
     /// The raster of the blocks `blocks` marks (by [`crate::kernel::block_index`]) for the
-    /// camera of `u`: per tile, the smallest ray parameter at which a ray of the tile can
-    /// reach one of them (`+∞`: none can); `None` for several views or subpixels.
+    /// camera of `u`: per tile, the smallest and the largest ray parameter at which a ray of
+    /// the tile can be in one of them (`±∞`: none can); `None` for several views or subpixels.
     pub fn of_blocks(u: &Uniforms, blocks: &[bool]) -> Option<Self> {
         if u.views > 1 || u.subpixels != 1 {
             return None;
@@ -196,10 +197,11 @@ impl StartRaster {
 
 /// The image-plane rectangle `[x0, x1, y0, y1]` (camera units: `x / z` and `y / z` in
 /// perspective, `x` and `y` in world units in orthographic projection) of the box `[lo, hi]`
-/// (grid coordinates, as `eye`; `spacing` converts) and the
-/// smallest and largest ray parameters of a point of the box: its distances from the eye in
-/// perspective (the largest at a corner), its depths along `forward` orthographically. The rectangle is `None` (the whole image)
-/// where a corner of a perspective view lies at or near the eye's plane.
+/// (grid coordinates, as `eye`; `spacing` converts) and the smallest and largest ray
+/// parameters of a point of the box: its distances from the eye in perspective (the
+/// largest at a corner), its depths along `forward` orthographically. The rectangle is
+/// `None` (the whole image) where a corner of a perspective view lies at or near the eye's
+/// plane.
 #[expect(
     clippy::too_many_arguments,
     reason = "the camera's frame and the box, each a plain value"
