@@ -457,15 +457,37 @@ pub fn block_exit(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3) -> (f32, usize) {
 /// [`block_exit`] with the inverse direction given (computed once per ray).
 #[inline]
 pub fn block_exit_inv(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3, inv: Vec3) -> (f32, usize) {
+    first_face(exit_faces(u, cell, o, d, inv))
+}
+
+/// The [`plane_t`] of block `cell`'s exit face on each axis, infinite on axes the ray
+/// does not cross (`d` 0): what [`first_face`] chooses from. A walk keeps them and, on a
+/// step along one axis, recomputes that axis's alone ([`exit_face`]).
+#[inline]
+pub fn exit_faces(u: &Uniforms, cell: IVec3, o: Vec3, d: Vec3, inv: Vec3) -> [f32; 3] {
+    [0, 1, 2].map(|a| exit_face(u, cell[a], o[a], d[a], inv[a]))
+}
+
+/// One axis of [`exit_faces`]: the plane the ray leaves block coordinate `c` through.
+#[inline]
+pub fn exit_face(u: &Uniforms, c: i32, o: f32, d: f32, inv: f32) -> f32 {
+    if d != 0.0 {
+        plane_t(u, c + i32::from(d > 0.0), o, inv)
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The first of the exit faces ([`exit_faces`]): its time and axis, the lowest of tied
+/// axes (axis 0 where none is crossed).
+#[inline]
+pub fn first_face(faces: [f32; 3]) -> (f32, usize) {
     let mut t = f32::INFINITY;
     let mut axis = 0;
-    for a in 0..3 {
-        if d[a] != 0.0 {
-            let ta = plane_t(u, cell[a] + i32::from(d[a] > 0.0), o[a], inv[a]);
-            if ta < t {
-                t = ta;
-                axis = a;
-            }
+    for (a, &ta) in faces.iter().enumerate() {
+        if ta < t {
+            t = ta;
+            axis = a;
         }
     }
     (t, axis)
@@ -527,29 +549,91 @@ pub fn jump(
         };
         // A first guess from the position, then corrected by the planes' own times.
         let guess = ((o[a] + t * d[a]) * rb) as i32;
-        if d[a] > 0.0 {
+        next[a] = if d[a] > 0.0 {
             // Crossing plane m enters block m: the last crossed plane in (cell, hi].
-            let mut g = guess.clamp(c[a], hi[a]);
-            while g > c[a] && !crossed(g) {
-                g -= 1;
-            }
-            while g < hi[a] && crossed(g + 1) {
-                g += 1;
-            }
-            next[a] = g;
+            last_crossed_rising(guess.clamp(c[a], hi[a]), c[a], hi[a], &crossed)
         } else {
             // Crossing plane m enters block m − 1: planes cell, cell − 1, …, lo + 1.
-            let mut g = guess.clamp(lo[a], c[a]);
-            while g < c[a] && !crossed(g + 1) {
-                g += 1;
-            }
-            while g > lo[a] && crossed(g) {
-                g -= 1;
-            }
-            next[a] = g;
-        }
+            last_crossed_falling(guess.clamp(lo[a], c[a]), lo[a], c[a], &crossed)
+        };
     }
     (t, e, IVec3::from_array(next))
+}
+
+/// From the guess `g` in `[lo, hi]`, the block a ray moving up an axis is in, where
+/// `crossed(m)` says whether it has crossed plane `m` (entering block `m`; true up to some
+/// plane, false after): down while `g > lo` and plane `g` is not crossed, then up while
+/// `g < hi` and plane `g + 1` is. The guess is almost always right or one block off, so
+/// one step each way is tried inline and longer runs go to [`settle_rising`] (as plain
+/// loops the compiler vectorises these sixteen planes at a time, several times the cost of
+/// the one or two planes they usually test).
+#[inline]
+fn last_crossed_rising(g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
+    if g > lo && !crossed(g) {
+        // Plane g + 1 is not crossed either: only further down can the answer lie.
+        let g = g - 1;
+        if g > lo && !crossed(g) {
+            return settle_rising(g, lo, hi, crossed);
+        }
+        return g;
+    }
+    if g < hi && crossed(g + 1) {
+        let g = g + 1;
+        if g < hi && crossed(g + 1) {
+            return settle_rising(g, lo, hi, crossed);
+        }
+        return g;
+    }
+    g
+}
+
+/// The loops of [`last_crossed_rising`], for its rare long runs.
+#[cold]
+#[inline(never)]
+fn settle_rising(mut g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
+    while g > lo && !crossed(g) {
+        g -= 1;
+    }
+    while g < hi && crossed(g + 1) {
+        g += 1;
+    }
+    g
+}
+
+/// [`last_crossed_rising`] for a ray moving down an axis: crossing plane `m` enters
+/// block `m − 1` (`crossed` true from some plane down): up while `g < hi` and plane
+/// `g + 1` is not crossed, then down while `g > lo` and plane `g` is.
+#[inline]
+fn last_crossed_falling(g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
+    if g < hi && !crossed(g + 1) {
+        // Plane g is not crossed either: only further up can the answer lie.
+        let g = g + 1;
+        if g < hi && !crossed(g + 1) {
+            return settle_falling(g, lo, hi, crossed);
+        }
+        return g;
+    }
+    if g > lo && crossed(g) {
+        let g = g - 1;
+        if g > lo && crossed(g) {
+            return settle_falling(g, lo, hi, crossed);
+        }
+        return g;
+    }
+    g
+}
+
+/// The loops of [`last_crossed_falling`], for its rare long runs.
+#[cold]
+#[inline(never)]
+fn settle_falling(mut g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
+    while g < hi && !crossed(g + 1) {
+        g += 1;
+    }
+    while g > lo && crossed(g) {
+        g -= 1;
+    }
+    g
 }
 
 /// The block the walk by [`block_exit`] is in at ray parameter `t` (inside the volume's
@@ -561,29 +645,20 @@ pub fn jump(
 pub fn cell_at(u: &Uniforms, t: f32, o: Vec3, d: Vec3, inv: Vec3, bd: IVec3) -> IVec3 {
     let rb = 1.0 / u.block as f32;
     let mut c = [0i32; 3];
+    let (o, d, inv, bd) = (o.to_array(), d.to_array(), inv.to_array(), bd.to_array());
     for (a, ca) in c.iter_mut().enumerate() {
         let top = bd[a] - 1;
         // Inside the box the position is >= 0 up to rounding: the cast truncates.
         let mut g = (((o[a] + t * d[a]) * rb).max(0.0) as i32).clamp(0, top);
         if d[a] != 0.0 {
             let crossed = |m: i32| plane_t(u, m, o[a], inv[a]) < t;
-            if d[a] > 0.0 {
+            g = if d[a] > 0.0 {
                 // Crossing plane m enters block m.
-                while g > 0 && !crossed(g) {
-                    g -= 1;
-                }
-                while g < top && crossed(g + 1) {
-                    g += 1;
-                }
+                last_crossed_rising(g, 0, top, &crossed)
             } else {
                 // Crossing plane m enters block m − 1.
-                while g < top && !crossed(g + 1) {
-                    g += 1;
-                }
-                while g > 0 && crossed(g) {
-                    g -= 1;
-                }
-            }
+                last_crossed_falling(g, 0, top, &crossed)
+            };
         }
         *ca = g;
     }
@@ -1180,20 +1255,86 @@ pub struct SegmentRay {
     pub cell: IVec3,
     /// Its brick's slot.
     pub slot: u32,
-    /// The block's first and last sample corners (its box, clamped to the grid).
-    pub lo: IVec3,
-    /// See [`SegmentRay::lo`].
-    pub hi: IVec3,
-    /// Grid coordinates of the stored brick's first sample.
-    pub first: IVec3,
     /// Where the segment starts: samples lie at `p0 + (t − t0)·d`, so that the rounding
     /// of the far ray origin is shared by the segment's samples instead of jittering each
     /// (the residual is then smooth in `t` to f32 precision near the block).
     pub t0: f32,
     /// `o + t0·d`.
     pub p0: Vec3,
-    /// The common case's sampler, where it applies ([`TapsRay`]).
-    taps: Option<TapsRay>,
+    /// How the segment samples: the common case's fused sampler ([`TapsRay`]), else
+    /// [`SegmentRay::locate_at`] from the block's box.
+    sampler: Sampler,
+}
+
+/// How a [`SegmentRay`] samples.
+#[derive(Clone, Copy, Debug)]
+enum Sampler {
+    /// [`TapsRay`], where it applies.
+    Taps(TapsRay),
+    /// [`locate`] from the block's constants: its first and last sample corners (its box,
+    /// clamped to the grid) and the grid coordinates of the stored brick's first sample.
+    Located {
+        /// The box's first corner.
+        lo: IVec3,
+        /// The box's last corner.
+        hi: IVec3,
+        /// The stored brick's first sample.
+        first: IVec3,
+    },
+}
+
+/// What every [`SegmentRay`] of a frame shares ([`SegmentRay::in_block`]), computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentFrame {
+    /// Whether full-resolution slots take [`TapsRay`]: one field, the tricubic filter,
+    /// bricks of the default side, on x86 (there `maxps`/`minps` give the second operand
+    /// for a NaN, as the scalar clamp does; other targets' vector max and min keep the NaN,
+    /// so they take the general path).
+    fused: bool,
+    /// The block edge in voxels.
+    block: i32,
+    /// `log2(brick / block)` ([`blocks_per_brick_log2`]).
+    per_brick_log2: i32,
+    /// The brick edge in voxels.
+    brick: i32,
+    /// The last sample per axis: `dims − 1`.
+    top: IVec3,
+    /// [`SegmentFrame::top`] as floats, with a fourth lane of 0.
+    top4: Vec4,
+    /// [`SegmentFrame::block`] in the first three lanes, 0 in the fourth.
+    block4: Vec4,
+    /// `block / brick` in the first three lanes, 0 in the fourth.
+    per_brick4: Vec4,
+    /// [`SegmentFrame::brick`] as a float.
+    brick_f: f32,
+    /// Samples per axis of a stored brick.
+    side: usize,
+}
+
+impl SegmentFrame {
+    /// The constants of frame `u`.
+    #[inline]
+    pub fn new(u: &Uniforms) -> Self {
+        let side = u.brick_side as usize;
+        let top = IVec3::new(u.dims[0] as i32, u.dims[1] as i32, u.dims[2] as i32) - 1;
+        let b = u.block as f32;
+        let per_brick = u.block as f32 / u.brick as f32;
+        Self {
+            fused: cfg!(any(target_arch = "x86_64", target_arch = "x86"))
+                && u.combine == COMBINE_NONE
+                && u.filter != FILTER_TRILINEAR
+                && side == DEFAULT_SIDE,
+            block: u.block as i32,
+            per_brick_log2: blocks_per_brick_log2(u),
+            brick: u.brick as i32,
+            top,
+            top4: top.as_vec3().extend(0.0),
+            block4: Vec4::new(b, b, b, 0.0),
+            per_brick4: Vec4::new(per_brick, per_brick, per_brick, 0.0),
+            brick_f: u.brick as f32,
+            side,
+        }
+    }
 }
 
 /// What [`SegmentRay`] samples with in the common case (one field, the tricubic filter, a
@@ -1207,7 +1348,7 @@ struct TapsRay {
     p0: Vec4,
     /// See [`TapsRay::p0`].
     d: Vec4,
-    /// The block's box as floats ([`SegmentRay::lo`], [`SegmentRay::hi`]).
+    /// The block's box as floats (its first and last sample corners).
     lo: Vec4,
     /// See [`TapsRay::lo`].
     hi: Vec4,
@@ -1245,40 +1386,58 @@ impl SegmentRay {
     /// at `t0`.
     #[inline]
     pub fn new(u: &Uniforms, o: Vec3, d: Vec3, cell: IVec3, slot: u32, t0: f32) -> Self {
-        let b = u.block as i32;
-        let top = IVec3::new(u.dims[0] as i32, u.dims[1] as i32, u.dims[2] as i32) - 1;
-        let lo = cell * b;
-        let hi = (lo + IVec3::splat(b)).min(top);
-        let first = (cell >> blocks_per_brick_log2(u)) * u.brick as i32 - IVec3::ONE;
+        Self::in_block(&SegmentFrame::new(u), o, d, cell, slot, t0)
+    }
+
+    /// [`SegmentRay::new`] with the frame's constants computed once.
+    #[inline]
+    pub fn in_block(f: &SegmentFrame, o: Vec3, d: Vec3, cell: IVec3, slot: u32, t0: f32) -> Self {
         let p0 = o + t0 * d;
-        let side = u.brick_side as usize;
-        // x86's `maxps`/`minps` give the second operand for a NaN, as the scalar clamp does;
-        // other targets' vector max and min keep the NaN, so they take the general path.
-        let taps = (cfg!(any(target_arch = "x86_64", target_arch = "x86"))
-            && slot & HALF_RESOLUTION == 0
-            && u.combine == COMBINE_NONE
-            && u.filter != FILTER_TRILINEAR
-            && side == DEFAULT_SIDE)
-            .then(|| TapsRay {
+        let sampler = if f.fused && slot & HALF_RESOLUTION == 0 {
+            // The box and the brick's corner as floats: whole numbers below 2^24, exact as
+            // the integers they stand for (block coordinates are never negative, and the
+            // quotient by the power of two bricks per block is exact).
+            let c = Vec4::new(cell.x as f32, cell.y as f32, cell.z as f32, 0.0);
+            let lo = c * f.block4;
+            let hi = (lo + f.block4).min(f.top4);
+            Sampler::Taps(TapsRay {
                 p0: p0.extend(0.0),
                 d: d.extend(0.0),
-                lo: lo.as_vec3().extend(0.0),
-                hi: hi.as_vec3().extend(0.0),
-                last: (hi - IVec3::ONE).as_vec3().extend(0.0),
-                window: (first + IVec3::ONE).as_vec3().extend(0.0),
-                base: slot as usize * side * side * side,
-            });
+                lo,
+                hi,
+                last: hi - Vec4::new(1.0, 1.0, 1.0, 0.0),
+                window: (c * f.per_brick4).floor() * f.brick_f,
+                base: slot as usize * f.side * f.side * f.side,
+            })
+        } else {
+            let lo = cell * f.block;
+            Sampler::Located {
+                lo,
+                hi: (lo + IVec3::splat(f.block)).min(f.top),
+                first: (cell >> f.per_brick_log2) * f.brick - IVec3::ONE,
+            }
+        };
         Self {
             o,
             d,
             cell,
             slot,
-            lo,
-            hi,
-            first,
             t0,
             p0,
-            taps,
+            sampler,
+        }
+    }
+
+    /// The block's box (first and last sample corners) and the stored brick's first sample.
+    #[inline]
+    fn block_box(&self) -> (IVec3, IVec3, IVec3) {
+        match self.sampler {
+            Sampler::Located { lo, hi, first } => (lo, hi, first),
+            Sampler::Taps(t) => (
+                t.lo.truncate().as_ivec3(),
+                t.hi.truncate().as_ivec3(),
+                t.window.truncate().as_ivec3() - IVec3::ONE,
+            ),
         }
     }
 
@@ -1295,12 +1454,13 @@ impl SegmentRay {
         if self.slot & HALF_RESOLUTION != 0 {
             return locate(u, self.slot, self.cell, p);
         }
-        let q = p.clamp(self.lo.as_vec3(), self.hi.as_vec3());
-        let c = q.as_ivec3().clamp(self.lo, self.hi - IVec3::ONE);
+        let (lo, hi, first) = self.block_box();
+        let q = p.clamp(lo.as_vec3(), hi.as_vec3());
+        let c = q.as_ivec3().clamp(lo, hi - IVec3::ONE);
         let side = u.brick_side as usize;
         Located {
             base: self.slot as usize * channels(u) * side * side * side,
-            cell: c - self.first,
+            cell: c - first,
             frac: q - c.as_vec3(),
             p: q,
             side,
@@ -1311,9 +1471,9 @@ impl SegmentRay {
     #[inline]
     fn residual_at(&self, u: &Uniforms, pool: &[f32], t: f32, samples: &mut u32) -> f32 {
         *samples += 1;
-        match &self.taps {
-            Some(taps) => residual(u, taps.value(pool, self.t0, t)),
-            None => self.residual_located(u, pool, t),
+        match &self.sampler {
+            Sampler::Taps(taps) => residual(u, taps.value(pool, self.t0, t)),
+            Sampler::Located { .. } => self.residual_located(u, pool, t),
         }
     }
 
@@ -1881,6 +2041,10 @@ pub fn trace_pixel(
     let sphere = u.flags & FLAG_SPHERE != 0 && !data.block_info.is_empty();
     // Each step moves one block coordinate monotonically: at most the sum of the dims.
     let max_steps = u.block_dims.iter().sum::<u32>() + 3;
+    let skip_on = u.flags & FLAG_SKIP_EMPTY != 0;
+    let frame = SegmentFrame::new(u);
+    // The current block's exit faces, one per axis, updated as the walk steps.
+    let mut faces = exit_faces(u, cell, o, d, inv);
     for _ in 0..max_steps {
         let idx = block_index(u, cell);
         // The skip distance is 0 exactly where `block_active` holds (it was computed by it,
@@ -1890,13 +2054,11 @@ pub fn trace_pixel(
             Some(i) => i[3] == 0.0,
             None => block_active(u, data.block_range[idx]),
         };
-        let mut exit = None;
+        let (t_out, axis) = first_face(faces);
         if active {
             if after_excluded {
                 clear = 0.0;
             }
-            let (t_out, axis) = block_exit_inv(u, cell, o, d, inv);
-            exit = Some((t_out, axis));
             let t1 = t_out.min(t_exit);
             let brick = brick_of_block(u, cell);
             let slot = data.reference[brick];
@@ -1916,7 +2078,7 @@ pub fn trace_pixel(
             if data.used[brick].load(Ordering::Relaxed) == 0 {
                 data.used[brick].store(1, Ordering::Relaxed);
             }
-            let ray = SegmentRay::new(u, o, d, cell, slot, t_in);
+            let ray = SegmentRay::in_block(&frame, o, d, cell, slot, t_in);
             let caps = first && u.flags & FLAG_CAPS != 0;
             // A segment of zero length (the ray crosses a block edge or corner) holds no
             // crossing; only the cap test needs its sample.
@@ -1968,12 +2130,17 @@ pub fn trace_pixel(
         }
         first = false;
         let k = info.map_or(0, |i| i[3] as i32);
-        after_excluded = k >= 2 || !range_holds_iso(u, data.block_range[idx]);
+        // Where empty blocks are skipped, a block is active exactly where its range holds ρ
+        // ([`block_active`]; a skip distance k ≥ 2 is an inactive block's).
+        after_excluded = if skip_on {
+            !active
+        } else {
+            k >= 2 || !range_holds_iso(u, data.block_range[idx])
+        };
         let (t_out, axis, next) = if k >= 2 {
             // Every block within k − 1 of this one is inactive: cross them at once.
             jump(u, cell, k, o, d, inv, bd)
         } else {
-            let (t_out, axis) = exit.unwrap_or_else(|| block_exit_inv(u, cell, o, d, inv));
             let mut next = cell;
             next[axis] += step[axis];
             (t_out, axis, next)
@@ -1984,10 +2151,15 @@ pub fn trace_pixel(
         if t1 >= t_exit || t1 > far {
             break;
         }
-        cell = next;
-        if cell[axis] < 0 || cell[axis] >= bd[axis] {
+        if next[axis] < 0 || next[axis] >= bd[axis] {
             break;
         }
+        if k >= 2 {
+            faces = exit_faces(u, next, o, d, inv);
+        } else {
+            faces[axis] = exit_face(u, next[axis], o[axis], d[axis], inv[axis]);
+        }
+        cell = next;
         t_in = t1.max(t_in);
     }
     miss(samples)
@@ -2101,7 +2273,9 @@ mod tests {
                 let o = center - 30.0 * d + (Vec3::new(next(), next(), next()) - 0.5) * 8.0;
                 let t0 = 20.0 + 8.0 * next();
                 let ray = SegmentRay::new(&u, o, d, cell, slot, t0);
-                let taps = ray.taps.expect("the common case takes the fused sample");
+                let Sampler::Taps(taps) = ray.sampler else {
+                    panic!("the common case takes the fused sample");
+                };
                 let mut ts: Vec<f32> = (0..12).map(|_| t0 + 24.0 * next() - 4.0).collect();
                 ts.extend([t0, f32::NAN]);
                 for t in ts {
@@ -2123,22 +2297,87 @@ mod tests {
             ..u
         };
         let (o, d) = (Vec3::ZERO, Vec3::X);
-        assert!(
-            SegmentRay::new(&trilinear, o, d, IVec3::ZERO, 0, 0.0)
-                .taps
-                .is_none()
-        );
-        assert!(
-            SegmentRay::new(&combined, o, d, IVec3::ZERO, 0, 0.0)
-                .taps
-                .is_none()
-        );
+        assert!(matches!(
+            SegmentRay::new(&trilinear, o, d, IVec3::ZERO, 0, 0.0).sampler,
+            Sampler::Located { .. }
+        ));
+        assert!(matches!(
+            SegmentRay::new(&combined, o, d, IVec3::ZERO, 0, 0.0).sampler,
+            Sampler::Located { .. }
+        ));
         let half = HALF_RESOLUTION | 1;
-        assert!(
-            SegmentRay::new(&u, o, d, IVec3::ZERO, half, 0.0)
-                .taps
-                .is_none()
-        );
+        assert!(matches!(
+            SegmentRay::new(&u, o, d, IVec3::ZERO, half, 0.0).sampler,
+            Sampler::Located { .. }
+        ));
+    }
+
+    /// The fused sampler's box, computed in floats, is the integer box of the general path
+    /// for every block of a volume, whatever the block size.
+    #[test]
+    #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
+    fn the_fused_box_is_the_integer_box() {
+        for block in [2u32, 4, 8, 16, 32] {
+            let mut u: Uniforms = bytemuck::Zeroable::zeroed();
+            u.combine = COMBINE_NONE;
+            u.block = block;
+            u.brick = 32;
+            u.brick_side = DEFAULT_SIDE as u32;
+            u.dims = [301, 256, 97];
+            u.filter = FILTER_TRICUBIC;
+            let fused = SegmentFrame::new(&u);
+            assert!(fused.fused);
+            let general = SegmentFrame {
+                fused: false,
+                ..fused
+            };
+            let n = u.dims.map(|d| d.div_ceil(block) as i32);
+            for z in 0..n[2] {
+                for y in 0..n[1] {
+                    for x in 0..n[0] {
+                        let cell = IVec3::new(x, y, z);
+                        let f = SegmentRay::in_block(&fused, Vec3::ZERO, Vec3::X, cell, 3, 0.0);
+                        let g = SegmentRay::in_block(&general, Vec3::ZERO, Vec3::X, cell, 3, 0.0);
+                        assert!(matches!(f.sampler, Sampler::Taps(_)));
+                        assert_eq!(f.block_box(), g.block_box(), "block {cell}, edge {block}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The planes' search with its one-step fast path is the two plain loops it replaces,
+    /// for every guess and threshold in a range, near and far (the out-of-line loops).
+    #[test]
+    fn the_crossed_plane_search_is_the_plain_loops() {
+        for lo in -2..3 {
+            for hi in lo..lo + 12 {
+                for threshold in lo - 3..hi + 4 {
+                    for g in lo..=hi {
+                        // Rising: planes up to `threshold` are crossed.
+                        let crossed = |m: i32| m <= threshold;
+                        let mut want = g;
+                        while want > lo && !crossed(want) {
+                            want -= 1;
+                        }
+                        while want < hi && crossed(want + 1) {
+                            want += 1;
+                        }
+                        assert_eq!(last_crossed_rising(g, lo, hi, &crossed), want);
+                        // Falling: planes from `threshold` down are crossed.
+                        let crossed = |m: i32| m >= threshold;
+                        let mut want = g;
+                        while want < hi && !crossed(want + 1) {
+                            want += 1;
+                        }
+                        while want > lo && crossed(want) {
+                            want -= 1;
+                        }
+                        assert_eq!(last_crossed_falling(g, lo, hi, &crossed), want);
+                    }
+                }
+            }
+        }
     }
 
     /// [`ceil_u32`] is `ceil` and the saturating cast, at the edges and across a range.
