@@ -1283,7 +1283,8 @@ enum Sampler {
     },
 }
 
-/// What every [`SegmentRay`] of a frame shares ([`SegmentRay::in_block`]), computed once.
+/// What every [`SegmentRay`] of a frame shares ([`SegmentRay::in_block`]): made once per
+/// ray by the walk, instead of once per block it visits.
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentFrame {
     /// Whether full-resolution slots take [`TapsRay`]: one field, the tricubic filter,
@@ -2279,7 +2280,9 @@ mod tests {
                 let mut ts: Vec<f32> = (0..12).map(|_| t0 + 24.0 * next() - 4.0).collect();
                 ts.extend([t0, f32::NAN]);
                 for t in ts {
-                    let l = ray.locate_at(&u, t);
+                    // `locate` from the point alone: independent of the segment's box.
+                    let l = locate(&u, slot, cell, ray.point(t));
+                    assert_eq!(ray.locate_at(&u, t), l, "block {cell} at t {t}");
                     let want = combined_residual(&u, &pool, u.filter, &l);
                     let got = residual(&u, taps.value(&pool, ray.t0, t));
                     assert_eq!(got.to_bits(), want.to_bits(), "block {cell} at t {t}");
@@ -2312,8 +2315,9 @@ mod tests {
         ));
     }
 
-    /// The fused sampler's box, computed in floats, is the integer box of the general path
-    /// for every block of a volume, whatever the block size.
+    /// The fused sampler's vectors, computed in floats, are the integer box of the general
+    /// path as floats, bit for bit in every lane, for every block of a volume and every
+    /// block size.
     #[test]
     #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
     fn the_fused_box_is_the_integer_box() {
@@ -2338,8 +2342,19 @@ mod tests {
                         let cell = IVec3::new(x, y, z);
                         let f = SegmentRay::in_block(&fused, Vec3::ZERO, Vec3::X, cell, 3, 0.0);
                         let g = SegmentRay::in_block(&general, Vec3::ZERO, Vec3::X, cell, 3, 0.0);
-                        assert!(matches!(f.sampler, Sampler::Taps(_)));
-                        assert_eq!(f.block_box(), g.block_box(), "block {cell}, edge {block}");
+                        let Sampler::Taps(taps) = f.sampler else {
+                            panic!("the common case takes the fused sample");
+                        };
+                        let (lo, hi, first) = g.block_box();
+                        // The vectors as the integer box makes them, every lane bit for bit.
+                        let bits = |v: Vec4| v.to_array().map(f32::to_bits);
+                        let want = |v: IVec3| bits(v.as_vec3().extend(0.0));
+                        let at = format!("block {cell}, edge {block}");
+                        assert_eq!(bits(taps.lo), want(lo), "{at}");
+                        assert_eq!(bits(taps.hi), want(hi), "{at}");
+                        assert_eq!(bits(taps.last), want(hi - IVec3::ONE), "{at}");
+                        assert_eq!(bits(taps.window), want(first + IVec3::ONE), "{at}");
+                        assert_eq!(f.block_box(), (lo, hi, first), "{at}");
                     }
                 }
             }
