@@ -602,38 +602,11 @@ fn settle_rising(mut g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -
 
 /// [`last_crossed_rising`] for a ray moving down an axis: crossing plane `m` enters
 /// block `m − 1` (`crossed` true from some plane down): up while `g < hi` and plane
-/// `g + 1` is not crossed, then down while `g > lo` and plane `g` is.
+/// `g + 1` is not crossed, then down while `g > lo` and plane `g` is. The same search on
+/// the mirrored axis (`g → −g`, plane `m → 1 − m`).
 #[inline]
 fn last_crossed_falling(g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
-    if g < hi && !crossed(g + 1) {
-        // Plane g is not crossed either: only further up can the answer lie.
-        let g = g + 1;
-        if g < hi && !crossed(g + 1) {
-            return settle_falling(g, lo, hi, crossed);
-        }
-        return g;
-    }
-    if g > lo && crossed(g) {
-        let g = g - 1;
-        if g > lo && crossed(g) {
-            return settle_falling(g, lo, hi, crossed);
-        }
-        return g;
-    }
-    g
-}
-
-/// The loops of [`last_crossed_falling`], for its rare long runs.
-#[cold]
-#[inline(never)]
-fn settle_falling(mut g: i32, lo: i32, hi: i32, crossed: &impl Fn(i32) -> bool) -> i32 {
-    while g < hi && !crossed(g + 1) {
-        g += 1;
-    }
-    while g > lo && crossed(g) {
-        g -= 1;
-    }
-    g
+    -last_crossed_rising(-g, -hi, -lo, &|m: i32| crossed(1 - m))
 }
 
 /// The block the walk by [`block_exit`] is in at ray parameter `t` (inside the volume's
