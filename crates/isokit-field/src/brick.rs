@@ -445,16 +445,19 @@ impl BrickGrid {
                 }
                 (k == Some(true) && !job.is_cancelled()).then(|| {
                     let lo = IVec3::from_array(c.map(|v| (v as usize * brick) as i32));
-                    (0..brick * brick * brick)
+                    let points: Vec<Vec3> = (0..brick * brick * brick)
                         .map(|n| {
                             let l = IVec3::new(
                                 (n % brick) as i32,
                                 ((n / brick) % brick) as i32,
                                 (n / (brick * brick)) as i32,
                             );
-                            field.value(pos(lo + l))
+                            pos(lo + l)
                         })
-                        .collect()
+                        .collect();
+                    let mut core = vec![0.0; points.len()];
+                    field.values_nearby(&points, &mut core);
+                    core
                 })
             })
             .collect();

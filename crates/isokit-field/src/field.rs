@@ -22,6 +22,16 @@ pub trait Field: Send + Sync {
             .for_each(|(o, &p)| *o = self.value(p));
     }
 
+    /// Values at a few points close together, such as the samples of one brick, on the
+    /// calling thread; `out.len()` must equal `points.len()`. Fields whose evaluation
+    /// searches a spatial structure can start each search from the previous point's answer.
+    /// The default calls [`Field::value`] at each point.
+    fn values_nearby(&self, points: &[Vec3], out: &mut [f32]) {
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = self.value(p);
+        }
+    }
+
     /// A box that contains the surface (the zero set) and everything the field considers
     /// inside. [`Aabb::INFINITE`] for unbounded fields such as a plane.
     fn bounds(&self) -> Aabb;
@@ -172,6 +182,9 @@ macro_rules! forward_field {
             }
             fn values(&self, points: &[Vec3], out: &mut [f32]) {
                 (**self).values(points, out)
+            }
+            fn values_nearby(&self, points: &[Vec3], out: &mut [f32]) {
+                (**self).values_nearby(points, out)
             }
             fn bounds(&self) -> Aabb {
                 (**self).bounds()

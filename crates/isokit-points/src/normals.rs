@@ -104,7 +104,7 @@ pub fn estimate_normals(
     let locals: Vec<Local> = pts
         .par_iter()
         .map_init(Vec::new, |buf, &p| {
-            knn.nearest(p, k, buf);
+            knn.nearest_again(p, k, buf);
             let n = buf.len() as f64;
             let mean = buf.iter().map(|&(j, _)| pts[j]).sum::<DVec3>() / n;
             let mut c = [[0.0f64; 3]; 3];

@@ -329,7 +329,7 @@ impl PointSdf {
                     .pts
                     .par_iter()
                     .map_init(Vec::new, |buf, &p| {
-                        sdf.knn.nearest(p, m, buf);
+                        sdf.knn.nearest_again(p, m, buf);
                         buf.last().map_or(0.0, |&(_, d2)| d2.sqrt())
                     })
                     .collect();
@@ -435,7 +435,9 @@ impl PointSdf {
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(nb, w), &p| {
-                    self.knn.nearest(p, k, nb);
+                    // Consecutive samples are near (spatial order): the last answer bounds
+                    // the search.
+                    self.knn.nearest_again(p, k, nb);
                     Self::poly_gauss(nb, w);
                     let mut b = 0.0;
                     let row: Vec<(usize, f64)> = nb
@@ -582,13 +584,20 @@ impl PointSdf {
 
     /// The field and its parts at `x` (f64).
     pub fn evaluate(&self, x: DVec3) -> Evaluation {
-        let mut nb = Vec::new();
+        self.evaluate_after(x, &mut Vec::new())
+    }
+
+    /// [`PointSdf::evaluate`] where `nb` holds the neighbours found at an earlier point (best
+    /// a nearby one: they bound the search, [`Knn::nearest_again`]) and receives this
+    /// point's. The result is the same whatever `nb` holds.
+    pub(crate) fn evaluate_after(&self, x: DVec3, nb: &mut Vec<(usize, f64)>) -> Evaluation {
         let kq = if self.opts.far_field {
             self.opts.far_k
         } else {
             self.opts.k
         };
-        self.knn.nearest(x, kq, &mut nb);
+        self.knn.nearest_again(x, kq, nb);
+        let nb = &nb[..];
         let (j0, d0) = nb[0];
         let side = self.nrm[j0].dot(x - self.pts[j0]);
         let near = self.near_with(x, &nb[..self.opts.k.min(nb.len())]);
@@ -639,6 +648,14 @@ impl PointSdf {
 impl Field for PointSdf {
     fn value(&self, p: Vec3) -> f32 {
         self.evaluate(p.as_dvec3()).value as f32
+    }
+
+    /// Each point's neighbour search starts bounded by the previous point's neighbours.
+    fn values_nearby(&self, points: &[Vec3], out: &mut [f32]) {
+        let mut nb = Vec::new();
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = self.evaluate_after(p.as_dvec3(), &mut nb).value as f32;
+        }
     }
 
     /// The bounds of the samples. The zero set stays within about one sample spacing of

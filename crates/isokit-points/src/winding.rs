@@ -172,7 +172,7 @@ pub(crate) fn areas_with(knn: &Knn, pts: &[DVec3], nrm: &[DVec3], k: usize) -> V
     (0..pts.len())
         .into_par_iter()
         .map_init(Vec::new, |nb, i| {
-            knn.nearest(pts[i], m, nb);
+            knn.nearest_again(pts[i], m, nb);
             voronoi_area(i, pts, nrm, nb)
         })
         .collect()
