@@ -10,7 +10,7 @@
 //! the k-th distance found so far. The k best are kept in a max-heap. Boxes of the samples,
 //! not the cells between split planes: samples of a surface fill thin boxes, and the cells
 //! around them reach far off the surface, where the band's queries lie (cells made the
-//! 64-nearest queries of a narrow band visit 79 leaves each, boxes a handful).
+//! 64-nearest queries of a narrow band visit 79 leaves each, boxes 22).
 //!
 //! Answers are exact and do not depend on the tree's shape, ties included: the k samples
 //! smallest by (squared distance, index). A box's distance is summed in the same order as a
