@@ -50,7 +50,4 @@ pub enum PointsError {
     /// A parameter is out of its range.
     #[error("invalid parameter: {0}")]
     Parameter(String),
-    /// The nearest-neighbour tree could not be built.
-    #[error("nearest-neighbour tree: {0}")]
-    Tree(String),
 }

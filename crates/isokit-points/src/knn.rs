@@ -3,14 +3,15 @@
 //! of unity makes.
 //!
 //! The tree is implicit. Every inner node halves its samples by count at the median of its
-//! widest axis, all leaves lie at one depth (8–16 samples each), and the children of node
-//! `i` are `2i + 1` and `2i + 2`; it stores the samples in leaf order and the bounding box of
-//! every node's samples. A query descends into the child whose box is nearer first, and into
+//! widest axis, all leaves lie at one depth (8–16 samples each beyond 16 samples), and the
+//! children of node `i` are `2i + 1` and `2i + 2`; it stores the samples in leaf order and
+//! the bounding box of every node's samples. A query descends into the child whose box is nearer first, and into
 //! a child at all only when the squared distance from the query to its box does not exceed
 //! the k-th distance found so far. The k best are kept in a max-heap. Boxes of the samples,
 //! not the cells between split planes: samples of a surface fill thin boxes, and the cells
 //! around them reach far off the surface, where the band's queries lie (cells made the
-//! 64-nearest queries of a narrow band visit 79 leaves each, boxes 22).
+//! 64-nearest queries of a narrow band visit 79 leaves each, boxes 22, and 19 when bounded by
+//! the previous sample's answer).
 //!
 //! Answers are exact and do not depend on the tree's shape, ties included: the k samples
 //! smallest by (squared distance, index). A box's distance is summed in the same order as a
@@ -54,16 +55,31 @@ impl std::fmt::Debug for Knn {
 /// One sample with its caller's index, while the tree is built.
 type Item = ([f64; 3], u32);
 
+/// The bounding box of points, `[min x, min y, min z, max x, max y, max z]` (inverted and
+/// infinite for none).
+fn bbox<'a>(points: impl Iterator<Item = &'a [f64; 3]>) -> [f64; 6] {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in points {
+        for a in 0..3 {
+            b[a] = b[a].min(p[a]);
+            b[a + 3] = b[a + 3].max(p[a]);
+        }
+    }
+    b
+}
+
 /// Orders the samples of one node around the median of its widest axis: the first
 /// `len / 2` samples end up at or below it, the others at or above it.
 fn split_node(s: &mut [Item]) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for (p, _) in s.iter() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let [lx, ly, lz, hx, hy, hz] = bbox(s.iter().map(|it| &it.0));
+    let (lo, hi) = ([lx, ly, lz], [hx, hy, hz]);
     let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
     let a = if ext[0] >= ext[1] && ext[0] >= ext[2] {
         0
@@ -199,23 +215,7 @@ impl Knn {
         }
         // Leaf boxes from their samples, inner boxes from their children's.
         let mut boxes = vec![[0.0; 6]; inner];
-        boxes.par_extend(bounds.par_windows(2).map(|w| {
-            let mut b = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for p in &pts[w[0]..w[1]] {
-                for a in 0..3 {
-                    b[a] = b[a].min(p[a]);
-                    b[a + 3] = b[a + 3].max(p[a]);
-                }
-            }
-            b
-        }));
+        boxes.par_extend(bounds.par_windows(2).map(|w| bbox(pts[w[0]..w[1]].iter())));
         for node in (0..inner).rev() {
             let (l, r) = (boxes[2 * node + 1], boxes[2 * node + 2]);
             boxes[node] = std::array::from_fn(|a| {
@@ -299,21 +299,27 @@ impl Knn {
 
     /// [`Knn::nearest`] where `out` holds on entry the answer for an earlier point, best a
     /// nearby one (the previous sample of a grid): the search starts bounded by the largest
-    /// distance from `p` to the first `k` of those samples (at least `k` samples lie within
-    /// it), so it visits only the part of the tree that can hold the answer. The answer is
-    /// the same whatever `out` holds; with fewer than `k` entries the search is unbounded.
+    /// distance from `p` to the first `k` of those samples, so it visits only the part of the
+    /// tree that can hold the answer. The answer is the same whatever `out` holds: with fewer
+    /// than `k` entries, an index outside the tree, or repeated indices (fewer than `k`
+    /// samples within the bound) the search is unbounded.
     pub fn nearest_again(&self, p: DVec3, k: usize, out: &mut Vec<(usize, f64)>) {
         let k = k.min(self.len());
         let q = p.to_array();
-        let bound = if k > 0 && out.len() >= k {
-            out[..k]
-                .iter()
-                .map(|&(j, _)| dist2(&self.pts[self.pos_of[j] as usize], &q))
-                .fold(0.0, f64::max)
-        } else {
-            f64::INFINITY
-        };
+        let mut bound = f64::INFINITY;
+        if k > 0 && out.len() >= k {
+            bound = 0.0;
+            for &(j, _) in &out[..k] {
+                match self.pos_of.get(j) {
+                    Some(&at) => bound = bound.max(dist2(&self.pts[at as usize], &q)),
+                    None => bound = f64::INFINITY,
+                }
+            }
+        }
         self.nearest_bounded(p, k, bound, out);
+        if out.len() < k && bound < f64::INFINITY {
+            self.nearest_bounded(p, k, f64::INFINITY, out);
+        }
     }
 
     fn nearest_bounded(&self, p: DVec3, k: usize, bound: f64, out: &mut Vec<(usize, f64)>) {
@@ -329,7 +335,9 @@ impl Knn {
         let mut heap = Vec::new();
         let mut best = Best::new(k, &mut heap, bound);
         self.search(0, &p.to_array(), &mut best);
-        // By distance, then the runs of equal distances by index (rare).
+        // By distance, then the runs of equal distances by index (rare): the same order as
+        // sorting the (distance, index) pairs, in fewer instructions (one integer compare
+        // per step instead of a pair).
         heap.sort_unstable_by_key(|e| e.0);
         let mut run = 0;
         for i in 1..=heap.len() {
@@ -457,6 +465,12 @@ mod tests {
                     out.truncate(k.saturating_sub(1));
                     knn.nearest_again(q, k, &mut out);
                     assert_eq!(out, want, "k {k} at {q}, from too few");
+                    out = vec![(0, 0.0); k];
+                    knn.nearest_again(q, k, &mut out);
+                    assert_eq!(out, want, "k {k} at {q}, from one sample repeated");
+                    out = vec![(pts.len() + 5, 0.0); k];
+                    knn.nearest_again(q, k, &mut out);
+                    assert_eq!(out, want, "k {k} at {q}, from indices outside the tree");
                 }
                 let (i, d2) = knn.nearest_one(q);
                 assert_eq!(vec![(i, d2)], brute(&pts, q, 1));
