@@ -75,12 +75,12 @@ fn bbox<'a>(points: impl Iterator<Item = &'a [f64; 3]>) -> [f64; 6] {
     b
 }
 
-/// Orders the samples of one node around the median of its widest axis: the first
-/// `len / 2` samples end up at or below it, the others at or above it.
-fn split_node(s: &mut [Item]) {
-    let [lx, ly, lz, hx, hy, hz] = bbox(s.iter().map(|it| &it.0));
-    let (lo, hi) = ([lx, ly, lz], [hx, hy, hz]);
-    let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+/// Orders the samples of one node around the median of its widest axis (the first
+/// `len / 2` samples end up at or below it, the others at or above it) and returns the
+/// node's box, which chose the axis.
+fn split_node(s: &mut [Item]) -> [f64; 6] {
+    let b = bbox(s.iter().map(|it| &it.0));
+    let ext = [b[3] - b[0], b[4] - b[1], b[5] - b[2]];
     let a = if ext[0] >= ext[1] && ext[0] >= ext[2] {
         0
     } else if ext[1] >= ext[2] {
@@ -92,6 +92,7 @@ fn split_node(s: &mut [Item]) {
     if mid < s.len() {
         s.select_nth_unstable_by(mid, |x, y| x.0[a].total_cmp(&y.0[a]));
     }
+    b
 }
 
 /// The k best samples seen so far: a binary max-heap of (squared distance as bits, index).
@@ -190,7 +191,10 @@ impl Knn {
             .map(|(i, p)| (p.as_dvec3().to_array(), i as u32))
             .collect();
         // The ranges of one level's nodes: node m of the level holds bounds[m]..bounds[m + 1].
+        // A level's nodes follow each other in heap order, so their boxes are pushed level by
+        // level, the leaves' last.
         let mut bounds = vec![0, n];
+        let mut boxes: Vec<[f64; 6]> = Vec::with_capacity(2 * inner + 1);
         for _ in 0..depth {
             let mut slices = Vec::with_capacity(bounds.len() - 1);
             let mut rest = &mut items[..];
@@ -199,7 +203,7 @@ impl Knn {
                 slices.push(node);
                 rest = tail;
             }
-            slices.into_par_iter().for_each(split_node);
+            boxes.par_extend(slices.into_par_iter().map(split_node));
             let mut next = Vec::with_capacity(2 * bounds.len() - 1);
             for w in bounds.windows(2) {
                 next.push(w[0]);
@@ -213,19 +217,7 @@ impl Knn {
         for (at, it) in items.iter().enumerate() {
             pos_of[it.1 as usize] = at as u32;
         }
-        // Leaf boxes from their samples, inner boxes from their children's.
-        let mut boxes = vec![[0.0; 6]; inner];
         boxes.par_extend(bounds.par_windows(2).map(|w| bbox(pts[w[0]..w[1]].iter())));
-        for node in (0..inner).rev() {
-            let (l, r) = (boxes[2 * node + 1], boxes[2 * node + 2]);
-            boxes[node] = std::array::from_fn(|a| {
-                if a < 3 {
-                    l[a].min(r[a])
-                } else {
-                    l[a].max(r[a])
-                }
-            });
-        }
         Ok(Self {
             inner,
             leaf_start: bounds.into_iter().map(|b| b as u32).collect(),
