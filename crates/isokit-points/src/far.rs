@@ -10,6 +10,16 @@
 //! linearly (d̃ ≈ 2.6 d). The weight is the polynomial Gaussian of cutoff 5 in d̃:
 //! `w = max(1 − d̃²/25, 0)³` ([`blend_weight`]).
 //!
+//! σ̄ cannot tell a point above the surface from a point on the surface in a gap of the
+//! sampling: in both, every sample is at least some distance away, so the distances spread
+//! less than on a dense sampling and the weight falls. On a random cloud the gaps are several
+//! spacings wide (the largest empty disc among n random samples grows like `√(ln n)`
+//! spacings), so the far field, the distance to the closest sample, leaks into the surface
+//! there. [`centroid_distance`] measures the same scale-invariant distance from the
+//! positions and normals of the nearest samples instead (the height above their centroid,
+//! over the radius of their disc): 0 in a gap as on a dense sampling, and the same slope
+//! above a plane.
+//!
 //! The printed Eq. 4.15 uses `μ²/(μ(r²) − μ²) = 1/σ̄²` in place of `1/σ̄`; on the plane
 //! `1/σ̄² = 8`, so it gives `w = (1 − (8 − √8)/25)³ ≈ 0.499` on the surface instead of 1
 //! ([`blend_weight_printed`], kept only for the test that shows it).
@@ -19,6 +29,15 @@ pub const SQRT8: f64 = 2.828_427_124_746_190_3;
 
 /// Cutoff of the blend weight in the scale-invariant distance (002: "a cutoff radius of 5").
 pub const CUTOFF: f64 = 5.0;
+
+/// The slope of Eq. 4.14's `d̃` against `d` on a dense regular planar sampling, measured from
+/// Eq. 4.13 (2.63–2.86 over d ∈ [0.5, 8], the test `continuous_plane_formula`).
+pub const PLANE_SLOPE: f64 = 2.65;
+
+/// Samples of the disc that Eq. 4.13's `ρ` refers to in the dissertation's setting (its
+/// statistics over the 64 nearest samples): [`centroid_distance`] scales its distance to that
+/// disc, so that the blend reaches as far whatever number of samples measures it.
+pub const REFERENCE_SAMPLES: f64 = 64.0;
 
 /// Relative standard deviation `σ̄ = σ/μ` of the distances `r` (Eq. 4.12, σ the population
 /// standard deviation). `None` when `r` is empty or its mean is 0 (the point coincides with
@@ -57,15 +76,70 @@ pub fn scale_invariant_distance(sigma_bar: f64) -> f64 {
     (1.0 / sigma_bar - SQRT8).max(0.0).sqrt()
 }
 
-/// The corrected blend weight (ERRATA 6): `max(1 − max(1/σ̄ − √8, 0)/25, 0)³`, 1 on the
-/// surface, 0 from a scale-invariant distance of 5 on. The inner clamp (absent from the
-/// printed formula) keeps w ≤ 1 where an irregular sampling gives σ̄ > 1/√8.
-pub fn blend_weight(sigma_bar: f64) -> f64 {
-    let d = scale_invariant_distance(sigma_bar);
+/// The scale-invariant distance of `x` from the m nearest samples (positions `p`, unit
+/// normals `n`, m ≥ 2), measured from their positions instead of inferred from their
+/// distances (Eq. 4.14): `d̃ = PLANE_SLOPE · t / ρ₆₄`.
+///
+/// - `t` is the height of `x` above the samples' centroid `c`: with `v = x − c` and `m̄` the
+///   mean of the normals, `t² = (1 − |m̄|²)|v|² + (m̄·v)²`. Where the normals agree
+///   (`|m̄| = 1`) it is the offset along them, so a point on the surface between samples, or
+///   in a gap of the sampling, has `t ≈ 0`; where they cancel (a thin sheet seen from both
+///   sides, a medial axis, past a sharp edge) it is the whole offset `|v|`.
+/// - `ρ` is the radius of the uniform disc with the samples' second moment about `c`
+///   (`ρ² = 2 · mean |p − c|²`), scaled to the disc of [`REFERENCE_SAMPLES`] samples of the
+///   same density (`ρ₆₄ = ρ · √(64/m)`).
+///
+/// On a dense regular plane `t` is the height and `d = t/ρ₆₄` Eq. 4.13's distance, so the
+/// blend weight of [`blend_weight_of_distance`] falls as the dissertation's does. `0` when
+/// `x` coincides with the centroid; `∞` when the samples coincide away from `x`; NaN for a
+/// non-finite `x`; `None` for fewer than 2 samples.
+pub fn centroid_distance(
+    x: glam::DVec3,
+    samples: impl Iterator<Item = (glam::DVec3, glam::DVec3)> + Clone,
+) -> Option<f64> {
+    use glam::DVec3;
+    let (mut m, mut c, mut nsum) = (0usize, DVec3::ZERO, DVec3::ZERO);
+    for (p, n) in samples.clone() {
+        m += 1;
+        c += p;
+        nsum += n;
+    }
+    if m < 2 {
+        return None;
+    }
+    let mf = m as f64;
+    c /= mf;
+    let mbar = nsum / mf;
+    let second: f64 = samples.map(|(p, _)| (p - c).length_squared()).sum::<f64>() / mf;
+    let v = x - c;
+    let t2 = (1.0 - mbar.length_squared()).max(0.0) * v.length_squared() + mbar.dot(v).powi(2);
+    if t2.is_nan() {
+        return Some(f64::NAN);
+    }
+    if t2 == 0.0 {
+        return Some(0.0);
+    }
+    let rho64_2 = 2.0 * second * REFERENCE_SAMPLES / mf;
+    if rho64_2 <= 0.0 {
+        return Some(f64::INFINITY);
+    }
+    Some(PLANE_SLOPE * (t2 / rho64_2).sqrt())
+}
+
+/// The weight of the scale-invariant distance `d̃`: `max(1 − d̃²/25, 0)³`, 1 on the surface,
+/// 0 from [`CUTOFF`] on (0 for a NaN `d̃`).
+pub fn blend_weight_of_distance(d: f64) -> f64 {
     if !d.is_finite() {
         return 0.0;
     }
     (1.0 - d * d / (CUTOFF * CUTOFF)).max(0.0).powi(3)
+}
+
+/// The corrected blend weight (ERRATA 6): `max(1 − max(1/σ̄ − √8, 0)/25, 0)³`, 1 on the
+/// surface, 0 from a scale-invariant distance of 5 on. The inner clamp (absent from the
+/// printed formula) keeps w ≤ 1 where an irregular sampling gives σ̄ > 1/√8.
+pub fn blend_weight(sigma_bar: f64) -> f64 {
+    blend_weight_of_distance(scale_invariant_distance(sigma_bar))
 }
 
 /// The printed Eq. 4.15, `max(1 − (1/σ̄² − √8)/25, 0)³`. Wrong (≈ 0.5 on the surface); for

@@ -223,8 +223,8 @@ pub use grid::{
 };
 pub use normals::{NormalOptions, NormalReport, estimate_normals};
 pub use sdf::{
-    BuildStats, DEFAULT_DAMPING, Evaluation, NormalSource, PointSdf, PointSdfOptions, SignRule,
-    Solver, WINDING_MARGIN, Weighting,
+    BuildStats, DEFAULT_DAMPING, Evaluation, FarRule, NormalSource, PointSdf, PointSdfOptions,
+    SignRule, Solver, WINDING_MARGIN, Weighting,
 };
 pub use solve::SolveStats;
 pub use winding::{WindingNumber, WindingOptions, point_areas};

@@ -1,6 +1,6 @@
 //! [`PointSdf`]: a signed distance field from oriented points (002 Sec. 4.3.4–4.3.5).
 
-use crate::far::{blend_weight, sigma_bar};
+use crate::far::{blend_weight, blend_weight_of_distance, centroid_distance, sigma_bar};
 use crate::knn::Knn;
 use crate::normals::{NormalOptions, NormalReport, estimate_normals};
 use crate::solve::{Preconditioner, SolveStats, bicgstab, gmres, lsqr};
@@ -115,6 +115,32 @@ impl SignRule {
     }
 }
 
+/// How far from the surface a point is judged to be, for the far-field blend weight
+/// (002 Sec. 4.3.5, ERRATA 6).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FarRule {
+    /// The default: the height above the centroid of the `far_k` nearest samples over the
+    /// radius of their disc ([`crate::far::centroid_distance`]). On the surface in a gap of
+    /// a random sampling it stays 0, so the weight stays 1 there.
+    #[default]
+    Centroid,
+    /// 002 Eq. 4.12–4.14: inferred from the relative spread σ̄ of the distances to the
+    /// `far_k` nearest samples ([`crate::far::sigma_bar`]). It reads a gap of the sampling
+    /// as distance from the surface and mixes the distance to the closest sample into the
+    /// surface there (measured in the crate docs, "The far-field weight").
+    Spread,
+}
+
+impl FarRule {
+    /// Name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FarRule::Centroid => "centroid",
+            FarRule::Spread => "spread",
+        }
+    }
+}
+
 /// Knobs of [`PointSdf`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointSdfOptions {
@@ -127,10 +153,13 @@ pub struct PointSdfOptions {
     /// Blend with the signed distance to the closest sample away from the surface
     /// (Sec. 4.3.5, ERRATA 6). Off: the near field everywhere.
     pub far_field: bool,
-    /// Nearest samples whose distances give the far-field statistics σ̄ (at least `k` are
-    /// used). More samples fluctuate less on irregular clouds, so the weight stays nearer
-    /// 1 on the surface (see the crate docs for the measured effect).
+    /// Nearest samples whose positions ([`FarRule::Centroid`]) or distances
+    /// ([`FarRule::Spread`]) give the far-field weight (at least `k` are used). More samples
+    /// fluctuate less on irregular clouds, so the weight stays nearer 1 on the surface, and
+    /// cost more (see the crate docs for the measured effect).
     pub far_k: usize,
+    /// How the far-field weight judges the distance from the surface.
+    pub far_rule: FarRule,
     /// Solver of the sparse system.
     pub solver: Solver,
     /// Damping λ of [`Solver::Lsqr`] (dimensionless: the matrix is row-stochastic). Larger
@@ -153,7 +182,8 @@ impl Default for PointSdfOptions {
             k: 16,
             weighting: Weighting::PolyGauss,
             far_field: true,
-            far_k: 64,
+            far_k: 32,
+            far_rule: FarRule::Centroid,
             solver: Solver::Lsqr,
             damping: DEFAULT_DAMPING,
             tol: 1e-4,
@@ -601,11 +631,20 @@ impl PointSdf {
         let (j0, d0) = nb[0];
         let side = self.nrm[j0].dot(x - self.pts[j0]);
         let near = self.near_with(x, &nb[..self.opts.k.min(nb.len())]);
-        let weight = if self.opts.far_field {
-            // At a point coinciding with all its samples (mean distance 0): on the surface.
-            sigma_bar(nb.iter().map(|&(_, d2)| d2.sqrt())).map_or(1.0, blend_weight)
-        } else {
+        let weight = if !self.opts.far_field {
             1.0
+        } else {
+            match self.opts.far_rule {
+                // A lone sample spans no disc: the far field, the distance to it.
+                FarRule::Centroid => {
+                    centroid_distance(x, nb.iter().map(|&(j, _)| (self.pts[j], self.nrm[j])))
+                        .map_or(0.0, blend_weight_of_distance)
+                }
+                // At a point coinciding with all its samples (mean distance 0): on the surface.
+                FarRule::Spread => {
+                    sigma_bar(nb.iter().map(|&(_, d2)| d2.sqrt())).map_or(1.0, blend_weight)
+                }
+            }
         };
         let mut winding = None;
         let mut outside = side >= 0.0;

@@ -1,11 +1,14 @@
 //! ERRATA item 6 on a dense regular planar sampling (002 Eq. 4.13–4.15): the corrected
 //! weight is ≈ 1 on the plane and 0 beyond about 5 spacings, the scale-invariant distance
-//! grows linearly, and the printed Eq. 4.15 gives w ≈ 0.5 on the surface.
+//! grows linearly, and the printed Eq. 4.15 gives w ≈ 0.5 on the surface. Then the
+//! centroid rule (the default) against the spread rule of 002 on the same plane and in a gap
+//! of it.
 
 use glam::{DVec3, Vec3};
+use isokit_points::far::centroid_distance;
 use isokit_points::far::{blend_weight, blend_weight_printed, scale_invariant_distance, sigma_bar};
 use isokit_points::knn::Knn;
-use isokit_points::{PointSdf, PointSdfOptions};
+use isokit_points::{FarRule, PointSdf, PointSdfOptions};
 
 const K: usize = 20;
 
@@ -36,6 +39,7 @@ fn corrected_weight_on_a_regular_plane() {
         &PointSdfOptions {
             k: K,
             far_k: K,
+            far_rule: FarRule::Spread,
             ..PointSdfOptions::default()
         },
     )
@@ -91,5 +95,79 @@ fn corrected_weight_on_a_regular_plane() {
             blend_weight(s1),
             blend_weight_printed(s1)
         );
+    }
+}
+
+/// The scale-invariant distance of the centroid rule at `x` over its `m` nearest samples.
+fn centroid_at(knn: &Knn, p: &[Vec3], x: DVec3, m: usize) -> f64 {
+    let mut nb = Vec::new();
+    knn.nearest(x, m, &mut nb);
+    centroid_distance(x, nb.iter().map(|&(j, _)| (p[j].as_dvec3(), DVec3::Z))).unwrap()
+}
+
+#[test]
+fn centroid_rule_reaches_as_far_as_the_spread_rule() {
+    let (p, _) = plane();
+    let knn = Knn::new(&p).unwrap();
+    // The dissertation's statistics over 64 samples against the centroid of 32 and 64: the
+    // same distance within 25% from one spacing up, whatever the number of samples.
+    for step in 4..=32 {
+        let z = step as f64 * 0.25;
+        let x = DVec3::new(0.5, 0.5, z);
+        let mut nb = Vec::new();
+        knn.nearest(x, 64, &mut nb);
+        let spread =
+            scale_invariant_distance(sigma_bar(nb.iter().map(|&(_, d2)| d2.sqrt())).unwrap());
+        for m in [32, 64] {
+            let c = centroid_at(&knn, &p, x, m);
+            println!("z {z:5.2}: spread {spread:.3}, centroid of {m} {c:.3}");
+            assert!(
+                (c / spread - 1.0).abs() < 0.25,
+                "z {z}, m {m}: {c} against {spread}"
+            );
+        }
+    }
+}
+
+#[test]
+fn centroid_rule_stays_on_the_surface_in_a_gap() {
+    // The lattice with every sample within 3.5 spacings of the origin removed: a gap 7
+    // spacings wide, as random clouds have them.
+    let (p, n): (Vec<Vec3>, Vec<Vec3>) = plane()
+        .0
+        .into_iter()
+        .filter(|q| q.length() > 3.5)
+        .map(|q| (q, Vec3::Z))
+        .unzip();
+    let field = |rule| {
+        PointSdf::new(
+            &p,
+            &n,
+            &PointSdfOptions {
+                far_rule: rule,
+                ..PointSdfOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let (centroid, spread) = (field(FarRule::Centroid), field(FarRule::Spread));
+    for (x, y) in [(0.0, 0.0), (0.7, -0.4), (1.5, 1.0)] {
+        for z in [0.0, 0.5, 1.0] {
+            let q = DVec3::new(x, y, z);
+            let (c, s) = (centroid.evaluate(q), spread.evaluate(q));
+            println!(
+                "({x}, {y}, {z}): centroid w {:.3} f {:.4}; spread w {:.3} f {:.4}",
+                c.weight, c.value, s.weight, s.value
+            );
+            // The near field is exact on a plane; the centroid rule keeps the weight near 1
+            // up to a spacing above the gap, where the closest sample is 2.5–5 spacings away.
+            assert!((c.value - z).abs() < 0.05, "centroid: {}", c.value);
+            if z == 0.0 {
+                assert_eq!(c.weight, 1.0);
+                // The spread rule reads the gap as height and mixes in the distance to the
+                // closest sample (2.5–3.5 spacings here).
+                assert!(s.weight < 0.9 && s.value > 0.1, "spread: {s:?}");
+            }
+        }
     }
 }

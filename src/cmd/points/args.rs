@@ -3,8 +3,8 @@
 use isokit_field::PointCloud;
 use isokit_points::noise::{NoiseEstimate, estimate_noise};
 use isokit_points::{
-    CloudGridOptions, NormalOptions, NormalSource, PointSdfOptions, PointsError, SignRule, Solver,
-    Weighting,
+    CloudGridOptions, FarRule, NormalOptions, NormalSource, PointSdfOptions, PointsError, SignRule,
+    Solver, Weighting,
 };
 use std::path::PathBuf;
 
@@ -55,6 +55,17 @@ pub enum SignArg {
     WindingEverywhere,
 }
 
+/// How the far-field weight judges the distance from the surface.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FarRuleArg {
+    /// The height above the centroid of the nearest samples over the radius of their disc:
+    /// stays on the surface in gaps of the sampling.
+    Centroid,
+    /// The spread of the distances to the nearest samples (002 Eq. 4.12–4.14): reads gaps of
+    /// the sampling as distance from the surface.
+    Spread,
+}
+
 /// Arguments of `isokit points`.
 #[derive(clap::Args, Debug)]
 #[command(after_help = crate::cmd::volume_args::LAYOUT)]
@@ -80,9 +91,13 @@ pub struct Args {
     /// the cloud's noise estimate: 16, or 64 on a noisy cloud].
     #[arg(long)]
     pub k: Option<usize>,
-    /// Nearest samples for the far-field statistics.
-    #[arg(long, default_value_t = 64)]
+    /// Nearest samples for the far-field weight (64 was the default of `--far-rule spread`
+    /// before the centroid rule).
+    #[arg(long, default_value_t = 32)]
     pub far_k: usize,
+    /// How the far-field weight judges the distance from the surface.
+    #[arg(long, value_enum, default_value_t = FarRuleArg::Centroid)]
+    pub far_rule: FarRuleArg,
     /// Turn the far-field blend off (near field everywhere).
     #[arg(long)]
     pub no_far: bool,
@@ -147,6 +162,10 @@ impl Args {
             k,
             far_k: self.far_k,
             far_field: !self.no_far,
+            far_rule: match self.far_rule {
+                FarRuleArg::Centroid => FarRule::Centroid,
+                FarRuleArg::Spread => FarRule::Spread,
+            },
             weighting: match self.weights {
                 Weights::PolyGauss => Weighting::PolyGauss,
                 Weights::Shepard => Weighting::Shepard,

@@ -67,7 +67,12 @@ pub fn run(a: Args) -> Result<()> {
         field.weighting.name(),
         b.k,
         if field.far_field {
-            format!("on (sign: {})", field.sign.name())
+            format!(
+                "on (weight: {}, {} samples; sign: {})",
+                field.far_rule.name(),
+                field.far_k.max(b.k),
+                field.sign.name()
+            )
         } else {
             "off".to_string()
         }
