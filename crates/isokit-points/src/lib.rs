@@ -98,7 +98,7 @@
 //! equally accurate between the samples, and 0.05 leaves 0.018 h at the samples against
 //! 0.020 h at 0.1 and 0.028 h at 0.3, for 1.9× the iterations of 0.1. On noisy clouds the same knob turns
 //! interpolation into approximation: with noise of about one spacing (0.5% of the
-//! bounding diagonal) the band error of the torus falls from 0.97 h (default) to 0.33 h with
+//! bounding diagonal) the band error of the torus falls from 0.98 h (default) to 0.31 h with
 //! `k = 64, damping = 1` (`tests/meshes.rs`). On a 10^6-sample torus the whole solve step
 //! (assembly, 65 iterations, the check of every sample) takes 5.5 s on 2 shared cores;
 //! storing the samples in Morton order made it 2.7× faster (15 s before).
@@ -109,12 +109,12 @@
 //!
 //! | cloud | samples | h | RMS | max | near field alone: RMS / max | max \|f(p_i)\| |
 //! | --- | ---: | --- | --- | --- | --- | --- |
-//! | sphere r = 1 (random) | 6000 | 0.0227 | 0.037 h | 0.34 h | 0.018 h / 0.12 h | 0.018 h |
-//! | torus 1, 0.35 (random) | 6000 | 0.0238 | 0.050 h | 0.55 h | 0.032 h / 0.17 h | 0.040 h |
-//! | rounded box | 6000 | 0.0179 | 0.047 h | 0.40 h | 0.031 h / 0.23 h | 0.042 h |
-//! | `data/sphere.obj` (1280 faces) | 20,000 | 0.0125 | 0.041 h | 0.33 h | 0.020 h / 0.15 h | 0.040 h |
-//! | `data/torus.off` (2304 faces) | 20,000 | 0.0131 | 0.055 h | 0.44 h | 0.041 h / 0.32 h | 0.090 h |
-//! | `data/trefoil.ply` (6144 faces) | 20,000 | 0.0142 | 0.073 h | 0.58 h | 0.070 h / 0.73 h | 0.132 h |
+//! | sphere r = 1 (random) | 6000 | 0.0227 | 0.017 h | 0.12 h | 0.018 h / 0.12 h | 0.018 h |
+//! | torus 1, 0.35 (random) | 6000 | 0.0238 | 0.031 h | 0.18 h | 0.032 h / 0.17 h | 0.040 h |
+//! | rounded box | 6000 | 0.0179 | 0.030 h | 0.23 h | 0.031 h / 0.23 h | 0.042 h |
+//! | `data/sphere.obj` (1280 faces) | 20,000 | 0.0125 | 0.020 h | 0.16 h | 0.020 h / 0.15 h | 0.040 h |
+//! | `data/torus.off` (2304 faces) | 20,000 | 0.0131 | 0.041 h | 0.31 h | 0.041 h / 0.32 h | 0.090 h |
+//! | `data/trefoil.ply` (6144 faces) | 20,000 | 0.0142 | 0.067 h | 0.71 h | 0.070 h / 0.73 h | 0.132 h |
 //!
 //! Mesh clouds are sampled uniformly by area with exact face normals and compared with the
 //! mesh's exact distance (`isokit_kdtree::mesh::MeshSdf`); their creases (face normals jump
@@ -122,18 +122,36 @@
 //! on the trefoil), max below 0.75 h (1.0 h), no spurious zero crossing on 40³ grids over the
 //! padded bounds, and beyond the blend's reach the field equals the distance to the cloud
 //! exactly. With estimated normals (k = 16; 0 flips, angle RMS 0.8°–2.3°) the RMS is
-//! 0.044–0.050 h. Comparison variants on the random torus: Shepard RMS 0.126 h (max 0.83 h),
-//! Nie04 0.075 h (max 0.63 h). With 0.5% noise and exact normals, Shepard's averaging does
-//! better than the default (torus 0.50 h against 0.97 h) and the smoothing options better
-//! still (0.33 h); with a density varying 20:1 along x (trefoil) the default stays at
-//! 0.16 h RMS, Nie04 0.20 h, Shepard 0.32 h.
+//! 0.017–0.033 h. Comparison variants on the random torus: Shepard RMS 0.121 h (max 0.47 h),
+//! Nie04 0.063 h (max 0.28 h). With 0.5% noise and exact normals, Shepard's averaging does
+//! better than the default (torus 0.48 h against 0.98 h) and the smoothing options better
+//! still (0.31 h); with a density varying 20:1 along x (trefoil) the default stays at
+//! 0.12 h RMS, Nie04 0.17 h, Shepard 0.30 h.
 //!
-//! Most of the remaining error near the surface comes from the far-field blend: on a random
-//! cloud the statistics σ̄ fluctuate, so w dips below 1 between samples and mixes in the
-//! distance to the closest sample (compare the near field alone above). More samples in the
-//! statistics (`far_k`, default 64) reduce it (torus RMS 0.132 h with 16, 0.080 h with 32,
-//! 0.058 h with 64, measured with the earlier GMRES solve); the 64-nearest query is also most
-//! of the evaluation time.
+//! ## The far-field weight
+//! Away from the surface the field blends into the signed distance to the closest sample,
+//! with a weight that falls from 1 to 0 over a scale-invariant distance from the surface
+//! (002 Sec. 4.3.5, [`far`]). The dissertation infers that distance from the spread σ̄ of
+//! the distances to the nearest samples ([`FarRule::Spread`]). A random cloud has gaps
+//! several spacings wide, and in a gap every sample is far, as above the surface: σ̄ reads
+//! the gap as height, the weight falls, and the distance to the closest sample (up to the
+//! gap's radius) leaks into the surface. That was most of the error near the surface (the
+//! near field alone was 2× more accurate). The default [`FarRule::Centroid`] measures the
+//! distance directly, as the height of the point above the centroid of its `far_k` = 16
+//! nearest samples along their mean normal over the radius of their disc
+//! ([`far::centroid_distance`]): 0 in a gap, the same slope as σ̄ above a plane (within 25%
+//! from one spacing up, `tests/far_plane.rs`), so the blend reaches as far.
+//!
+//! Same tests, the spread rule over 64 samples (the former default) → the centroid rule over
+//! 16, band ±2h RMS / max: random sphere 0.037 h / 0.34 h → 0.017 h / 0.12 h, random torus
+//! 0.050 / 0.55 → 0.031 / 0.18, rounded box 0.047 / 0.40 → 0.030 / 0.23, `sphere.obj` 0.041
+//! / 0.33 → 0.020 / 0.16, `torus.off` 0.055 / 0.44 → 0.041 / 0.31, `trefoil.ply` 0.073 / 0.58
+//! → 0.067 / 0.71 (its creases: the near field alone has 0.73), the 20:1 density 0.16 / 3.0
+//! → 0.12 / 1.8. Over 32 samples the figures are within 3% of these (the centroid of 16 is
+//! as good a measure, and the query that the partition of unity makes anyway gives it). On
+//! noisy clouds the default moves by 1–4% (torus at 0.5% noise 0.949 → 0.981 h). On 10^6 samples the gaps grow (the largest empty disc among n random samples
+//! grows like √(ln n) spacings): the Hausdorff distance of the sphere's mesh at `--res 256`
+//! fell from 6.9e-4 to 8.8e-5 (BENCHMARKS.md, "A million samples").
 //!
 //! ## The sign far from the surface
 //! The far field is the distance to the closest sample, and its sign used to be the side of
@@ -156,16 +174,16 @@
 //!
 //! | cloud | nodes | nearest | winding (default) | winding everywhere |
 //! | --- | ---: | ---: | ---: | ---: |
-//! | blob with a pocket (union of spheres, cube cut from the top) | 124,797 | 27 (up to 12.8 spacings away) | 0 | 0 |
-//! | box with a pocket (exact polyhedron) | 175,704 | 37 (11.2) | 0 | 0 |
+//! | blob with a pocket (union of spheres, cube cut from the top) | 124,797 | 26 (up to 12.8 spacings away) | 0 | 0 |
+//! | box with a pocket (exact polyhedron) | 175,704 | 32 (11.2) | 0 | 0 |
 //! | thin plate, sheets 2 spacings apart | 35,136 | 9 (7.3) | 0 | 0 |
 //! | sharp box | 87,172 | 109 (7.3) | 0 | 0 |
 //! | the same, noise 0.5% of the diagonal: blob | 123,261 | 29 | 0 | 0 |
-//! | box with a pocket | 157,818 | 891 | 0 | 0 |
+//! | box with a pocket | 157,818 | 885 | 0 | 0 |
 //! | thin plate | 44,554 | 477 | 0 | 0 |
 //! | sharp box | 86,904 | 509 | 0 | 0 |
-//! | noise 2%: blob | 124,107 | 177 | 0 | 0 |
-//! | box with a pocket | 139,724 | 2913 | 0 | 0 |
+//! | noise 2%: blob | 124,107 | 174 | 0 | 0 |
+//! | box with a pocket | 139,724 | 2885 | 0 | 0 |
 //! | thin plate | 60,938 | 2813 | 0 | 0 |
 //! | sharp box | 88,004 | 1967 | 0 | 0 |
 //!
@@ -182,10 +200,11 @@
 //! on 300,000.
 //!
 //! The wrong signs also reached into the band beside the sharp edges: the largest error at
-//! the nodes within 2 spacings of the surface (same lattices, libigl's exact distance)
-//! falls from 2.50 to 0.60 spacings on the blob (30,000 samples; 3.90 to 0.19 on 300,000),
-//! 1.94 to 0.91 on the box with a pocket, 1.57 to 0.57 on the thin plate and 2.51 to 0.89
-//! on the sharp box (RMS 0.026–0.071 spacings); `tests/sign.rs` asserts at most 1.
+//! the nodes within 2 spacings of the surface (same lattices) falls from 1.25 to 0.61
+//! spacings on the blob, 1.98 to 0.73 on the box with a pocket, 2.37 to 0.43 on the thin
+//! plate, 2.71 to 0.82 on the sharp box and 3.07 to 0.79 on the CSG part (RMS 0.020–0.055
+//! spacings; with the spread weight of 002 it was 2.50 to 0.60 on the blob, 3.90 to 0.19 on
+//! 300,000 samples, against libigl's exact distance); `tests/sign.rs` asserts at most 1.
 //!
 //! Cost, release build (`cargo run --release -p isokit-points --example points_grid --
 //! CLOUD RES RULE`; 2 shared cores under a load of 5, so ±15%): the winding number builds in
@@ -193,7 +212,7 @@
 //! Sampling seconds, nearest / winding / winding everywhere: 30,000 samples, 64-grid 2.08 /
 //! 1.84 / 1.93, 128-grid 15.1 / 15.6 / 17.0; 300,000 samples, 64-grid 6.2 / 6.4 / 6.1,
 //! 128-grid 39.9 / 42.3 / 32.1. The tree query costs little beside the 64-nearest query
-//! every evaluation makes; the rest is noise.
+//! every evaluation made then (the spread weight over 64 samples); the rest is noise.
 //!
 //! ## Speed
 //! Nearly all of an evaluation is its 64-nearest query ([`knn::Knn`], exact). Points

@@ -182,7 +182,7 @@ impl Default for PointSdfOptions {
             k: 16,
             weighting: Weighting::PolyGauss,
             far_field: true,
-            far_k: 32,
+            far_k: 16,
             far_rule: FarRule::Centroid,
             solver: Solver::Lsqr,
             damping: DEFAULT_DAMPING,

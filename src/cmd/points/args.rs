@@ -93,7 +93,7 @@ pub struct Args {
     pub k: Option<usize>,
     /// Nearest samples for the far-field weight (64 was the default of `--far-rule spread`
     /// before the centroid rule).
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = 16)]
     pub far_k: usize,
     /// How the far-field weight judges the distance from the surface.
     #[arg(long, value_enum, default_value_t = FarRuleArg::Centroid)]
