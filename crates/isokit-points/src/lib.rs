@@ -151,7 +151,8 @@
 //! as good a measure, and the query that the partition of unity makes anyway gives it). On
 //! noisy clouds the default moves by 1–4% (torus at 0.5% noise 0.949 → 0.981 h). On 10^6 samples the gaps grow (the largest empty disc among n random samples
 //! grows like √(ln n) spacings): the Hausdorff distance of the sphere's mesh at `--res 256`
-//! fell from 6.9e-4 to 8.8e-5 (BENCHMARKS.md, "A million samples").
+//! fell from 6.9e-4 to 7.4e-5 (BENCHMARKS.md, "The far-field weight in the gaps of a random
+//! cloud").
 //!
 //! ## The sign far from the surface
 //! The far field is the distance to the closest sample, and its sign used to be the side of
@@ -215,14 +216,16 @@
 //! every evaluation made then (the spread weight over 64 samples); the rest is noise.
 //!
 //! ## Speed
-//! Nearly all of an evaluation is its 64-nearest query ([`knn::Knn`], exact). Points
-//! evaluated one after another (a brick's samples through
-//! [`isokit_field::Field::values_nearby`], a grid's rows, [`PointSdf::values_at`]) bound each
-//! query by the previous point's answer: about 32k instructions per query on a 10^5-sample
-//! torus, against about 46k unbounded. On 10^6 samples, `isokit points --res 256` with a band of 3
-//! cells took 10.8 s on 2 cores (torus; sphere 17.5 s, trefoil 11.4 s) against 4.4 s (9.8 s,
-//! 3.8 s) for Open3D's screened Poisson at depth 8 in the same run (BENCHMARKS.md, "A million
-//! samples").
+//! Nearly all of an evaluation is its 16-nearest query ([`knn::Knn`], exact), shared by the
+//! partition of unity and the far-field weight. Points evaluated one after another (a brick's
+//! samples through [`isokit_field::Field::values_nearby`], a grid's rows,
+//! [`PointSdf::values_at`]) bound each query by the previous point's answer. On a
+//! 10^5-sample torus (`--res 128 --band 0.082`, one thread) `isokit points` takes 11.9 G
+//! instructions, against 19.4 G with 002's weight over 64 samples (`--far-rule spread
+//! --far-k 64`). On 10^6 samples, `isokit points --res 256` with a band of 3 cells took 7.3 s
+//! on 2 cores (torus; sphere 9.7 s, trefoil 7.6 s) against 4.4 s (7.8 s, 4.5 s) for Open3D's
+//! screened Poisson at depth 8 in the same run, with a smaller Hausdorff distance on the
+//! sphere and torus (BENCHMARKS.md, "The far-field weight in the gaps of a random cloud").
 
 pub mod eigen;
 mod error;

@@ -91,8 +91,8 @@ pub struct Args {
     /// the cloud's noise estimate: 16, or 64 on a noisy cloud].
     #[arg(long)]
     pub k: Option<usize>,
-    /// Nearest samples for the far-field weight (64 was the default of `--far-rule spread`
-    /// before the centroid rule).
+    /// Nearest samples for the far-field weight; at least `--k` are used (`--far-rule
+    /// spread --far-k 64` is the default before the centroid rule).
     #[arg(long, default_value_t = 16)]
     pub far_k: usize,
     /// How the far-field weight judges the distance from the surface.
