@@ -3,7 +3,7 @@
 use crate::far::{blend_weight, blend_weight_of_distance, centroid_distance, sigma_bar};
 use crate::knn::Knn;
 use crate::normals::{NormalOptions, NormalReport, estimate_normals};
-use crate::solve::{Preconditioner, SolveStats, bicgstab, gmres, lsqr};
+use crate::solve::{Preconditioner, SolveStats, bicgstab, gmres, lsqr_to};
 use crate::winding::{WindingNumber, WindingOptions, areas_with};
 use crate::{PointsError, check_points, unit_normals};
 use glam::{DVec3, Vec3};
@@ -172,6 +172,12 @@ pub struct PointSdfOptions {
     pub tol: f64,
     /// Iteration limit of the solve.
     pub max_iter: usize,
+    /// [`Solver::Lsqr`] only: also stop once the root mean square of the residual, the near
+    /// field at the samples (with the damping term), is at most this, in world units; 0:
+    /// solve to `tol`. [`crate::cloud_to_grid`] sets it from the grid's spacing
+    /// ([`crate::CloudGridOptions::solve_to_grid`]): a grid much coarser than the samples'
+    /// spacing cannot tell the constants of a full solve from smaller ones.
+    pub residual_target: f64,
     /// Where the far field gets its sign (only with `far_field`).
     pub sign: SignRule,
 }
@@ -188,6 +194,7 @@ impl Default for PointSdfOptions {
             damping: DEFAULT_DAMPING,
             tol: 1e-4,
             max_iter: 200,
+            residual_target: 0.0,
             sign: SignRule::Winding,
         }
     }
@@ -288,6 +295,12 @@ impl PointSdf {
             return Err(PointsError::Parameter(format!(
                 "damping {} must be finite and non-negative",
                 opts.damping
+            )));
+        }
+        if !(opts.residual_target >= 0.0 && opts.residual_target.is_finite()) {
+            return Err(PointsError::Parameter(format!(
+                "residual target {} must be finite and non-negative",
+                opts.residual_target
             )));
         }
         if let Weighting::Nie04 { neighbours } = opts.weighting {
@@ -516,7 +529,7 @@ impl PointSdf {
         let (a, b) = self.interpolation_system();
         let o = &self.opts;
         let (c, mut st) = match o.solver {
-            Solver::Lsqr => lsqr(&a, &b, o.damping, o.tol, o.max_iter),
+            Solver::Lsqr => lsqr_to(&a, &b, o.damping, o.tol, o.max_iter, o.residual_target),
             Solver::Bicgstab => bicgstab(&a, &b, o.tol, o.max_iter),
             Solver::Gmres => gmres(
                 &a,

@@ -32,8 +32,11 @@ pub struct SolveStats {
     pub relative_residual: f64,
     /// True when the solver's stopping test was met: the relative residual below the
     /// tolerance for [`gmres`] and [`bicgstab`], the least-squares optimality (or a
-    /// vanishing residual) for [`lsqr`].
+    /// vanishing residual, or the residual target of [`lsqr_to`]) for [`lsqr`].
     pub converged: bool,
+    /// [`lsqr_to`] only: true when it stopped because the residual's RMS reached the
+    /// target (before the optimality test).
+    pub reached_target: bool,
     /// The damping λ of [`lsqr`] (0 for the other solvers).
     pub damping: f64,
     /// [`lsqr`] only: `‖Āᵀ r̄‖ / (‖Ā‖ ‖r̄‖)` of the damped problem at the last iterate, 0
@@ -474,11 +477,34 @@ pub fn lsqr(
     tol: f64,
     max_iter: usize,
 ) -> (Vec<f64>, SolveStats) {
+    lsqr_to(a, b, damp, tol, max_iter, 0.0)
+}
+
+/// [`lsqr`] that also stops, as converged, once the damped residual's root mean square
+/// `‖r̄‖/√m` (m the rows; `‖r̄‖ ≥ ‖b − A x‖`, so the undamped residual is at least as small)
+/// is at most `target_rms`, before the first iteration when `‖b‖/√m` already is
+/// ([`SolveStats::reached_target`]). For a solution needed only to some absolute precision:
+/// the field sampled on a grid much coarser than the samples' spacing.
+pub fn lsqr_to(
+    a: &CsMat<f64>,
+    b: &[f64],
+    damp: f64,
+    tol: f64,
+    max_iter: usize,
+    target_rms: f64,
+) -> (Vec<f64>, SolveStats) {
     let n = a.cols();
     let (mut x, mut stats, bnorm) = start(a, n, b);
     stats.damping = damp;
     if stats.converged {
         return (x, stats);
+    }
+    // The residual's norm at which its root mean square over the rows meets the target.
+    let target = target_rms * (a.rows() as f64).sqrt();
+    if bnorm <= target {
+        stats.converged = true;
+        stats.reached_target = true;
+        return finish(a, b, x, bnorm, f64::INFINITY, stats);
     }
     let at: CsMat<f64> = a.transpose_view().to_csr();
     let mut u: Vec<f64> = b.iter().map(|v| v / bnorm).collect();
@@ -547,6 +573,11 @@ pub fn lsqr(
         }
         if optimality <= tol || rnorm <= tol * bnorm || alpha == 0.0 || beta == 0.0 {
             done = true;
+            break;
+        }
+        if rnorm <= target {
+            done = true;
+            stats.reached_target = true;
             break;
         }
     }
@@ -734,5 +765,52 @@ mod tests {
         let (x, st) = lsqr(&t.to_csr(), &[1.0, 3.0], 1e-3, 1e-12, 50);
         assert!(st.converged, "{st:?}");
         assert!((x[0] - 2.0).abs() < 1e-5 && x[1] == 0.0, "{x:?}");
+    }
+
+    #[test]
+    fn lsqr_stops_at_the_residual_target() {
+        // A 1-D Laplacian plus identity (well posed, many iterations to converge fully).
+        let n = 400;
+        let mut t = TriMat::new((n, n));
+        for i in 0..n {
+            t.add_triplet(i, i, 3.0);
+            if i > 0 {
+                t.add_triplet(i, i - 1, -1.0);
+            }
+            if i + 1 < n {
+                t.add_triplet(i, i + 1, -1.0);
+            }
+        }
+        let a: CsMat<f64> = t.to_csr();
+        let b: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let rms = |x: &[f64]| {
+            let mut ax = vec![0.0; n];
+            matvec(&a, x, &mut ax);
+            (b.iter()
+                .zip(&ax)
+                .map(|(p, q)| (p - q) * (p - q))
+                .sum::<f64>()
+                / n as f64)
+                .sqrt()
+        };
+        let (full, fs) = lsqr(&a, &b, 0.0, 1e-12, 500);
+        let (same, ss) = lsqr_to(&a, &b, 0.0, 1e-12, 500, 0.0);
+        assert_eq!(full, same);
+        assert!(!fs.reached_target && !ss.reached_target);
+        let b_rms = rms(&vec![0.0; n]);
+        for frac in [0.3, 0.05, 1e-3] {
+            let target = frac * b_rms;
+            let (x, st) = lsqr_to(&a, &b, 0.0, 1e-12, 500, target);
+            println!(
+                "target {frac} of the right-hand side: {} iterations against {}",
+                st.iterations, fs.iterations
+            );
+            assert!(st.converged && st.reached_target, "{st:?}");
+            assert!(st.iterations < fs.iterations, "{st:?}");
+            assert!(rms(&x) <= target, "{} > {target}", rms(&x));
+        }
+        // A target the right-hand side already meets: no iteration, x = 0.
+        let (x, st) = lsqr_to(&a, &b, 0.05, 1e-12, 500, b_rms * 1.0001);
+        assert!(st.reached_target && st.iterations == 0 && x.iter().all(|&v| v == 0.0));
     }
 }

@@ -127,6 +127,11 @@ pub struct Args {
     /// Iteration limit of the solve.
     #[arg(long, default_value_t = PointSdfOptions::default().max_iter)]
     pub max_iter: usize,
+    /// Stop the solve once the field at the samples is within this fraction of the grid's
+    /// spacing (root mean square; LSQR only): a grid much coarser than the samples' spacing
+    /// cannot tell the full solve from a shorter one. 0 solves to the usual tolerance.
+    #[arg(long, default_value_t = isokit_points::SOLVE_TO_GRID)]
+    pub solve_to_grid: f64,
     #[command(flatten)]
     pub lattice: crate::cmd::volume_args::LatticeArgs,
     #[command(flatten)]
@@ -192,6 +197,7 @@ impl Args {
             normals: Some(normals),
             band: self.band,
             brick: self.brick,
+            solve_to_grid: self.solve_to_grid,
         };
         Ok((opts, noise))
     }

@@ -89,7 +89,9 @@ pub fn run(a: Args) -> Result<()> {
         } else {
             String::new()
         };
-        let end = if s.converged {
+        let end = if s.reached_target {
+            "grid precision"
+        } else if s.converged {
             "converged"
         } else {
             "iteration limit"
