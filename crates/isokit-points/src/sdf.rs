@@ -222,7 +222,8 @@ pub struct BuildStats {
     pub solve: Option<SolveStats>,
     /// Seconds to build (tree, solve, winding number).
     pub seconds: f64,
-    /// Seconds building the winding number (areas and tree); 0 without one.
+    /// Seconds building the winding number (areas and tree; with [`Weighting::PolyGauss`]
+    /// the areas come from the solve's assembly and count there); 0 without one.
     pub winding_seconds: f64,
     /// Sum of the sample areas of the winding number (≈ the surface area); 0 without one.
     pub winding_area: f64,
@@ -362,8 +363,11 @@ impl PointSdf {
                 ..BuildStats::default()
             },
         };
+        let winding =
+            (opts.far_field && opts.sign != SignRule::Nearest).then(WindingOptions::default);
+        let mut areas = None;
         match opts.weighting {
-            Weighting::PolyGauss => sdf.solve(),
+            Weighting::PolyGauss => areas = sdf.solve(winding.map(|w| w.area_k)),
             Weighting::Shepard => {}
             Weighting::Nie04 { neighbours } => {
                 // The sample itself is its own nearest: ask for one more.
@@ -380,10 +384,9 @@ impl PointSdf {
                 sdf.support = support;
             }
         }
-        if opts.far_field && opts.sign != SignRule::Nearest {
+        if let Some(w) = winding {
             let t = Instant::now();
-            let w = WindingOptions::default();
-            let areas = areas_with(&sdf.knn, &sdf.pts, &sdf.nrm, w.area_k);
+            let areas = areas.unwrap_or_else(|| areas_with(&sdf.knn, &sdf.pts, &sdf.nrm, w.area_k));
             let wn = WindingNumber::build(sdf.pts.clone(), sdf.nrm.clone(), areas, w.beta)?;
             sdf.stats.winding_area = wn.total_area();
             sdf.winding = Some(wn);
@@ -470,46 +473,56 @@ impl PointSdf {
     /// k-nearest query per sample), for analysis; the constants in use come from
     /// [`PointSdf::constants`].
     pub fn interpolation_system(&self) -> (CsMat<f64>, Vec<f64>) {
+        let (a, b, _) = self.assemble(None);
+        (a, b)
+    }
+
+    /// [`PointSdf::interpolation_system`], and with `area_k` the winding number's sample
+    /// areas ([`crate::winding::point_areas`] over `area_k` neighbours) from the same
+    /// neighbour query: each sample asks once for as many nearest samples as either needs,
+    /// and each part reads its leading ones (the answers are sorted, so they are the same
+    /// as a query of that size).
+    fn assemble(&self, area_k: Option<usize>) -> (CsMat<f64>, Vec<f64>, Option<Vec<f64>>) {
         let n = self.pts.len();
         let k = self.opts.k;
-        let rows: Vec<(Vec<(usize, f64)>, f64)> = self
-            .pts
-            .par_iter()
-            .map_init(
-                || (Vec::new(), Vec::new()),
-                |(nb, w), &p| {
+        let area_m = area_k.map(|a| (a + 1).min(n));
+        let m = area_m.map_or(k, |a| a.max(k));
+        // Every row holds exactly k entries (k ≤ n, and every sample is finite).
+        let mut indices = vec![0usize; n * k];
+        let mut data = vec![0.0f64; n * k];
+        let mut b = vec![0.0f64; n];
+        let mut areas = vec![0.0f64; n];
+        indices
+            .par_chunks_mut(k.max(1))
+            .zip(data.par_chunks_mut(k.max(1)))
+            .zip(b.par_iter_mut())
+            .zip(areas.par_iter_mut())
+            .enumerate()
+            .for_each_init(
+                || (Vec::new(), Vec::new(), Vec::new()),
+                |(nb, w, row), (i, (((ix, d), bi), area))| {
+                    let p = self.pts[i];
                     // Consecutive samples are near (spatial order): the last answer bounds
                     // the search.
-                    self.knn.nearest_again(p, k, nb);
-                    Self::poly_gauss(nb, w);
-                    let mut b = 0.0;
-                    let row: Vec<(usize, f64)> = nb
-                        .iter()
-                        .zip(w.iter())
-                        .map(|(&(j, _), &wj)| {
-                            b -= wj * self.nrm[j].dot(p - self.pts[j]);
-                            (j, wj)
-                        })
-                        .collect();
-                    (row, b)
+                    self.knn.nearest_again(p, m, nb);
+                    let near = &nb[..k.min(nb.len())];
+                    Self::poly_gauss(near, w);
+                    row.clear();
+                    *bi = 0.0;
+                    for (&(j, _), &wj) in near.iter().zip(w.iter()) {
+                        *bi -= wj * self.nrm[j].dot(p - self.pts[j]);
+                        row.push((j, wj));
+                    }
+                    row.sort_unstable_by_key(|&(j, _)| j);
+                    for ((x, v), &(j, wj)) in ix.iter_mut().zip(d.iter_mut()).zip(row.iter()) {
+                        (*x, *v) = (j, wj);
+                    }
+                    if let Some(am) = area_m {
+                        *area = crate::winding::voronoi_area(i, &self.pts, &self.nrm, &nb[..am]);
+                    }
                 },
-            )
-            .collect();
-        // Rows straight into CSR: each row's columns sorted (the k nearest are distinct).
-        let mut indptr = Vec::with_capacity(n + 1);
-        let mut indices = Vec::with_capacity(n * k);
-        let mut data = Vec::with_capacity(n * k);
-        let mut b = Vec::with_capacity(n);
-        indptr.push(0);
-        for (mut row, bi) in rows {
-            row.sort_unstable_by_key(|&(j, _)| j);
-            for (j, v) in row {
-                indices.push(j);
-                data.push(v);
-            }
-            indptr.push(indices.len());
-            b.push(bi);
-        }
+            );
+        let indptr: Vec<usize> = (0..=n).map(|i| i * k).collect();
         // The k nearest are distinct, so this succeeds; should a row ever repeat a column,
         // the triplet form sums the repeats instead of failing.
         let a = CsMat::try_new((n, n), indptr, indices, data).unwrap_or_else(|(ip, ix, d, _)| {
@@ -521,12 +534,14 @@ impl PointSdf {
             }
             tri.to_csr()
         });
-        (a, b)
+        (a, b, area_m.map(|_| areas))
     }
 
-    fn solve(&mut self) {
+    /// The sparse solve of the constants; with `area_k`, the winding number's sample areas
+    /// from the assembly's neighbour query (see [`PointSdf::assemble`]).
+    fn solve(&mut self, area_k: Option<usize>) -> Option<Vec<f64>> {
         let t0 = Instant::now();
-        let (a, b) = self.interpolation_system();
+        let (a, b, areas) = self.assemble(area_k);
         let o = &self.opts;
         let (c, mut st) = match o.solver {
             Solver::Lsqr => lsqr_to(&a, &b, o.damping, o.tol, o.max_iter, o.residual_target),
@@ -560,6 +575,7 @@ impl PointSdf {
         self.c = c;
         st.seconds = t0.elapsed().as_secs_f64();
         self.stats.solve = Some(st);
+        areas
     }
 
     fn linear(&self, j: usize, x: DVec3) -> f64 {

@@ -46,7 +46,8 @@ pub struct SolveStats {
     /// the near field is from interpolating zero at the samples.
     pub max_sample_value: f64,
     /// Seconds of the whole solve step: assembling the matrix (one k-nearest query per
-    /// sample), iterating, and `A c − b` for `max_sample_value`.
+    /// sample, which also gives the winding number's sample areas where it is built),
+    /// iterating, and `A c − b` for `max_sample_value`.
     pub seconds: f64,
 }
 

@@ -96,7 +96,7 @@ pub struct WindingNumber {
 /// onto that plane, within the square of half-side the farthest neighbour's distance.
 /// Neighbours facing away (`n_i·n_j < −0.5`: the other sheet of a thin part) are skipped,
 /// as are those that project onto the sample.
-fn voronoi_area(i: usize, pts: &[DVec3], nrm: &[DVec3], nb: &[(usize, f64)]) -> f64 {
+pub(crate) fn voronoi_area(i: usize, pts: &[DVec3], nrm: &[DVec3], nb: &[(usize, f64)]) -> f64 {
     let (p, n) = (pts[i], nrm[i]);
     let r = nb.iter().map(|&(_, d2)| d2).fold(0.0, f64::max).sqrt();
     if r <= 0.0 {
