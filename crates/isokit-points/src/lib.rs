@@ -233,10 +233,12 @@
 //! [`PointSdf::values_at`]) bound each query by the previous point's answer. On a
 //! 10^5-sample torus (`--res 128 --band 0.082`, one thread) `isokit points` takes 11.9 G
 //! instructions, against 19.4 G with 002's weight over 64 samples (`--far-rule spread
-//! --far-k 64`). On 10^6 samples, `isokit points --res 256` with a band of 3 cells took 5.5 s
-//! on 2 cores (torus; sphere 6.6 s, trefoil 7.5 s) against 3.3 s (5.2 s, 3.1 s) for Open3D's
-//! screened Poisson at depth 8 in the same run, with a smaller Hausdorff distance on the
-//! sphere and torus (BENCHMARKS.md, "The far-field weight in the gaps of a random cloud").
+//! --far-k 64`). The solve's assembly also gives the winding number's sample areas from its
+//! neighbour query. On 10^6 samples, `isokit points --res 256` with a band of 3 cells took
+//! 4.2 s on 2 cores (torus; sphere 5.6 s, trefoil 6.8 s) against 4.7 s (6.0 s, 3.8 s) for
+//! Open3D's screened Poisson at depth 8 in the same run, with smaller Chamfer and Hausdorff
+//! distances on the sphere and torus (BENCHMARKS.md, "The far-field weight in the gaps of a
+//! random cloud").
 
 pub mod eigen;
 mod error;
