@@ -81,10 +81,14 @@ pub fn scale_invariant_distance(sigma_bar: f64) -> f64 {
 /// distances (Eq. 4.14): `d̃ = PLANE_SLOPE · t / ρ₆₄`.
 ///
 /// - `t` is the height of `x` above the samples' centroid `c`: with `v = x − c` and `m̄` the
-///   mean of the normals, `t² = (1 − |m̄|²)|v|² + (m̄·v)²`. Where the normals agree
+///   mean of the normals, `h² = (1 − |m̄|²)|v|² + (m̄·v)²`. Where the normals agree
 ///   (`|m̄| = 1`) it is the offset along them, so a point on the surface between samples, or
-///   in a gap of the sampling, has `t ≈ 0`; where they cancel (a thin sheet seen from both
+///   in a gap of the sampling, has `h ≈ 0`; where they cancel (a thin sheet seen from both
 ///   sides, a medial axis, past a sharp edge) it is the whole offset `|v|`.
+/// - Beside the samples' disc (past the edge of an open surface, in its plane) the height
+///   says nothing: the lateral offset `l` (along the plane of `m̄`) beyond the disc's radius
+///   counts too, `t² = h² + |m̄|² max(l − ρ, 0)²`. Within the disc, gaps included, it adds
+///   nothing.
 /// - `ρ` is the radius of the uniform disc with the samples' second moment about `c`
 ///   (`ρ² = 2 · mean |p − c|²`), scaled to the disc of [`REFERENCE_SAMPLES`] samples of the
 ///   same density (`ρ₆₄ = ρ · √(64/m)`).
@@ -112,7 +116,15 @@ pub fn centroid_distance(
     let mbar = nsum / mf;
     let second: f64 = samples.map(|(p, _)| (p - c).length_squared()).sum::<f64>() / mf;
     let v = x - c;
-    let t2 = (1.0 - mbar.length_squared()).max(0.0) * v.length_squared() + mbar.dot(v).powi(2);
+    let (v2, m2) = (v.length_squared(), mbar.length_squared());
+    let h2 = (1.0 - m2).max(0.0) * v2 + mbar.dot(v).powi(2);
+    // |m̄|² l² = |v|² − h²: the in-plane offset l, beyond the disc's own radius.
+    let excess = if m2 > 0.0 {
+        (((v2 - h2).max(0.0) / m2).sqrt() - (2.0 * second).sqrt()).max(0.0)
+    } else {
+        0.0
+    };
+    let t2 = h2 + m2 * excess * excess;
     if t2.is_nan() {
         return Some(f64::NAN);
     }

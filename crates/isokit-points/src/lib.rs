@@ -162,8 +162,12 @@
 //! as good a measure, and the query that the partition of unity makes anyway gives it). On
 //! noisy clouds the default moves by 1–4% (torus at 0.5% noise 0.949 → 0.981 h). On 10^6 samples the gaps grow (the largest empty disc among n random samples
 //! grows like √(ln n) spacings): the Hausdorff distance of the sphere's mesh at `--res 256`
-//! fell from 6.9e-4 to 7.4e-5 (BENCHMARKS.md, "The far-field weight in the gaps of a random
-//! cloud").
+//! fell from 6.9e-4 to 7.4e-5 with this weight alone, 6.5e-5 with the solve stopped at the
+//! grid's precision (BENCHMARKS.md, "The far-field weight in the gaps of a random cloud").
+//! Past the edge of an open surface, in its plane, every nearest sample lies on the edge and
+//! the height above them is 0: there the lateral offset beyond their disc counts as distance,
+//! and the field becomes the distance to the edge from about 25 spacings out (the spread
+//! rule's over 16 samples from 12; `tests/far_plane.rs`) instead of continuing the plane's 0.
 //!
 //! ## The sign far from the surface
 //! The far field is the distance to the closest sample, and its sign used to be the side of
@@ -227,8 +231,8 @@
 //! every evaluation made then (the spread weight over 64 samples); the rest is noise.
 //!
 //! ## Speed
-//! Nearly all of an evaluation is its 16-nearest query ([`knn::Knn`], exact), shared by the
-//! partition of unity and the far-field weight. Points evaluated one after another (a brick's
+//! Nearly all of an evaluation is its k-nearest query ([`knn::Knn`], exact; k = 16 on clean
+//! clouds), shared by the partition of unity and the far-field weight. Points evaluated one after another (a brick's
 //! samples through [`isokit_field::Field::values_nearby`], a grid's rows,
 //! [`PointSdf::values_at`]) bound each query by the previous point's answer. On a
 //! 10^5-sample torus (`--res 128 --band 0.082`, one thread) `isokit points` takes 11.9 G

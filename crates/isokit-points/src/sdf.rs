@@ -741,3 +741,39 @@ impl Field for PointSdf {
         1.5
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The assembly that also gives the winding number's areas from its neighbour query
+    /// gives the same matrix and right-hand side as without them, and the same areas as their
+    /// own query.
+    #[test]
+    fn areas_from_the_assembly_equal_their_own_query() {
+        let cloud = isokit_field::generate::torus_cloud(1.0, 0.3, 3000, 11);
+        let normals = cloud.normals.unwrap();
+        for (k, n) in [(16, 3000), (4, 3000), (16, 10), (1, 1)] {
+            let sdf = PointSdf::new(
+                &cloud.points[..n],
+                &normals[..n],
+                &PointSdfOptions {
+                    k,
+                    ..PointSdfOptions::default()
+                },
+            )
+            .unwrap();
+            let (a, b) = sdf.interpolation_system();
+            for area_k in [16, 3] {
+                let (a2, b2, areas) = sdf.assemble(Some(area_k));
+                assert_eq!(
+                    (a.indptr(), a.indices(), a.data()),
+                    (a2.indptr(), a2.indices(), a2.data())
+                );
+                assert_eq!(b, b2);
+                let own = areas_with(&sdf.knn, &sdf.pts, &sdf.nrm, area_k);
+                assert_eq!(areas.unwrap(), own, "k {k}, {n} samples, area_k {area_k}");
+            }
+        }
+    }
+}

@@ -34,13 +34,14 @@ pub struct SolveStats {
     /// tolerance for [`gmres`] and [`bicgstab`], the least-squares optimality (or a
     /// vanishing residual, or the residual target of [`lsqr_to`]) for [`lsqr`].
     pub converged: bool,
-    /// [`lsqr_to`] only: true when it stopped because the residual's RMS reached the
-    /// target (before the optimality test).
+    /// [`lsqr_to`] only: true when the residual's RMS target stopped it (before the first
+    /// iteration, or in an iteration whose optimality test had not stopped it already).
     pub reached_target: bool,
     /// The damping λ of [`lsqr`] (0 for the other solvers).
     pub damping: f64,
     /// [`lsqr`] only: `‖Āᵀ r̄‖ / (‖Ā‖ ‖r̄‖)` of the damped problem at the last iterate, 0
-    /// at its exact minimizer (0 for the other solvers).
+    /// at its exact minimizer (0 for the other solvers; ∞ when [`lsqr_to`] stopped before its
+    /// first iteration, where it was not estimated).
     pub optimality: f64,
     /// Largest `|f_near(p_i)|` over the samples after the solve, in world units: how far
     /// the near field is from interpolating zero at the samples.
@@ -503,8 +504,8 @@ pub fn lsqr_to(
     // The residual's norm at which its root mean square over the rows meets the target.
     let target = target_rms * (a.rows() as f64).sqrt();
     if bnorm <= target {
-        stats.converged = true;
         stats.reached_target = true;
+        stats.optimality = f64::INFINITY;
         return finish(a, b, x, bnorm, f64::INFINITY, stats);
     }
     let at: CsMat<f64> = a.transpose_view().to_csr();

@@ -145,6 +145,8 @@ fn centroid_rule_stays_on_the_surface_in_a_gap() {
             &n,
             &PointSdfOptions {
                 far_rule: rule,
+                // The spread rule over its former default.
+                far_k: if rule == FarRule::Spread { 64 } else { 16 },
                 ..PointSdfOptions::default()
             },
         )
@@ -167,6 +169,43 @@ fn centroid_rule_stays_on_the_surface_in_a_gap() {
                 // The spread rule reads the gap as height and mixes in the distance to the
                 // closest sample (2.5–3.5 spacings here).
                 assert!(s.weight < 0.9 && s.value > 0.1, "spread: {s:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn past_the_edge_of_an_open_surface_the_far_field_takes_over() {
+    // Beside the lattice, in its plane: every nearest sample lies on the edge with the same
+    // normal, so the height above them is 0; the offset beyond their disc must count.
+    let (p, n) = plane();
+    for rule in [FarRule::Centroid, FarRule::Spread] {
+        let sdf = PointSdf::new(
+            &p,
+            &n,
+            &PointSdfOptions {
+                far_rule: rule,
+                ..PointSdfOptions::default()
+            },
+        )
+        .unwrap();
+        let mut last = f64::INFINITY;
+        for past in [1.0, 5.0, 12.0, 20.0, 30.0] {
+            let e = sdf.evaluate(DVec3::new(40.0 + past, 0.0, 0.0));
+            println!(
+                "{rule:?}, {past} past the edge: w {:.3}, f {:.3}",
+                e.weight, e.value
+            );
+            assert!(e.weight <= last, "{rule:?} {past}: the weight grows");
+            last = e.weight;
+            if past >= 30.0 {
+                // The distance to the edge, not the continued plane's 0.
+                assert_eq!(e.weight, 0.0, "{rule:?} {past}");
+                assert!(
+                    (e.value - past).abs() < 1e-9,
+                    "{rule:?} {past}: {}",
+                    e.value
+                );
             }
         }
     }

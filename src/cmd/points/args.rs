@@ -91,9 +91,10 @@ pub struct Args {
     /// the cloud's noise estimate: 16, or 64 on a noisy cloud].
     #[arg(long)]
     pub k: Option<usize>,
-    /// Nearest samples for the far-field weight; at least `--k` are used (`--far-rule
-    /// spread --far-k 64` is the default before the centroid rule).
-    #[arg(long, default_value_t = 16)]
+    /// Nearest samples for the far-field weight; at least `--k` are used. The spread rule
+    /// needs more than the centroid rule: `--far-rule spread --far-k 64` was the former
+    /// default.
+    #[arg(long, default_value_t = PointSdfOptions::default().far_k)]
     pub far_k: usize,
     /// How the far-field weight judges the distance from the surface.
     #[arg(long, value_enum, default_value_t = FarRuleArg::Centroid)]
@@ -127,9 +128,10 @@ pub struct Args {
     /// Iteration limit of the solve.
     #[arg(long, default_value_t = PointSdfOptions::default().max_iter)]
     pub max_iter: usize,
-    /// Stop the solve once the field at the samples is within this fraction of the grid's
-    /// spacing (root mean square; LSQR only): a grid much coarser than the samples' spacing
-    /// cannot tell the full solve from a shorter one. 0 solves to the usual tolerance.
+    /// Stop the LSQR solve once the field at the samples (the damped residual's root mean
+    /// square) is within this fraction of the grid's spacing: a grid much coarser than the
+    /// samples' spacing cannot tell the full solve from a shorter one. 0 solves until the
+    /// least-squares optimality test holds. Other solvers and weights ignore it.
     #[arg(long, default_value_t = isokit_points::SOLVE_TO_GRID)]
     pub solve_to_grid: f64,
     #[command(flatten)]

@@ -70,7 +70,7 @@ pub fn run(a: Args) -> Result<()> {
             format!(
                 "on (weight: {}, {} samples; sign: {})",
                 field.far_rule.name(),
-                field.far_k.max(b.k),
+                field.far_k.max(b.k).min(b.samples),
                 field.sign.name()
             )
         } else {
