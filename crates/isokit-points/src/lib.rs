@@ -232,17 +232,18 @@
 //!
 //! ## Speed
 //! Nearly all of an evaluation is its k-nearest query ([`knn::Knn`], exact; k = 16 on clean
-//! clouds), shared by the partition of unity and the far-field weight. Points evaluated one after another (a brick's
-//! samples through [`isokit_field::Field::values_nearby`], a grid's rows,
-//! [`PointSdf::values_at`]) bound each query by the previous point's answer. On a
-//! 10^5-sample torus (`--res 128 --band 0.082`, one thread) `isokit points` takes 11.9 G
-//! instructions, against 19.4 G with 002's weight over 64 samples (`--far-rule spread
-//! --far-k 64`). The solve's assembly also gives the winding number's sample areas from its
-//! neighbour query. On 10^6 samples, `isokit points --res 256` with a band of 3 cells took
-//! 4.2 s on 2 cores (torus; sphere 5.6 s, trefoil 6.8 s) against 4.7 s (6.0 s, 3.8 s) for
-//! Open3D's screened Poisson at depth 8 in the same run, with smaller Chamfer and Hausdorff
-//! distances on the sphere and torus (BENCHMARKS.md, "The far-field weight in the gaps of a
-//! random cloud").
+//! clouds), shared by the partition of unity and the far-field weight. Points evaluated one
+//! after another (a brick's samples through [`isokit_field::Field::values_nearby`], a grid's
+//! rows, [`PointSdf::values_at`]) bound each query by the previous point's answer. The
+//! solve's assembly gives the winding number's sample areas from its own neighbour query. On
+//! a 10^5-sample torus (`--res 128 --band 0.082`, one thread) `isokit points` takes 8.5 G
+//! instructions: 19.4 G with 002's weight over 64 samples (`--far-rule spread --far-k 64`),
+//! 11.9 G with the centroid weight over 16, then 8.5 G with the solve stopped at the grid's
+//! precision and the shared query. On 10^6 samples, `isokit points --res 256` with a band of
+//! 3 cells took 4.2 s on 2 cores (torus; sphere 5.6 s, trefoil 6.8 s) against 4.7 s (6.0 s,
+//! 3.8 s) for Open3D's screened Poisson at depth 8 in the same run, with smaller Chamfer and
+//! Hausdorff distances on the sphere and torus (BENCHMARKS.md, "The far-field weight in the
+//! gaps of a random cloud").
 
 pub mod eigen;
 mod error;
