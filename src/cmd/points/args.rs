@@ -1,5 +1,6 @@
 //! The arguments of `isokit points` and the library settings they make.
 
+use super::FarRuleArg;
 use isokit_field::PointCloud;
 use isokit_points::noise::{NoiseEstimate, estimate_noise};
 use isokit_points::{
@@ -53,17 +54,6 @@ pub enum SignArg {
     /// `winding_everywhere`).
     #[value(alias = "winding_everywhere")]
     WindingEverywhere,
-}
-
-/// How the far-field weight judges the distance from the surface.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FarRuleArg {
-    /// The height above the centroid of the nearest samples over the radius of their disc:
-    /// stays on the surface in gaps of the sampling.
-    Centroid,
-    /// The spread of the distances to the nearest samples (002 Eq. 4.12–4.14): reads gaps of
-    /// the sampling as distance from the surface.
-    Spread,
 }
 
 /// Arguments of `isokit points`.

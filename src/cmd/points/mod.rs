@@ -5,6 +5,17 @@ mod args;
 
 pub use args::Args;
 
+/// How the far-field weight judges the distance from the surface.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FarRuleArg {
+    /// The height above the centroid of the nearest samples over the radius of their disc:
+    /// stays on the surface in gaps of the sampling.
+    Centroid,
+    /// The spread of the distances to the nearest samples (002 Eq. 4.12–4.14): reads gaps of
+    /// the sampling as distance from the surface.
+    Spread,
+}
+
 use super::check_output;
 use anyhow::{Context, Result, bail};
 use isokit_io::{Volume, read_points};
