@@ -5,9 +5,9 @@
 //! The tree is implicit. Every inner node halves its samples by count at the median of its
 //! widest axis, all leaves lie at one depth (8–16 samples each beyond 16 samples), and the
 //! children of node `i` are `2i + 1` and `2i + 2`; it stores the samples in leaf order and
-//! the bounding box of every node's samples. A query descends into the child whose box is nearer first, and into
-//! a child at all only when the squared distance from the query to its box does not exceed
-//! the k-th distance found so far. The k best are kept in a max-heap. Boxes of the samples,
+//! the bounding box of every node's samples. A query descends into the child whose box is
+//! nearer first, and into a child at all only when the squared distance from the query to
+//! its box does not exceed the k-th distance found so far. The k best are kept in a max-heap. Boxes of the samples,
 //! not the cells between split planes: samples of a surface fill thin boxes, and the cells
 //! around them reach far off the surface, where the band's queries lie (cells made the
 //! 64-nearest queries of a narrow band visit 79 leaves each, boxes 22, and 19 when bounded by
@@ -93,6 +93,12 @@ fn split_node(s: &mut [Item]) -> [f64; 6] {
         s.select_nth_unstable_by(mid, |x, y| x.0[a].total_cmp(&y.0[a]));
     }
     b
+}
+
+thread_local! {
+    /// The heap of [`Knn::nearest_bounded`]'s searches, one per thread: the evaluations make
+    /// millions of queries, and a heap allocated per query cost 2% of their instructions.
+    static HEAP: std::cell::RefCell<Vec<(u64, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// The k best samples seen so far: a binary max-heap of (squared distance as bits, index).
@@ -324,23 +330,24 @@ impl Knn {
         if k == 0 {
             return;
         }
-        let mut heap = Vec::new();
-        let mut best = Best::new(k, &mut heap, bound);
-        self.search(0, &p.to_array(), &mut best);
-        // By distance, then the runs of equal distances by index (rare): the same order as
-        // sorting the (distance, index) pairs, in fewer instructions (one integer compare
-        // per step instead of a pair).
-        heap.sort_unstable_by_key(|e| e.0);
-        let mut run = 0;
-        for i in 1..=heap.len() {
-            if i == heap.len() || heap[i].0 != heap[run].0 {
-                if i - run > 1 {
-                    heap[run..i].sort_unstable_by_key(|e| e.1);
+        HEAP.with_borrow_mut(|heap| {
+            let mut best = Best::new(k, heap, bound);
+            self.search(0, &p.to_array(), &mut best);
+            // By distance, then the runs of equal distances by index (rare): the same order
+            // as sorting the (distance, index) pairs, in fewer instructions (one integer
+            // compare per step instead of a pair).
+            heap.sort_unstable_by_key(|e| e.0);
+            let mut run = 0;
+            for i in 1..=heap.len() {
+                if i == heap.len() || heap[i].0 != heap[run].0 {
+                    if i - run > 1 {
+                        heap[run..i].sort_unstable_by_key(|e| e.1);
+                    }
+                    run = i;
                 }
-                run = i;
             }
-        }
-        out.extend(heap.iter().map(|&(d2, i)| (i as usize, f64::from_bits(d2))));
+            out.extend(heap.iter().map(|&(d2, i)| (i as usize, f64::from_bits(d2))));
+        });
     }
 
     /// The nearest sample of `p`: (index, squared distance); the lowest index among equally

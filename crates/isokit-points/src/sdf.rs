@@ -563,15 +563,6 @@ impl PointSdf {
                 Preconditioner::Ilu0,
             ),
         };
-        // (A c − b)_i is the near field at sample i: same neighbours, same weights.
-        st.max_sample_value = (0..a.rows())
-            .into_par_iter()
-            .map(|i| {
-                a.outer_view(i).map_or(0.0, |row| {
-                    (row.iter().map(|(j, &v)| v * c[j]).sum::<f64>() - b[i]).abs()
-                })
-            })
-            .reduce(|| 0.0, f64::max);
         self.c = c;
         st.seconds = t0.elapsed().as_secs_f64();
         self.stats.solve = Some(st);

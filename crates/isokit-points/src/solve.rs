@@ -43,12 +43,13 @@ pub struct SolveStats {
     /// at its exact minimizer (0 for the other solvers; ∞ when [`lsqr_to`] stopped before its
     /// first iteration, where it was not estimated).
     pub optimality: f64,
-    /// Largest `|f_near(p_i)|` over the samples after the solve, in world units: how far
-    /// the near field is from interpolating zero at the samples.
+    /// Largest entry of `|b − A x|` at the returned `x`. For [`crate::PointSdf`]'s system
+    /// it is the largest `|f_near(p_i)|` over the samples, in world units: how far the near
+    /// field is from interpolating zero at the samples.
     pub max_sample_value: f64,
     /// Seconds of the whole solve step: assembling the matrix (one k-nearest query per
     /// sample, which also gives the winding number's sample areas where it is built),
-    /// iterating, and `A c − b` for `max_sample_value`.
+    /// iterating, and the true residual `b − A c` (`relative_residual`, `max_sample_value`).
     pub seconds: f64,
 }
 
@@ -111,8 +112,7 @@ fn jacobi(a: &CsMat<f64>) -> Vec<f64> {
 
 /// Solves `A x = b` by Jacobi-preconditioned BiCGSTAB from `x = 0`, until the relative
 /// residual is below `tol` or `max_iter` iterations. `A` must be square CSR with a non-zero
-/// diagonal (ours has the self weight). Returns the solution and the statistics (with
-/// `max_sample_value` left 0 for the caller).
+/// diagonal (ours has the self weight). Returns the solution and the statistics.
 pub fn bicgstab(a: &CsMat<f64>, b: &[f64], tol: f64, max_iter: usize) -> (Vec<f64>, SolveStats) {
     let n = b.len();
     let (mut x, mut stats, bnorm) = start(a, n, b);
@@ -177,7 +177,7 @@ pub fn bicgstab(a: &CsMat<f64>, b: &[f64], tol: f64, max_iter: usize) -> (Vec<f6
 }
 
 /// Records the true relative residual of the returned iterate `x` (not the recurrence's
-/// estimate) and whether it meets `tol`.
+/// estimate), whether it meets `tol`, and the largest residual entry.
 fn finish(
     a: &CsMat<f64>,
     b: &[f64],
@@ -191,6 +191,7 @@ fn finish(
     let res: Vec<f64> = b.iter().zip(&ax).map(|(bi, axi)| bi - axi).collect();
     stats.relative_residual = norm(&res) / bnorm;
     stats.converged = stats.relative_residual < tol;
+    stats.max_sample_value = res.iter().fold(0.0, |m: f64, r| m.max(r.abs()));
     (x, stats)
 }
 
